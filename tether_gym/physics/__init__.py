@@ -1,0 +1,31 @@
+"""Bounce physics of a tethered planar puck: pure numerics over batches (no gymnasium).
+
+- `bounce` / `bounce_one`: the one entry point, for the impulse and the hybrid model.
+- `impulse`, `hybrid`: the models' kernels; `reference`: the scipy reference for `hybrid`.
+- `critical`: the paper's critical points and the inverse map, in closed form.
+- `geometry`: the launch frame's conventions, and the paper's rho (eq. 11).
+"""
+
+from tether_gym.physics.api import MODELS, BounceResult, bounce, bounce_one
+from tether_gym.physics.critical import (
+    SetUp,
+    deadspin_offset_angles,
+    max_deceleration_offset_angles,
+    setup_for_velocity,
+)
+from tether_gym.physics.geometry import perpendicular_speed, rho, stiffness_from_rho, wrap_angle
+
+__all__ = [
+    "MODELS",
+    "BounceResult",
+    "SetUp",
+    "bounce",
+    "bounce_one",
+    "deadspin_offset_angles",
+    "max_deceleration_offset_angles",
+    "perpendicular_speed",
+    "rho",
+    "setup_for_velocity",
+    "stiffness_from_rho",
+    "wrap_angle",
+]

@@ -1,0 +1,240 @@
+"""`bounce`: the one entry point that users, tests and the environments share."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tether_gym.physics import hybrid, impulse
+from tether_gym.physics.checks import INF, check_float, check_range
+from tether_gym.physics.geometry import deflection_and_speed_ratio
+
+MODELS = ("impulse", "hybrid")
+
+
+@dataclass(frozen=True)
+class BounceResult:
+    """What a bounce leaves behind; every field has the broadcast shape of the inputs."""
+
+    velocity: np.ndarray
+    """(..., 2) post-bounce velocity of the centre of mass in the launch frame, m/s."""
+    spin: np.ndarray
+    """Post-bounce angular velocity, rad/s, counter-clockwise positive."""
+    deflection: np.ndarray
+    """Signed angle from the pre- to the post-bounce velocity, in (-pi, pi] (0 if it stops)."""
+    speed_ratio: np.ndarray
+    """|v_after| / |v_before|."""
+    bounced: np.ndarray
+    """The tether went taut (the attachment point was moving away from the anchor)."""
+    completed: np.ndarray
+    """The tether went slack again within the step budget (always true for `impulse`)."""
+    contact_time: np.ndarray
+    """How long the tether stayed taut, s (0 for the instantaneous impulse model)."""
+
+
+# name -> (low, high, low_open): the allowed range of every parameter of `bounce`.
+RANGES = {
+    "tether_angle": (-INF, INF, False),
+    "offset_angle": (-INF, INF, False),
+    "offset": (0.0, 1.0, False),
+    "inertia_ratio": (0.0, INF, True),
+    "speed": (0.0, INF, True),
+    "spin": (-INF, INF, False),
+    "restitution": (0.0, 1.0, False),
+    "radius": (0.0, INF, True),
+    "mass": (0.0, INF, True),
+    "tether_length": (0.0, INF, True),
+    "stiffness": (0.0, INF, True),
+}
+
+
+def _validated(model: str, stiffness, check, **values) -> dict:
+    """Check every parameter with `check` (array or scalar flavour) against RANGES."""
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    if stiffness is None and model != "impulse":
+        raise ValueError(f"stiffness (N/m, in (0, inf)) is required for model={model!r}")
+    if stiffness is not None:
+        values["stiffness"] = stiffness
+    out = {
+        name: check(name, value, *RANGES[name][:2], low_open=RANGES[name][2])
+        for name, value in values.items()
+    }
+    if model != "impulse" and np.any(np.asarray(out["restitution"]) == 0.0):
+        raise ValueError(
+            f"restitution must be in (0, 1] for model={model!r}: e = 0 needs an infinite damper"
+        )
+    return out
+
+
+def _flat(array: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """A length-1 array for a scalar, else the input broadcast to `shape` and flattened."""
+    if array.size == 1:
+        return array.reshape(1)
+    return np.ascontiguousarray(np.broadcast_to(array, shape)).reshape(-1)
+
+
+def bounce(
+    tether_angle,
+    offset_angle,
+    *,
+    offset=1.0,
+    inertia_ratio=0.5,
+    speed=1.0,
+    spin=0.0,
+    restitution=1.0,
+    model: str = "impulse",
+    mass=1.0,
+    radius=1.0,
+    tether_length=10.0,
+    stiffness=None,
+) -> BounceResult:
+    """Bounce a tethered puck: the post-bounce motion for any broadcastable batch of set-ups.
+
+    The geometry is that at the instant the tether goes taut, in the launch frame (the puck's
+    centre of mass moves along +y at `speed`; see `tether_gym.physics.geometry`).
+
+    Args:
+        tether_angle: the paper's beta, rad: from +x to the line anchor -> attachment point.
+        offset_angle: the paper's alpha, rad: from the tether's direction to the line from the
+            attachment point to the centre of mass, counter-clockwise positive.
+        offset: attachment distance from the centre of mass over the radius, in [0, 1].
+        inertia_ratio: kappa = I / (m R^2), > 0 (1/2 a solid disk, 1 a thin ring).
+        speed: pre-bounce speed of the centre of mass, m/s, > 0.
+        spin: pre-bounce angular velocity, rad/s, counter-clockwise positive.
+        restitution: e in [0, 1] (in (0, 1] for the hybrid model).
+        model: "impulse" (closed form) or "hybrid" (spring tether, needs `stiffness`).
+        mass, radius: the puck's, kg and m, > 0.
+        tether_length: rest length L0 of the tether, the anchor's distance from the attachment
+            point at tautening, m, > 0.
+        stiffness: spring constant k of the tether, N/m, > 0 (required by the hybrid model).
+
+    Raises:
+        ValueError: naming the parameter and its allowed range.
+    """
+    args = _validated(
+        model,
+        stiffness,
+        check_range,
+        tether_angle=tether_angle,
+        offset_angle=offset_angle,
+        offset=offset,
+        inertia_ratio=inertia_ratio,
+        speed=speed,
+        spin=spin,
+        restitution=restitution,
+        radius=radius,
+        mass=mass,
+        tether_length=tether_length,
+    )
+    shape = np.broadcast_shapes(*(a.shape for a in args.values()))
+    flat = {name: _flat(a, shape) for name, a in args.items()}
+    n = int(np.prod(shape))
+    velocity = np.empty((n, 2))
+    spin_out, angle, ratio = np.empty(n), np.empty(n), np.empty(n)
+    bounced = np.empty(n, dtype=bool)
+    common = (
+        flat["tether_angle"],
+        flat["offset_angle"],
+        flat["offset"],
+        flat["inertia_ratio"],
+        flat["speed"],
+        flat["spin"],
+    )
+    if model == "impulse":
+        completed, contact_time = np.ones(n, dtype=bool), np.zeros(n)
+        impulse.impulse_kernel(
+            *common,
+            flat["restitution"],
+            flat["radius"],
+            velocity,
+            spin_out,
+            angle,
+            ratio,
+            bounced,
+        )
+    else:
+        completed, contact_time = np.empty(n, dtype=bool), np.empty(n)
+        hybrid.hybrid_kernel(
+            *common,
+            hybrid.damping_ratios(flat["restitution"]),
+            flat["radius"],
+            flat["mass"],
+            flat["tether_length"],
+            flat["stiffness"],
+            velocity,
+            spin_out,
+            angle,
+            ratio,
+            bounced,
+            completed,
+            contact_time,
+        )
+    return BounceResult(
+        velocity=velocity.reshape(*shape, 2),
+        spin=spin_out.reshape(shape),
+        deflection=angle.reshape(shape),
+        speed_ratio=ratio.reshape(shape),
+        bounced=bounced.reshape(shape),
+        completed=completed.reshape(shape),
+        contact_time=contact_time.reshape(shape),
+    )
+
+
+def bounce_one(
+    tether_angle: float,
+    offset_angle: float,
+    *,
+    offset: float = 1.0,
+    inertia_ratio: float = 0.5,
+    speed: float = 1.0,
+    spin: float = 0.0,
+    restitution: float = 1.0,
+    model: str = "impulse",
+    mass: float = 1.0,
+    radius: float = 1.0,
+    tether_length: float = 10.0,
+    stiffness: float | None = None,
+) -> BounceResult:
+    """`bounce` for one set-up given as plain floats: the fast path, without array machinery.
+
+    Same arguments, models and errors as `bounce`; the result's fields are scalars.
+    """
+    a = _validated(
+        model,
+        stiffness,
+        check_float,
+        tether_angle=tether_angle,
+        offset_angle=offset_angle,
+        offset=offset,
+        inertia_ratio=inertia_ratio,
+        speed=speed,
+        spin=spin,
+        restitution=restitution,
+        radius=radius,
+        mass=mass,
+        tether_length=tether_length,
+    )
+    common = (
+        a["tether_angle"],
+        a["offset_angle"],
+        a["offset"],
+        a["inertia_ratio"],
+        a["speed"],
+        a["spin"],
+    )
+    if model == "impulse":
+        vx, vy, w, bounced = impulse.impulse_core(*common, a["restitution"], a["radius"])
+        completed, contact_time = True, 0.0
+    else:
+        vx, vy, w, bounced, completed, contact_time = hybrid.hybrid_core(
+            *common,
+            hybrid.damping_ratio(a["restitution"]),
+            a["radius"],
+            a["mass"],
+            a["tether_length"],
+            a["stiffness"],
+        )
+    angle, ratio = deflection_and_speed_ratio(vx, vy, a["speed"])
+    return BounceResult(np.array([vx, vy]), w, angle, ratio, bounced, completed, contact_time)

@@ -1,0 +1,248 @@
+"""The hybrid model: free flight, then a one-sided spring tether (the paper's eqs. 1-6).
+
+The puck flies freely until the tether goes taut (the set-up of `geometry.initial_state`); from
+then on the tether pulls the attachment point towards the anchor with the tension
+
+    T = k (L - L0) + c dL/dt,
+
+and the bounce ends at the first instant T falls to zero: the tether never pushes. Free flight
+before and after is exact, so only the contact phase is integrated.
+
+Integration. Classic fourth-order Runge-Kutta with a fixed step, `STEPS_PER_HALF_PERIOD` steps
+per half period of the spring along the tether (the fastest time scale). The slack instant is
+located inside the last step: the step is re-taken from its start with a length found by the
+Illinois (regula falsi) method on T, so the kink at L = L0 never falls inside a step and the
+method keeps its order. The attachment point is carried as a vector (rx, ry) that turns with
+the spin, which spares the trigonometry of an angle state. A bounce still taut after
+`MAX_HALF_PERIODS` half periods is reported with `completed = False` instead of hanging.
+
+Dissipation. The damper's coefficient is c = 2 zeta sqrt(k m_eff), m_eff the puck's effective
+mass along the tether at tautening, m / (1 + (d sin alpha)^2 / kappa). For a linear
+spring-damper whose contact ends when its force returns to zero, the coefficient of restitution
+is a known function of zeta alone (`restitution_from_damping`, closed form for under-, critically
+and over-damped springs); `damping_ratio` inverts it. In the stiff limit (rho -> infinity) the
+geometry is frozen during the contact, the tether's stretch obeys exactly that 1-DOF law, and the
+hybrid bounce tends to the impulse bounce with the same restitution e. e = 0 would need an
+infinite damper (e ~ 1 / (4 zeta^2) for large zeta), so the hybrid model takes e in (0, 1].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numba import prange
+
+from tether_gym.physics.geometry import deflection_and_speed_ratio, initial_state
+
+STEPS_PER_HALF_PERIOD = 48
+MAX_HALF_PERIODS = 400
+
+
+@numba.njit(cache=True)
+def restitution_from_damping(zeta):
+    """Restitution of a linear spring-damper contact that ends when its force returns to zero."""
+    if zeta <= 0.0:
+        return 1.0
+    if zeta < 1.0:
+        wd = math.sqrt(1.0 - zeta * zeta)
+        phase = math.pi - math.atan2(2.0 * zeta * wd, 1.0 - 2.0 * zeta * zeta)
+        return -math.exp(-zeta * phase / wd) * (math.cos(phase) - zeta / wd * math.sin(phase))
+    if zeta == 1.0:
+        return math.exp(-2.0)
+    q = math.sqrt(zeta * zeta - 1.0)
+    s2 = -zeta - q  # the two decay rates over the natural frequency; s1 * s2 = 1
+    s1 = 1.0 / s2
+    t = 2.0 * math.log(s2 / s1) / (s1 - s2)
+    return -(s1 * math.exp(s1 * t) - s2 * math.exp(s2 * t)) / (s1 - s2)
+
+
+@numba.njit(cache=True)
+def damping_ratio(restitution):
+    """The damping ratio zeta whose contact has this restitution (bisection; e in (0, 1])."""
+    if restitution >= 1.0:
+        return 0.0
+    low, high = 0.0, 1.0
+    while restitution_from_damping(high) > restitution:
+        high *= 2.0
+    for _ in range(80):
+        mid = 0.5 * (low + high)
+        if restitution_from_damping(mid) > restitution:
+            low = mid
+        else:
+            high = mid
+    return 0.5 * (low + high)
+
+
+@numba.njit(cache=True)
+def _accel(cx, cy, vx, vy, rx, ry, w, k, c, rest_length, inv_m, inv_i):
+    """Accelerations (linear and angular) from the tether, and its tension T."""
+    px, py = cx + rx, cy + ry
+    length = math.sqrt(px * px + py * py)
+    ux, uy = px / length, py / length
+    length_rate = (vx - w * ry) * ux + (vy + w * rx) * uy
+    tension = k * (length - rest_length) + c * length_rate
+    fx, fy = -tension * ux, -tension * uy
+    return fx * inv_m, fy * inv_m, (rx * fy - ry * fx) * inv_i, tension
+
+
+@numba.njit(cache=True)
+def _rk4(cx, cy, vx, vy, rx, ry, w, ax1, ay1, al1, h, k, c, rest_length, inv_m, inv_i):
+    """One RK4 step of length h; (ax1, ay1, al1) is the acceleration at the step's start."""
+    p = (k, c, rest_length, inv_m, inv_i)
+    h2 = 0.5 * h
+    cx2, cy2, vx2, vy2 = cx + h2 * vx, cy + h2 * vy, vx + h2 * ax1, vy + h2 * ay1
+    rx2, ry2, w2 = rx - h2 * w * ry, ry + h2 * w * rx, w + h2 * al1
+    ax2, ay2, al2, _ = _accel(cx2, cy2, vx2, vy2, rx2, ry2, w2, *p)
+    cx3, cy3, vx3, vy3 = cx + h2 * vx2, cy + h2 * vy2, vx + h2 * ax2, vy + h2 * ay2
+    rx3, ry3, w3 = rx - h2 * w2 * ry2, ry + h2 * w2 * rx2, w + h2 * al2
+    ax3, ay3, al3, _ = _accel(cx3, cy3, vx3, vy3, rx3, ry3, w3, *p)
+    cx4, cy4, vx4, vy4 = cx + h * vx3, cy + h * vy3, vx + h * ax3, vy + h * ay3
+    rx4, ry4, w4 = rx - h * w3 * ry3, ry + h * w3 * rx3, w + h * al3
+    ax4, ay4, al4, _ = _accel(cx4, cy4, vx4, vy4, rx4, ry4, w4, *p)
+    h6 = h / 6.0
+    return (
+        cx + h6 * (vx + 2.0 * vx2 + 2.0 * vx3 + vx4),
+        cy + h6 * (vy + 2.0 * vy2 + 2.0 * vy3 + vy4),
+        vx + h6 * (ax1 + 2.0 * ax2 + 2.0 * ax3 + ax4),
+        vy + h6 * (ay1 + 2.0 * ay2 + 2.0 * ay3 + ay4),
+        rx - h6 * (w * ry + 2.0 * w2 * ry2 + 2.0 * w3 * ry3 + w4 * ry4),
+        ry + h6 * (w * rx + 2.0 * w2 * rx2 + 2.0 * w3 * rx3 + w4 * rx4),
+        w + h6 * (al1 + 2.0 * al2 + 2.0 * al3 + al4),
+    )
+
+
+@numba.njit(cache=True)
+def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, rest_length, k):
+    """One bounce from plain floats: (vx, vy, spin, bounced, completed, contact_time)."""
+    cx, cy, vx, vy, rx, ry, w = initial_state(beta, alpha, offset, radius, rest_length, speed, spin)
+    ux, uy = math.cos(beta), math.sin(beta)
+    if (vx - w * ry) * ux + (vy + w * rx) * uy <= 0.0:
+        return vx, vy, w, False, True, 0.0
+    inertia = kappa * mass * radius * radius
+    inv_m, inv_i = 1.0 / mass, 1.0 / inertia
+    arm = offset * math.sin(alpha)
+    m_eff = mass / (1.0 + arm * arm / kappa)
+    natural = math.sqrt(k / m_eff)
+    c = 2.0 * zeta * math.sqrt(k * m_eff)
+    fastest = natural * (zeta + math.sqrt(zeta * zeta - 1.0) if zeta > 1.0 else 1.0)
+    h = math.pi / (fastest * STEPS_PER_HALF_PERIOD)
+    p = (k, c, rest_length, inv_m, inv_i)
+
+    ax, ay, al, tension = _accel(cx, cy, vx, vy, rx, ry, w, *p)
+    peak = 0.0
+    t = 0.0
+    for _ in range(MAX_HALF_PERIODS * STEPS_PER_HALF_PERIOD):
+        new = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, h, *p)
+        nax, nay, nal, new_tension = _accel(*new, *p)
+        if new_tension > 0.0:
+            cx, cy, vx, vy, rx, ry, w = new
+            ax, ay, al, tension = nax, nay, nal, new_tension
+            peak = max(peak, tension)
+            t += h
+            continue
+        # The tether goes slack inside this step: find where T = 0 by the Illinois method.
+        low, g_low, high, g_high, side = 0.0, tension, h, new_tension, 0
+        for _ in range(60):
+            tau = (low * g_high - high * g_low) / (g_high - g_low)
+            new = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, tau, *p)
+            g = _accel(*new, *p)[3]
+            if g > 0.0:
+                low, g_low = tau, g
+                if side == 1:
+                    g_high *= 0.5
+                side = 1
+            else:
+                high, g_high = tau, g
+                if side == -1:
+                    g_low *= 0.5
+                side = -1
+            if abs(g) <= 1e-13 * peak or high - low <= 1e-15 * h:
+                break
+        return new[2], new[3], new[6], True, True, t + tau
+    return vx, vy, w, True, False, t
+
+
+def _hybrid_kernel(
+    beta,
+    alpha,
+    offset,
+    kappa,
+    speed,
+    spin,
+    zeta,
+    radius,
+    mass,
+    rest_length,
+    k,
+    out_v,
+    out_w,
+    out_angle,
+    out_ratio,
+    out_bounced,
+    out_completed,
+    out_time,
+):
+    """Fill the outputs for n bounces; each input has length n or 1."""
+    n = out_w.shape[0]
+    # a length-1 input is broadcast: its index step is 0
+    beta_step = 1 if beta.size > 1 else 0
+    alpha_step = 1 if alpha.size > 1 else 0
+    offset_step = 1 if offset.size > 1 else 0
+    kappa_step = 1 if kappa.size > 1 else 0
+    speed_step = 1 if speed.size > 1 else 0
+    spin_step = 1 if spin.size > 1 else 0
+    zeta_step = 1 if zeta.size > 1 else 0
+    radius_step = 1 if radius.size > 1 else 0
+    mass_step = 1 if mass.size > 1 else 0
+    rest_length_step = 1 if rest_length.size > 1 else 0
+    k_step = 1 if k.size > 1 else 0
+    for i in prange(n):
+        s = speed[i * speed_step]
+        vx, vy, w, bounced, completed, t = hybrid_core(
+            beta[i * beta_step],
+            alpha[i * alpha_step],
+            offset[i * offset_step],
+            kappa[i * kappa_step],
+            s,
+            spin[i * spin_step],
+            zeta[i * zeta_step],
+            radius[i * radius_step],
+            mass[i * mass_step],
+            rest_length[i * rest_length_step],
+            k[i * k_step],
+        )
+        out_v[i, 0] = vx
+        out_v[i, 1] = vy
+        out_w[i] = w
+        out_angle[i], out_ratio[i] = deflection_and_speed_ratio(vx, vy, s)
+        out_bounced[i] = bounced
+        out_completed[i] = completed
+        out_time[i] = t
+
+
+_serial = numba.njit(cache=True)(_hybrid_kernel)
+_parallel = numba.njit(cache=True, parallel=True)(_hybrid_kernel)
+
+PARALLEL_MIN_BATCH = 64
+"""Below this many bounces a thread pool costs more than it saves."""
+
+
+def hybrid_kernel(*args) -> None:
+    """Run the kernel over a batch, in parallel when the batch is large enough to pay for it."""
+    kernel = _parallel if args[-1].shape[0] >= PARALLEL_MIN_BATCH else _serial
+    kernel(*args)
+
+
+@numba.njit(cache=True)
+def _damping_ratios(restitution, out):
+    for i in range(restitution.size):
+        out[i] = damping_ratio(restitution[i])
+
+
+def damping_ratios(restitution):
+    """`damping_ratio` over a flat float64 array."""
+    out = np.empty_like(restitution)
+    _damping_ratios(restitution, out)
+    return out
