@@ -9,7 +9,8 @@ and the bounce ends at the first instant T falls to zero: the tether never pushe
 before and after is exact, so only the contact phase is integrated.
 
 Integration. Classic fourth-order Runge-Kutta with a fixed step, `STEPS_PER_HALF_PERIOD` steps
-per half period of the spring along the tether (the fastest time scale). The slack instant is
+per half period of the fastest time scale: the spring along the tether, or the puck's spin
+when that can be faster (bounded by energy, w^2 <= w0^2 + v0^2 / (kappa R^2)). The slack instant is
 located inside the last step: the step is re-taken from its start with a length found by the
 Illinois (regula falsi) method on T, so the kink at L = L0 never falls inside a step and the
 method keeps its order. The attachment point is carried as a vector (rx, ry) that turns with
@@ -60,19 +61,36 @@ def restitution_from_damping(zeta):
 
 @numba.njit(cache=True)
 def damping_ratio(restitution):
-    """The damping ratio zeta whose contact has this restitution (bisection; e in (0, 1])."""
+    """The damping ratio zeta whose contact has this restitution (inf for e = 0).
+
+    Illinois iteration on a bracket found by doubling; e(zeta) falls monotonically from 1.
+    """
     if restitution >= 1.0:
         return 0.0
+    if restitution <= 0.0:
+        return math.inf
     low, high = 0.0, 1.0
     while restitution_from_damping(high) > restitution:
-        high *= 2.0
-    for _ in range(80):
-        mid = 0.5 * (low + high)
-        if restitution_from_damping(mid) > restitution:
-            low = mid
+        low, high = high, 2.0 * high
+    f_low = restitution_from_damping(low) - restitution
+    f_high = restitution_from_damping(high) - restitution
+    side, mid = 0, high
+    for _ in range(200):
+        mid = (low * f_high - high * f_low) / (f_high - f_low)
+        f = restitution_from_damping(mid) - restitution
+        if f > 0.0:
+            low, f_low = mid, f
+            if side == 1:
+                f_high *= 0.5
+            side = 1
         else:
-            high = mid
-    return 0.5 * (low + high)
+            high, f_high = mid, f
+            if side == -1:
+                f_low *= 0.5
+            side = -1
+        if abs(f) <= 1e-15 or high - low <= 4e-16 * high:
+            break
+    return mid
 
 
 @numba.njit(cache=True)
@@ -127,6 +145,8 @@ def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, res
     natural = math.sqrt(k / m_eff)
     c = 2.0 * zeta * math.sqrt(k * m_eff)
     fastest = natural * (zeta + math.sqrt(zeta * zeta - 1.0) if zeta > 1.0 else 1.0)
+    if offset > 0.0:  # the attachment point whirls: resolve the fastest spin energy allows
+        fastest = max(fastest, math.sqrt(spin * spin + speed * speed / (kappa * radius * radius)))
     h = math.pi / (fastest * STEPS_PER_HALF_PERIOD)
     p = (k, c, rest_length, inv_m, inv_i)
 
@@ -146,6 +166,8 @@ def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, res
         low, g_low, high, g_high, side = 0.0, tension, h, new_tension, 0
         for _ in range(60):
             tau = (low * g_high - high * g_low) / (g_high - g_low)
+            if not low < tau < high:  # a flat bracket (T = 0 at tautening when c = 0): bisect
+                tau = 0.5 * (low + high)
             new = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, tau, *p)
             g = _accel(*new, *p)[3]
             if g > 0.0:

@@ -1,0 +1,342 @@
+"""The one implementation of task sampling, action decoding, observation and reward.
+
+`TetherBounceEnv` (one bounce at a time) and `TetherBounceVectorEnv` (N bounces in one call)
+both go through `reset_batch` and `step_batch`, so the two cannot drift. Episodes are rows;
+their state lives in float64 arrays whose columns are named below, and the per-episode work is
+numba-compiled so that a batch of one costs microseconds.
+
+Randomness comes in as uniforms, `N_UNIFORMS` per episode, drawn by the caller from its own
+`np_random`; everything else is a deterministic function of them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numba import prange
+
+from tether_gym.physics import bounce
+from tether_gym.physics.checks import check_float
+from tether_gym.physics.geometry import deflection_and_speed_ratio
+from tether_gym.physics.hybrid import damping_ratio, hybrid_core
+from tether_gym.physics.impulse import impulse_core
+
+TASKS = ("heading", "velocity", "deadspin")
+DYNAMICS = ("hybrid", "impulse", "pymunk")
+
+# Physical ranges of the normalized actions, in the order of the action vector.
+ACTION_NAMES = ("launch_speed", "tether_angle", "offset_angle", "offset")
+ACTION_LOW = np.array([1.0, 0.0, -math.pi / 2, 0.0])
+ACTION_HIGH = np.array([3.0, math.pi, math.pi / 2, 1.0])
+
+MIN_HEADING = math.pi / 12
+"""Heading targets have |heading| in [pi/12, pi]: a smaller deflection is a near-miss of the
+tether, which is no bounce at all."""
+TARGET_SPEED = (0.5, 2.5)
+"""Velocity targets' speeds, m/s; those under the slowest launch need spin to shed speed."""
+
+MASS, RADIUS, TETHER_LENGTH = 0.03, 0.04, 1.0
+"""The puck (kg, m; an air-hockey puck's) and the tether's rest length (m)."""
+MAX_INERTIA_RATIO = 4.0
+MAX_SPIN_DISTURBANCE = 50.0
+"""rad/s: a rim speed of 2 m/s at R = 4 cm."""
+RHO_RANGE = (1.0, 1e6)
+
+HEADING_TOLERANCE = math.radians(2.0)
+SPEED_TOLERANCE = 0.02
+DEADSPIN_TOLERANCE = 0.02
+SLACK_PENALTY = 0.5
+
+# Columns of the per-episode task array.
+TASK, HEADING, SPEED, KAPPA, RESTITUTION, ZETA, STIFFNESS, RHO, SPIN = range(9)
+N_TASK_COLUMNS = 9
+N_UNIFORMS = 8
+
+OBSERVATION_NAMES = (
+    "task_heading", "task_velocity", "task_deadspin", "target_heading_cos", "target_heading_sin",
+    "target_speed", "inertia_ratio", "restitution", "log10_rho", "spin",
+)  # fmt: skip
+
+# Columns of the per-episode outcome array.
+OUTCOME_NAMES = (
+    "reward", "is_success", "deflection", "speed_ratio", "spin", "bounced", "completed",
+    "heading_error", "speed_error", "residual_speed", "vx", "vy", "launch_speed",
+    "tether_angle", "offset_angle", "offset",
+    "term_heading", "term_speed", "term_deadspin", "term_success", "term_slack",
+)  # fmt: skip
+OUTCOME = {name: i for i, name in enumerate(OUTCOME_NAMES)}
+(
+    O_REWARD, O_SUCCESS, O_DEFLECTION, O_SPEED_RATIO, O_SPIN, O_BOUNCED, O_COMPLETED,
+    O_HEADING_ERROR, O_SPEED_ERROR, O_RESIDUAL, O_VX, O_VY, O_LAUNCH, O_TETHER_ANGLE,
+    O_OFFSET_ANGLE, O_OFFSET, O_TERM_HEADING, O_TERM_SPEED, O_TERM_DEADSPIN, O_TERM_SUCCESS,
+    O_TERM_SLACK,
+) = range(len(OUTCOME_NAMES))  # fmt: skip
+REWARD_TERMS = ("heading", "speed", "deadspin", "success", "slack")
+
+
+def _range(name: str, value, low: float, high: float, low_open: bool = False):
+    """A fixed value or a (low, high) randomization range, validated; returned as a pair."""
+    pair = value if isinstance(value, (tuple, list)) else (value, value)
+    if len(pair) != 2:
+        raise ValueError(f"{name} must be a number or a (low, high) pair, got {value!r}")
+    lo = check_float(name, pair[0], low, high, low_open=low_open)
+    hi = check_float(name, pair[1], low, high, low_open=low_open)
+    if lo > hi:
+        raise ValueError(f"{name} range is empty: low {lo!r} > high {hi!r}")
+    return lo, hi
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Everything that fixes an environment's task distribution and dynamics, validated."""
+
+    task: str = "mixed"
+    dynamics: str = "hybrid"
+    inertia_ratio: tuple[float, float] = (0.5, 0.5)
+    restitution: tuple[float, float] = (1.0, 1.0)
+    rho: tuple[float, float] = (850.0, 850.0)
+    stiffness: float | None = None
+    spin_disturbance: float = 0.0
+    mass: float = MASS
+    radius: float = RADIUS
+    tether_length: float = TETHER_LENGTH
+
+    @classmethod
+    def build(
+        cls,
+        task: str = "mixed",
+        dynamics: str = "hybrid",
+        inertia_ratio=0.5,
+        restitution=1.0,
+        rho=850.0,
+        stiffness: float | None = None,
+        spin_disturbance: float = 0.0,
+    ) -> EnvConfig:
+        if task not in (*TASKS, "mixed"):
+            raise ValueError(f"task must be one of {(*TASKS, 'mixed')}, got {task!r}")
+        if dynamics not in DYNAMICS:
+            raise ValueError(f"dynamics must be one of {DYNAMICS}, got {dynamics!r}")
+        restitution = _range("restitution", restitution, 0.0, 1.0)
+        if dynamics != "impulse" and restitution[0] == 0.0:
+            raise ValueError(
+                f"restitution must be in (0, 1] for dynamics={dynamics!r}: "
+                "e = 0 needs an infinite damper"
+            )
+        if stiffness is not None:
+            low, high = (MASS * (r * ACTION_HIGH[0] / TETHER_LENGTH) ** 2 for r in RHO_RANGE)
+            stiffness = check_float("stiffness", stiffness, low, high)
+        return cls(
+            task=task,
+            dynamics=dynamics,
+            inertia_ratio=_range(
+                "inertia_ratio", inertia_ratio, 0.0, MAX_INERTIA_RATIO, low_open=True
+            ),
+            restitution=restitution,
+            rho=_range("rho", rho, *RHO_RANGE),
+            stiffness=stiffness,
+            spin_disturbance=check_float(
+                "spin_disturbance", spin_disturbance, 0.0, MAX_SPIN_DISTURBANCE
+            ),
+        )
+
+    def as_array(self) -> np.ndarray:
+        """The numbers the kernels need, in the order `_unpack` reads them."""
+        task_code = -1 if self.task == "mixed" else TASKS.index(self.task)
+        k = -1.0 if self.stiffness is None else self.stiffness
+        return np.array(
+            [task_code, DYNAMICS.index(self.dynamics), *self.inertia_ratio, *self.restitution,
+             math.log(self.rho[0]), math.log(self.rho[1]), k, self.spin_disturbance, self.mass,
+             self.radius, self.tether_length, self.radius / ACTION_HIGH[0],
+             damping_ratio(self.restitution[0])],
+            dtype=np.float64,
+        )  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _sample_one(u, cfg, task_row, obs_row):
+    """Draw one episode's task from its uniforms `u`; write its task row and observation."""
+    task = int(cfg[0]) if cfg[0] >= 0 else min(int(u[0] * 3.0), 2)
+    sign = 1.0 if u[2] < 0.5 else -1.0
+    heading = sign * (MIN_HEADING + u[1] * (math.pi - MIN_HEADING))
+    speed = TARGET_SPEED[0] + u[3] * (TARGET_SPEED[1] - TARGET_SPEED[0])
+    kappa = cfg[2] + u[4] * (cfg[3] - cfg[2])
+    e = cfg[4] + u[5] * (cfg[5] - cfg[4])
+    rho = math.exp(cfg[6] + u[6] * (cfg[7] - cfg[6]))
+    mass, tether_length = cfg[10], cfg[12]
+    stiffness = cfg[8] if cfg[8] > 0.0 else mass * (rho * ACTION_HIGH[0] / tether_length) ** 2
+    if cfg[8] > 0.0:  # a fixed stiffness: observe the rho it gives at the fastest launch
+        rho = math.sqrt(stiffness / mass) * tether_length / ACTION_HIGH[0]
+    spin = cfg[9] * (2.0 * u[7] - 1.0)
+    zeta = cfg[14] if cfg[4] == cfg[5] or cfg[1] == 1 else damping_ratio(e)
+    if task == 2:
+        heading, speed = 0.0, 0.0
+    elif task == 0:
+        speed = 0.0
+    task_row[TASK], task_row[HEADING], task_row[SPEED] = task, heading, speed
+    task_row[KAPPA], task_row[RESTITUTION], task_row[ZETA] = kappa, e, zeta
+    task_row[STIFFNESS], task_row[RHO], task_row[SPIN] = stiffness, rho, spin
+    obs_row[:] = 0.0
+    obs_row[task] = 1.0
+    if task != 2:
+        obs_row[3], obs_row[4] = math.cos(heading), math.sin(heading)
+    obs_row[5] = speed / ACTION_HIGH[0]
+    obs_row[6], obs_row[7], obs_row[8] = kappa, e, math.log10(rho)
+    obs_row[9] = spin * cfg[13]  # a rim speed over the fastest launch
+
+
+def _reset_kernel(uniforms, cfg, tasks, obs):
+    for i in prange(tasks.shape[0]):
+        _sample_one(uniforms[i], cfg, tasks[i], obs[i])
+
+
+_reset_serial = numba.njit(cache=True)(_reset_kernel)
+_reset_parallel = numba.njit(cache=True, parallel=True)(_reset_kernel)
+PARALLEL_MIN_BATCH = 256
+"""Below this many episodes a thread pool costs more than it saves."""
+
+
+@numba.njit(cache=True)
+def _decode_one(action, out):
+    """Clip a normalized action to [-1, 1] and map it linearly onto the physical ranges."""
+    for j in range(4):
+        a = min(max(action[j], -1.0), 1.0)
+        value = ACTION_LOW[j] + 0.5 * (a + 1.0) * (ACTION_HIGH[j] - ACTION_LOW[j])
+        out[O_LAUNCH + j] = value
+
+
+@numba.njit(cache=True)
+def _simulate_one(task_row, cfg, out):
+    """Bounce the decoded set-up with the impulse or hybrid model; write vx, vy, spin, flags."""
+    speed, beta = out[O_LAUNCH], out[O_LAUNCH + 1]
+    alpha, offset = out[O_LAUNCH + 2], out[O_LAUNCH + 3]
+    kappa, radius = task_row[KAPPA], cfg[11]
+    if cfg[1] == 1:
+        vx, vy, w, bounced = impulse_core(
+            beta, alpha, offset, kappa, speed, task_row[SPIN], task_row[RESTITUTION], radius
+        )
+        completed = True
+    else:
+        vx, vy, w, bounced, completed, _ = hybrid_core(
+            beta,
+            alpha,
+            offset,
+            kappa,
+            speed,
+            task_row[SPIN],
+            task_row[ZETA],
+            radius,
+            cfg[10],
+            cfg[12],
+            task_row[STIFFNESS],
+        )
+    out[O_VX], out[O_VY], out[O_SPIN] = vx, vy, w
+    out[O_BOUNCED], out[O_COMPLETED] = bounced, completed
+
+
+@numba.njit(cache=True)
+def _score_one(task_row, out):
+    """Named reward terms, their sum and success, from the bounce already in `out`."""
+    speed = out[O_LAUNCH]
+    vx, vy = out[O_VX], out[O_VY]
+    deflection, ratio = deflection_and_speed_ratio(vx, vy, speed)
+    task = int(task_row[TASK])
+    residual = ratio
+    heading_error, speed_error = 0.0, 0.0  # where the task has no such target
+    term_heading, term_speed, term_deadspin = 0.0, 0.0, 0.0
+    if task == 2:
+        term_deadspin = 1.0 - min(residual, 1.0)
+        success = residual < DEADSPIN_TOLERANCE
+    else:
+        heading_error = deflection - task_row[HEADING]
+        heading_error -= 2.0 * math.pi * math.floor((heading_error + math.pi) / (2.0 * math.pi))
+        term_heading = 1.0 - abs(heading_error) / math.pi
+        success = abs(heading_error) < HEADING_TOLERANCE
+        if task == 1:
+            speed_error = ratio * speed / task_row[SPEED] - 1.0
+            term_speed = 1.0 - min(abs(speed_error), 1.0)
+            term_heading *= 0.5
+            term_speed *= 0.5
+            success = success and abs(speed_error) < SPEED_TOLERANCE
+    term_success = 1.0 if success else 0.0
+    term_slack = 0.0 if out[O_BOUNCED] else -SLACK_PENALTY
+    out[O_TERM_HEADING], out[O_TERM_SPEED] = term_heading, term_speed
+    out[O_TERM_DEADSPIN], out[O_TERM_SUCCESS] = term_deadspin, term_success
+    out[O_TERM_SLACK] = term_slack
+    out[O_REWARD] = term_heading + term_speed + term_deadspin + term_success + term_slack
+    out[O_SUCCESS] = success
+    out[O_DEFLECTION], out[O_SPEED_RATIO] = deflection, ratio
+    out[O_HEADING_ERROR], out[O_SPEED_ERROR] = heading_error, speed_error
+    out[O_RESIDUAL] = residual
+
+
+def _step_kernel(actions, tasks, cfg, out):
+    for i in prange(tasks.shape[0]):
+        _decode_one(actions[i], out[i])
+        _simulate_one(tasks[i], cfg, out[i])
+        _score_one(tasks[i], out[i])
+
+
+_step_serial = numba.njit(cache=True)(_step_kernel)
+_step_parallel = numba.njit(cache=True, parallel=True)(_step_kernel)
+
+
+@numba.njit(cache=True)
+def _decode_kernel(actions, out):
+    for i in range(actions.shape[0]):
+        _decode_one(actions[i], out[i])
+
+
+@numba.njit(cache=True)
+def _score_kernel(tasks, out):
+    for i in range(tasks.shape[0]):
+        _score_one(tasks[i], out[i])
+
+
+def reset_batch(uniforms: np.ndarray, cfg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """New tasks from (n, N_UNIFORMS) uniforms: (task rows (n, 9), observations (n, 10))."""
+    n = uniforms.shape[0]
+    tasks = np.empty((n, N_TASK_COLUMNS))
+    obs = np.empty((n, len(OBSERVATION_NAMES)), dtype=np.float32)
+    (_reset_parallel if n >= PARALLEL_MIN_BATCH else _reset_serial)(uniforms, cfg, tasks, obs)
+    return tasks, obs
+
+
+def step_batch(actions: np.ndarray, tasks: np.ndarray, cfg: np.ndarray) -> np.ndarray:
+    """Decode, bounce and score n actions: the (n, len(OUTCOME_NAMES)) outcome array.
+
+    Raises ValueError for a NaN or infinite action; values outside [-1, 1] are clipped.
+    """
+    actions = np.asarray(actions, dtype=np.float64).reshape(tasks.shape[0], 4)
+    if not np.isfinite(actions).all():
+        raise ValueError(f"action must be finite (no NaN or infinity), got {actions!r}")
+    out = np.empty((tasks.shape[0], len(OUTCOME_NAMES)))
+    if cfg[1] != DYNAMICS.index("pymunk"):
+        kernel = _step_parallel if tasks.shape[0] >= PARALLEL_MIN_BATCH else _step_serial
+        kernel(actions, tasks, cfg, out)
+        return out
+    _decode_kernel(actions, out)
+    launch = out[:, O_LAUNCH : O_LAUNCH + 4]
+    result = bounce(
+        launch[:, 1], launch[:, 2], offset=launch[:, 3], inertia_ratio=tasks[:, KAPPA],
+        speed=launch[:, 0], spin=tasks[:, SPIN], restitution=tasks[:, RESTITUTION],
+        model="pymunk", mass=cfg[10], radius=cfg[11], tether_length=cfg[12],
+        stiffness=tasks[:, STIFFNESS],
+    )  # fmt: skip
+    out[:, O_VX], out[:, O_VY] = result.velocity[:, 0], result.velocity[:, 1]
+    out[:, O_SPIN] = result.spin
+    out[:, O_BOUNCED], out[:, O_COMPLETED] = result.bounced, result.completed
+    _score_kernel(tasks, out)
+    return out
+
+
+def outcome_info(out: np.ndarray) -> dict:
+    """The outcome array as Gymnasium info: named arrays (or scalars for a single row)."""
+    pick = out[0].tolist().__getitem__ if out.shape[0] == 1 else (lambda j: out[:, j])
+    info = {name: pick(OUTCOME[name]) for name in OUTCOME_NAMES[1:16]}
+    for flag in ("is_success", "bounced", "completed"):
+        info[flag] = bool(info[flag]) if out.shape[0] == 1 else info[flag].astype(bool)
+    info["reward_terms"] = {term: pick(OUTCOME["term_" + term]) for term in REWARD_TERMS}
+    return info

@@ -1,0 +1,168 @@
+"""TetherBounce-v0: set up one tethered bounce and be rewarded for where the puck goes."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from tether_gym.envs import core
+from tether_gym.envs.spaces import action_space, observation_space
+
+
+class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
+    """
+    ## Description
+
+    A planar puck (mass 0.03 kg, radius 0.04 m) slides along +y towards the instant its tether
+    (rest length 1 m, anchored to the ground) goes taut, and bounces off that "virtual wall"
+    (Hallenbeck-style impulse redirection of a tethered projectile). The agent chooses the
+    set-up before the bounce: how fast to launch, the tether's angle and where on the puck it
+    is attached. One episode is one bounce, so the environment is a contextual bandit: `reset`
+    draws a task and its target, `step` bounces the puck once and the episode terminates.
+
+    Tasks (`task`): `"heading"` (leave along a target heading), `"velocity"` (leave with a
+    target velocity, heading and speed in m/s; targets slower than the slowest launch need the
+    offset to turn translation into spin), `"deadspin"` (stop dead, all energy left in spin),
+    and `"mixed"` (the default: one of the three, uniformly, per episode).
+
+    ## Action Space
+
+    `Box(-1, 1, (4,), float32)`, mapped linearly onto physical ranges; values outside [-1, 1]
+    are clipped, NaN or infinite values raise `ValueError`.
+
+    | Num | Action        | -1 maps to | +1 maps to | Unit  |
+    |-----|---------------|------------|------------|-------|
+    | 0   | launch speed  | 1.0        | 3.0        | m/s   |
+    | 1   | tether angle  | 0          | pi         | rad   |
+    | 2   | offset angle  | -pi/2      | pi/2       | rad   |
+    | 3   | offset        | 0          | 1          | R     |
+
+    Tether angle is the paper's beta (from +x to the line anchor -> attachment point, the puck
+    moving along +y; pi/2 anchors it directly behind), offset angle its alpha (from the tether
+    to the line attachment point -> centre of mass, counter-clockwise), offset the attachment's
+    distance from the centre of mass over the radius. With alpha in [-pi/2, pi/2] and the
+    offset in [0, 1] every moment arm is reachable. A set-up whose tether never goes taut
+    (attachment point not moving away from the anchor) is legal: the puck flies on unbounced.
+
+    ## Observation Space
+
+    `Box(float32, (10,))`: the task and every physical parameter that varies between episodes.
+
+    | Num | Observation          | Min     | Max     | Note                                  |
+    |-----|----------------------|---------|---------|---------------------------------------|
+    | 0-2 | task one-hot         | 0       | 1       | heading, velocity, deadspin           |
+    | 3   | cos(target heading)  | -1      | 1       | 0 for deadspin                        |
+    | 4   | sin(target heading)  | -1      | 1       | heading from +y, counter-clockwise    |
+    | 5   | target speed / 3 m/s | 0       | 0.833   | velocity task only, else 0            |
+    | 6   | inertia ratio        | range   | range   | kappa = I / (m R^2)                   |
+    | 7   | restitution          | range   | range   | e                                     |
+    | 8   | log10(rho)           | range   | range   | tether stiffness, see `rho`           |
+    | 9   | spin * R / 3 m/s     | -max    | max     | pre-bounce spin disturbance           |
+
+    ## Rewards
+
+    Named terms, summed, and reported in `info["reward_terms"]`:
+    `heading` = 1 - |heading error| / pi (halved for the velocity task), `speed` =
+    (1 - min(|speed error| / target speed, 1)) / 2 (velocity task), `deadspin` = 1 - min(
+    residual speed / launch speed, 1) (deadspin task), `success` = 1 on success, and `slack` =
+    -0.5 if the tether never went taut. `info["is_success"]`: heading within 2 degrees, speed
+    within 2% of the target, deadspin residual speed under 2% of the launch speed.
+
+    ## Starting State
+
+    The task, its target (heading |theta| in [pi/12, pi], either sign; speed in [0.5, 2.5] m/s)
+    and the randomized physical parameters, drawn from `self.np_random`.
+
+    ## Episode End
+
+    Every episode terminates after its one step (never truncated).
+
+    ## Arguments
+
+    | Argument           | Default    | Meaning                                                    |
+    |--------------------|------------|------------------------------------------------------------|
+    | `task`             | `"mixed"`  | `"heading"`, `"velocity"`, `"deadspin"` or `"mixed"`       |
+    | `dynamics`         | `"hybrid"` | `"hybrid"` (spring tether), `"impulse"`, or `"pymunk"`     |
+    | `inertia_ratio`    | `0.5`      | kappa, or a `(low, high)` range drawn uniformly            |
+    | `restitution`      | `1.0`      | e in [0, 1] ((0, 1] unless impulse), or a range            |
+    | `rho`              | `850.0`    | stiffness as the paper's rho at the fastest launch, or a   |
+    |                    |            | range drawn log-uniformly                                  |
+    | `stiffness`        | `None`     | a spring constant in N/m instead of `rho`                  |
+    | `spin_disturbance` | `0.0`      | pre-bounce spin drawn uniformly in +-this, rad/s           |
+    | `render_mode`      | `None`     | `"rgb_array"` or `"human"`                                 |
+
+    `rho` is eq. (11) with the fastest launch (3 m/s) as v_theta: every episode's actual rho is
+    at least this. Bad arguments raise `ValueError` naming the argument.
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        task: str = "mixed",
+        dynamics: str = "hybrid",
+        inertia_ratio: float | tuple[float, float] = 0.5,
+        restitution: float | tuple[float, float] = 1.0,
+        rho: float | tuple[float, float] = 850.0,
+        stiffness: float | None = None,
+        spin_disturbance: float = 0.0,
+        render_mode: str | None = None,
+    ):
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, "
+                f"got {render_mode!r}"
+            )
+        self.config = core.EnvConfig.build(
+            task, dynamics, inertia_ratio, restitution, rho, stiffness, spin_disturbance
+        )
+        self._cfg = self.config.as_array()
+        self.action_space = action_space()
+        self.observation_space = observation_space()
+        self.render_mode = render_mode
+        self._renderer = None
+        self._task: np.ndarray | None = None
+        self._obs: np.ndarray | None = None
+        self._outcome: np.ndarray | None = None
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        tasks, obs = core.reset_batch(self.np_random.random((1, core.N_UNIFORMS)), self._cfg)
+        self._task, self._obs, self._outcome = tasks, obs[0], None
+        if self.render_mode == "human":
+            self.render()
+        return self._obs, {}
+
+    def step(self, action):
+        if self._task is None:
+            raise RuntimeError("call reset() before step()")
+        out = core.step_batch(action, self._task, self._cfg)
+        self._outcome = out[0]
+        if self.render_mode == "human":
+            self.render()
+        return self._obs.copy(), float(out[0, core.O_REWARD]), True, False, core.outcome_info(out)
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn(
+                "render() called without a render_mode; "
+                'pass render_mode="rgb_array" or "human" to gym.make'
+            )
+            return None
+        if self._renderer is None:
+            from tether_gym.envs.rendering import Renderer
+
+            self._renderer = Renderer(self.config, self.render_mode, self.metadata["render_fps"])
+        task = None if self._task is None else self._task[0]
+        return self._renderer.render(task, self._outcome)
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
