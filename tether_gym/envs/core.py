@@ -171,20 +171,26 @@ def _sample_one(u, cfg, task_row, obs_row):
         rho = math.sqrt(stiffness / mass) * tether_length / ACTION_HIGH[0]
     spin = cfg[9] * (2.0 * u[7] - 1.0)
     zeta = cfg[14] if cfg[4] == cfg[5] or cfg[1] == 1 else damping_ratio(e)
-    if task == 2:
-        heading, speed = 0.0, 0.0
-    elif task == 0:
-        speed = 0.0
     task_row[TASK], task_row[HEADING], task_row[SPEED] = task, heading, speed
     task_row[KAPPA], task_row[RESTITUTION], task_row[ZETA] = kappa, e, zeta
     task_row[STIFFNESS], task_row[RHO], task_row[SPIN] = stiffness, rho, spin
+    _observe_one(task_row, cfg, obs_row)
+
+
+@numba.njit(cache=True)
+def _observe_one(task_row, cfg, obs_row):
+    """The observation of one task row (see the env's observation table); a row keeps a
+    heading and a speed for every task, the observation shows only those the task uses."""
+    task = int(task_row[TASK])
     obs_row[:] = 0.0
     obs_row[task] = 1.0
     if task != 2:
-        obs_row[3], obs_row[4] = math.cos(heading), math.sin(heading)
-    obs_row[5] = speed / ACTION_HIGH[0]
-    obs_row[6], obs_row[7], obs_row[8] = kappa, e, math.log10(rho)
-    obs_row[9] = spin * cfg[13]  # a rim speed over the fastest launch
+        obs_row[3], obs_row[4] = math.cos(task_row[HEADING]), math.sin(task_row[HEADING])
+    if task == 1:
+        obs_row[5] = task_row[SPEED] / ACTION_HIGH[0]
+    obs_row[6], obs_row[7] = task_row[KAPPA], task_row[RESTITUTION]
+    obs_row[8] = math.log10(task_row[RHO])
+    obs_row[9] = task_row[SPIN] * cfg[13]  # a rim speed over the fastest launch
 
 
 def _reset_kernel(uniforms, cfg, tasks, obs):
@@ -250,8 +256,8 @@ def _score_one(task_row, out):
         term_deadspin = 1.0 - min(residual, 1.0)
         success = residual < DEADSPIN_TOLERANCE
     else:
-        heading_error = deflection - task_row[HEADING]
-        heading_error -= 2.0 * math.pi * math.floor((heading_error + math.pi) / (2.0 * math.pi))
+        # folded into (-pi, pi], as geometry.wrap_angle does
+        heading_error = math.pi - (math.pi - deflection + task_row[HEADING]) % (2.0 * math.pi)
         term_heading = 1.0 - abs(heading_error) / math.pi
         success = abs(heading_error) < HEADING_TOLERANCE
         if task == 1:
@@ -302,6 +308,29 @@ def reset_batch(uniforms: np.ndarray, cfg: np.ndarray) -> tuple[np.ndarray, np.n
     obs = np.empty((n, len(OBSERVATION_NAMES)), dtype=np.float32)
     (_reset_parallel if n >= PARALLEL_MIN_BATCH else _reset_serial)(uniforms, cfg, tasks, obs)
     return tasks, obs
+
+
+def set_targets(tasks: np.ndarray, obs: np.ndarray, cfg: np.ndarray, options: dict) -> None:
+    """Override the drawn task and target from `reset(options=...)`, in place.
+
+    Keys: "task" (one of TASKS), "target_heading" (rad, heading and velocity tasks) and
+    "target_speed" (m/s, velocity task); validated with ValueErrors naming them.
+    """
+    unknown = set(options) - {"task", "target_heading", "target_speed"}
+    if unknown:
+        raise ValueError(f"options may hold task, target_heading, target_speed; got {unknown}")
+    if "task" in options:
+        if options["task"] not in TASKS:
+            raise ValueError(f"options['task'] must be one of {TASKS}, got {options['task']!r}")
+        tasks[:, TASK] = TASKS.index(options["task"])
+    if "target_heading" in options:
+        tasks[:, HEADING] = check_float(
+            "target_heading", options["target_heading"], -math.pi, math.pi
+        )
+    if "target_speed" in options:
+        tasks[:, SPEED] = check_float("target_speed", options["target_speed"], *TARGET_SPEED)
+    for i in range(tasks.shape[0]):
+        _observe_one(tasks[i], cfg, obs[i])
 
 
 def step_batch(actions: np.ndarray, tasks: np.ndarray, cfg: np.ndarray) -> np.ndarray:

@@ -75,6 +75,9 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
     The task, its target (heading |theta| in [pi/12, pi], either sign; speed in [0.5, 2.5] m/s)
     and the randomized physical parameters, drawn from `self.np_random`.
 
+    `reset(options=...)` can fix the episode instead: `{"task": "heading", "target_heading":
+    math.pi / 2}`, with keys `task`, `target_heading` (rad) and `target_speed` (m/s).
+
     ## Episode End
 
     Every episode terminates after its one step (never truncated).
@@ -134,6 +137,8 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         tasks, obs = core.reset_batch(self.np_random.random((1, core.N_UNIFORMS)), self._cfg)
+        if options:
+            core.set_targets(tasks, obs, self._cfg, options)
         self._task, self._obs, self._outcome = tasks, obs[0], None
         if self.render_mode == "human":
             self.render()

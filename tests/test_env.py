@@ -1,0 +1,238 @@
+"""TetherBounce-v0 and its native vector env: API checks, determinism, equivalence, rewards."""
+
+from __future__ import annotations
+
+import math
+import os
+import pickle
+import subprocess
+import sys
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+import tether_gym  # noqa: F401
+from tether_gym.envs import TetherBounceEnv, TetherBounceVectorEnv
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+
+TASKS = ["heading", "velocity", "deadspin", "mixed"]
+DYNAMICS = ["impulse", "hybrid"]
+
+
+def normalized(speed: float, tether_angle: float, offset_angle: float, offset: float):
+    """Physical set-up -> the normalized action (inverse of the documented linear map)."""
+    low = np.array([1.0, 0.0, -math.pi / 2, 0.0])
+    high = np.array([3.0, math.pi, math.pi / 2, 1.0])
+    value = np.array([speed, tether_angle, offset_angle, offset])
+    return (2.0 * (value - low) / (high - low) - 1.0).astype(np.float32)
+
+
+@pytest.mark.parametrize("dynamics", DYNAMICS)
+@pytest.mark.parametrize("task", TASKS)
+def test_checkers_pass_without_warnings(task, dynamics):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gym.make("TetherBounce-v0", task=task, dynamics=dynamics).unwrapped)
+        sb3_check_env(gym.make("TetherBounce-v0", task=task, dynamics=dynamics))
+
+
+def rollout(env, seed: int, steps: int):
+    env.action_space.seed(seed)
+    obs, _ = env.reset(seed=seed)
+    record = [obs]
+    for _ in range(steps):
+        obs, reward, terminated, _, info = env.step(env.action_space.sample())
+        record += [reward, info["deflection"], info["spin"]]
+        if np.all(terminated):
+            obs, _ = env.reset() if not hasattr(env, "num_envs") else (obs, None)
+        record.append(obs)
+    return record
+
+
+@pytest.mark.parametrize("dynamics", DYNAMICS)
+def test_same_seed_same_rollout(dynamics):
+    def equal(a, b):
+        return all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+
+    make = lambda: gym.make("TetherBounce-v0", dynamics=dynamics)  # noqa: E731
+    assert equal(rollout(make(), 3, 20), rollout(make(), 3, 20))
+    assert not equal(rollout(make(), 3, 20), rollout(make(), 4, 20))
+    vec = lambda: TetherBounceVectorEnv(8, dynamics=dynamics)  # noqa: E731
+    assert equal(rollout(vec(), 3, 20), rollout(vec(), 3, 20))
+
+
+@pytest.mark.parametrize("dynamics", DYNAMICS)
+def test_vector_matches_single_envs_step_for_step(dynamics):
+    n, seed, steps = 5, 11, 300  # more steps than one block of uniforms
+    vec = gym.make_vec(
+        "TetherBounce-v0", num_envs=n, vectorization_mode="vector_entry_point", dynamics=dynamics,
+        block=64, task="mixed", spin_disturbance=2.0, restitution=(0.6, 1.0),
+    )  # fmt: skip
+    singles = [
+        gym.make("TetherBounce-v0", dynamics=dynamics, spin_disturbance=2.0,
+                 restitution=(0.6, 1.0))
+        for _ in range(n)
+    ]  # fmt: skip
+    vec_obs, _ = vec.reset(seed=seed)
+    single_obs = np.stack([env.reset(seed=seed + i)[0] for i, env in enumerate(singles)])
+    rng = np.random.default_rng(0)
+    for _ in range(steps):
+        np.testing.assert_array_equal(vec_obs, single_obs)
+        actions = rng.uniform(-1.2, 1.2, size=(n, 4)).astype(np.float32)
+        vec_obs, rewards, terminated, truncated, info = vec.step(actions)
+        results = [env.step(a) for env, a in zip(singles, actions, strict=True)]
+        np.testing.assert_array_equal(rewards, [r[1] for r in results])
+        np.testing.assert_array_equal(info["spin"], [r[4]["spin"] for r in results])
+        np.testing.assert_array_equal(info["final_obs"], single_obs)
+        assert terminated.all() and not truncated.any()
+        single_obs = np.stack([env.reset()[0] for env in singles])
+
+
+def test_native_vector_env_is_registered():
+    envs = gym.make_vec("TetherBounce-v0", num_envs=4, vectorization_mode="vector_entry_point")
+    assert isinstance(envs, TetherBounceVectorEnv)
+    obs, _ = envs.reset(seed=0)
+    assert obs.shape == (4, 10) and envs.observation_space.contains(obs)
+    obs, rewards, terminated, _, info = envs.step(envs.action_space.sample())
+    assert rewards.shape == (4,) and terminated.all()
+    assert set(info["reward_terms"]) == {"heading", "speed", "deadspin", "success", "slack"}
+
+
+def test_make_with_module_prefix_needs_no_import():
+    code = "import gymnasium as gym; e = gym.make('tether_gym:TetherBounce-v0'); e.reset(seed=0)"
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+def test_pickled_env_continues_identically():
+    env = gym.make("TetherBounce-v0", dynamics="impulse")
+    env.reset(seed=5)
+    copy = pickle.loads(pickle.dumps(env))
+    action = np.array([0.1, -0.2, 0.3, 0.4], dtype=np.float32)
+    first, second = env.step(action), copy.step(action)
+    assert first[1] == second[1] and first[4]["spin"] == second[4]["spin"]
+    np.testing.assert_array_equal(env.reset()[0], copy.reset()[0])
+
+
+def test_render_modes():
+    env = gym.make("TetherBounce-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    before = env.render()
+    assert before.shape == (480, 480, 3) and before.dtype == np.uint8
+    env.step(normalized(2.0, math.pi / 4, 0.0, 0.0))
+    after = env.render()
+    assert after.shape == before.shape and not np.array_equal(before, after)
+    human = gym.make("TetherBounce-v0", render_mode="human")
+    human.reset(seed=0)
+    assert human.render() is None
+    human.step(human.action_space.sample())
+    human.close()
+    with pytest.raises(ValueError, match="render_mode"):
+        TetherBounceEnv(render_mode="ascii")
+
+
+def test_nan_action_raises_and_out_of_range_is_clipped():
+    env = gym.make("TetherBounce-v0", dynamics="impulse")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="action"):
+        env.step(np.array([np.nan, 0, 0, 0], dtype=np.float32))
+    with pytest.raises(ValueError, match="action"):
+        env.step(np.array([0, np.inf, 0, 0], dtype=np.float32))
+    big = np.array([5.0, -3.0, 2.0, 9.0], dtype=np.float32)
+    clipped = np.clip(big, -1, 1)
+    env.reset(seed=1)
+    _, reward_big, _, _, info_big = env.step(big)
+    env.reset(seed=1)
+    _, reward_clipped, _, _, info_clipped = env.step(clipped)
+    assert reward_big == reward_clipped and info_big == info_clipped
+    assert info_big["launch_speed"] == 3.0 and info_big["offset"] == 1.0
+
+
+@pytest.mark.parametrize("dynamics", DYNAMICS)
+def test_bank_shot_succeeds_on_a_right_angle_heading(dynamics):
+    """Paper sec. 4 / Fig. 1a: a 45 degree tether on the centre of mass turns the puck by 90
+    degrees at unchanged speed, so it hits a 90 degree heading (and velocity) target."""
+    env = gym.make("TetherBounce-v0", dynamics=dynamics)
+    env.reset(seed=0, options={"task": "heading", "target_heading": math.pi / 2})
+    _, reward, _, _, info = env.step(normalized(2.0, math.pi / 4, 0.0, 0.0))
+    assert info["is_success"] and info["bounced"]
+    assert abs(info["heading_error"]) < (1e-6 if dynamics == "impulse" else math.radians(2))
+    assert reward == pytest.approx(sum(info["reward_terms"].values()))
+    assert info["reward_terms"]["success"] == 1.0
+    env.reset(seed=0, options={"task": "velocity", "target_heading": math.pi / 2,
+                               "target_speed": 2.0})  # fmt: skip
+    _, _, _, _, info = env.step(normalized(2.0, math.pi / 4, 0.0, 0.0))
+    assert info["is_success"] and abs(info["speed_error"]) < 0.02
+
+
+def test_wrong_heading_fails_and_slack_tether_is_penalized():
+    env = gym.make("TetherBounce-v0", dynamics="impulse")
+    env.reset(seed=0, options={"task": "heading", "target_heading": -math.pi / 2})
+    _, reward, _, _, info = env.step(normalized(2.0, math.pi / 4, 0.0, 0.0))
+    assert not info["is_success"] and info["heading_error"] == pytest.approx(math.pi)
+    assert reward == pytest.approx(0.0)
+    env.reset(seed=0, options={"task": "heading", "target_heading": math.pi / 2})
+    # beta = 0: the attachment point moves across the tether, which never goes taut
+    _, reward, _, _, info = env.step(normalized(2.0, 0.0, 0.0, 0.0))
+    assert not info["bounced"] and info["reward_terms"]["slack"] == -0.5
+    assert info["deflection"] == 0.0 and reward < 0.5
+
+
+def test_deadspin_on_the_radius_of_gyration():
+    """Paper sec. 4.2 / Fig. 6d: an inline tether whose moment arm equals the radius of
+    gyration (sin^2 alpha = kappa for the rim) stops the disk dead."""
+    env = gym.make("TetherBounce-v0", dynamics="impulse", task="deadspin")
+    env.reset(seed=0)
+    alpha = math.asin(math.sqrt(0.5))
+    _, reward, _, _, info = env.step(normalized(2.0, math.pi / 2, alpha, 1.0))
+    assert info["is_success"] and info["residual_speed"] < 1e-9
+    assert info["spin"] != 0.0 and reward == pytest.approx(2.0)
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(normalized(2.0, math.pi / 2, 0.0, 1.0))  # plain rebound
+    assert not info["is_success"] and info["residual_speed"] == pytest.approx(1.0)
+
+
+def test_observation_shows_what_varies():
+    env = gym.make("TetherBounce-v0", inertia_ratio=(0.5, 1.5), restitution=(0.5, 1.0),
+                   rho=(5.0, 100.0), spin_disturbance=3.0)  # fmt: skip
+    obs = np.stack([env.reset(seed=s)[0] for s in range(50)])
+    for column, (low, high) in {6: (0.5, 1.5), 7: (0.5, 1.0), 8: (np.log10(5), 2.0)}.items():
+        assert low - 1e-6 <= obs[:, column].min() < obs[:, column].max() <= high + 1e-6
+    assert np.ptp(obs[:, 9]) > 0
+    fixed = np.stack([gym.make("TetherBounce-v0").reset(seed=s)[0] for s in range(5)])
+    assert np.all(fixed[:, 6] == 0.5) and np.all(fixed[:, 8] == np.float32(np.log10(850)))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"task": "juggle"}, "task"),
+        ({"dynamics": "mujoco"}, "dynamics"),
+        ({"stiffness": -1.0}, "stiffness"),
+        ({"restitution": 1.5}, "restitution"),
+        ({"restitution": 0.0}, "restitution"),
+        ({"restitution": (0.9, 0.5)}, "restitution"),
+        ({"rho": (100.0, 5.0)}, "rho"),
+        ({"inertia_ratio": (2.0, 1.0)}, "inertia_ratio"),
+        ({"inertia_ratio": 0.0}, "inertia_ratio"),
+        ({"spin_disturbance": -1.0}, "spin_disturbance"),
+    ],
+)
+def test_bad_arguments_name_themselves(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        gym.make("TetherBounce-v0", **kwargs)
+    with pytest.raises(ValueError, match=name):
+        TetherBounceVectorEnv(2, **kwargs)
+
+
+def test_bad_reset_options_name_themselves():
+    env = gym.make("TetherBounce-v0")
+    with pytest.raises(ValueError, match="target_speed"):
+        env.reset(options={"target_speed": 10.0})
+    with pytest.raises(ValueError, match="task"):
+        env.reset(options={"task": "juggle"})
