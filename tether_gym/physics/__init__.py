@@ -1,7 +1,8 @@
 """Bounce physics of a tethered planar puck: pure numerics over batches (no gymnasium).
 
-- `bounce` / `bounce_one`: the one entry point, for the impulse and the hybrid model.
-- `impulse`, `hybrid`: the models' kernels; `reference`: the scipy reference for `hybrid`.
+- `bounce` / `bounce_one`: the one entry point, for the impulse, hybrid and pymunk models.
+- `impulse`, `hybrid`, `pymunk_backend`: the models; `reference`: a scipy reference for `hybrid`.
+- `pymunk_world`: a world (table, release) to build on; `trajectory`: a bounce in time.
 - `critical`: the paper's critical points and the inverse map, in closed form.
 - `geometry`: the launch frame's conventions, and the paper's rho (eq. 11).
 """

@@ -10,7 +10,7 @@ from tether_gym.physics import hybrid, impulse
 from tether_gym.physics.checks import INF, check_float, check_range
 from tether_gym.physics.geometry import deflection_and_speed_ratio
 
-MODELS = ("impulse", "hybrid")
+MODELS = ("impulse", "hybrid", "pymunk")
 
 
 @dataclass(frozen=True)
@@ -68,6 +68,13 @@ def _validated(model: str, stiffness, check, **values) -> dict:
     return out
 
 
+def _pymunk_backend():
+    """The pymunk model's module, imported on first use: pymunk is a heavy optional engine."""
+    from tether_gym.physics import pymunk_backend
+
+    return pymunk_backend
+
+
 def _flat(array: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     """A length-1 array for a scalar, else the input broadcast to `shape` and flattened."""
     if array.size == 1:
@@ -103,8 +110,9 @@ def bounce(
         inertia_ratio: kappa = I / (m R^2), > 0 (1/2 a solid disk, 1 a thin ring).
         speed: pre-bounce speed of the centre of mass, m/s, > 0.
         spin: pre-bounce angular velocity, rad/s, counter-clockwise positive.
-        restitution: e in [0, 1] (in (0, 1] for the hybrid model).
-        model: "impulse" (closed form) or "hybrid" (spring tether, needs `stiffness`).
+        restitution: e in [0, 1] (in (0, 1] for the hybrid and pymunk models).
+        model: "impulse" (closed form), "hybrid" (spring tether, needs `stiffness`) or
+            "pymunk" (the hybrid model's tether in the pymunk engine, needs `stiffness`).
         mass, radius: the puck's, kg and m, > 0.
         tether_length: rest length L0 of the tether, the anchor's distance from the attachment
             point at tautening, m, > 0.
@@ -156,7 +164,8 @@ def bounce(
         )
     else:
         completed, contact_time = np.empty(n, dtype=bool), np.empty(n)
-        hybrid.hybrid_kernel(
+        kernel = hybrid.hybrid_kernel if model == "hybrid" else _pymunk_backend().pymunk_kernel
+        kernel(
             *common,
             hybrid.damping_ratios(flat["restitution"]),
             flat["radius"],
@@ -228,7 +237,8 @@ def bounce_one(
         vx, vy, w, bounced = impulse.impulse_core(*common, a["restitution"], a["radius"])
         completed, contact_time = True, 0.0
     else:
-        vx, vy, w, bounced, completed, contact_time = hybrid.hybrid_core(
+        core = hybrid.hybrid_core if model == "hybrid" else _pymunk_backend().pymunk_core
+        vx, vy, w, bounced, completed, contact_time = core(
             *common,
             hybrid.damping_ratio(a["restitution"]),
             a["radius"],
