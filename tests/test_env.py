@@ -236,3 +236,14 @@ def test_bad_reset_options_name_themselves():
         env.reset(options={"target_speed": 10.0})
     with pytest.raises(ValueError, match="task"):
         env.reset(options={"task": "juggle"})
+
+
+def test_pymunk_dynamics_pass_the_checkers():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gym.make("TetherBounce-v0", dynamics="pymunk").unwrapped)
+        sb3_check_env(gym.make("TetherBounce-v0", dynamics="pymunk"))
+    env = gym.make("TetherBounce-v0", dynamics="pymunk")
+    env.reset(seed=0, options={"task": "heading", "target_heading": math.pi / 2})
+    _, _, _, _, info = env.step(normalized(2.0, math.pi / 4, 0.0, 0.0))
+    assert info["is_success"], "the pymunk bank shot misses the 90 degree heading"
