@@ -289,6 +289,16 @@ _step_serial = numba.njit(cache=True)(_step_kernel)
 _step_parallel = numba.njit(cache=True, parallel=True)(_step_kernel)
 
 
+@numba.njit(cache=True, parallel=True)
+def _step_and_reset_kernel(actions, tasks, cfg, out, uniforms, next_tasks, next_obs):
+    """`_step_kernel` and `_reset_kernel` fused into one parallel pass (the vector env)."""
+    for i in prange(tasks.shape[0]):
+        _decode_one(actions[i], out[i])
+        _simulate_one(tasks[i], cfg, out[i])
+        _score_one(tasks[i], out[i])
+        _sample_one(uniforms[i], cfg, next_tasks[i], next_obs[i])
+
+
 @numba.njit(cache=True)
 def _decode_kernel(actions, out):
     for i in range(actions.shape[0]):
@@ -333,14 +343,37 @@ def set_targets(tasks: np.ndarray, obs: np.ndarray, cfg: np.ndarray, options: di
         _observe_one(tasks[i], cfg, obs[i])
 
 
+def _checked_actions(actions, n: int) -> np.ndarray:
+    """Actions as an (n, 4) float64 array (the kernels are compiled for it, and run several
+    times slower on float32); ValueError for NaN or infinity."""
+    actions = np.asarray(actions, dtype=np.float64).reshape(n, 4)
+    if not np.isfinite(actions).all():
+        raise ValueError(f"action must be finite (no NaN or infinity), got {actions!r}")
+    return actions
+
+
+def step_and_reset_batch(
+    actions: np.ndarray, tasks: np.ndarray, cfg: np.ndarray, uniforms: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`step_batch` then `reset_batch(uniforms, cfg)`, in one pass where the dynamics allow:
+    (outcomes, next task rows, next observations)."""
+    n = tasks.shape[0]
+    if cfg[1] == DYNAMICS.index("pymunk") or n < PARALLEL_MIN_BATCH:
+        return (step_batch(actions, tasks, cfg), *reset_batch(uniforms, cfg))
+    actions = _checked_actions(actions, n)
+    out = np.empty((n, len(OUTCOME_NAMES)))
+    next_tasks = np.empty((n, N_TASK_COLUMNS))
+    next_obs = np.empty((n, len(OBSERVATION_NAMES)), dtype=np.float32)
+    _step_and_reset_kernel(actions, tasks, cfg, out, uniforms, next_tasks, next_obs)
+    return out, next_tasks, next_obs
+
+
 def step_batch(actions: np.ndarray, tasks: np.ndarray, cfg: np.ndarray) -> np.ndarray:
     """Decode, bounce and score n actions: the (n, len(OUTCOME_NAMES)) outcome array.
 
     Raises ValueError for a NaN or infinite action; values outside [-1, 1] are clipped.
     """
-    actions = np.asarray(actions, dtype=np.float64).reshape(tasks.shape[0], 4)
-    if not np.isfinite(actions).all():
-        raise ValueError(f"action must be finite (no NaN or infinity), got {actions!r}")
+    actions = _checked_actions(actions, tasks.shape[0])
     out = np.empty((tasks.shape[0], len(OUTCOME_NAMES)))
     if cfg[1] != DYNAMICS.index("pymunk"):
         kernel = _step_parallel if tasks.shape[0] >= PARALLEL_MIN_BATCH else _step_serial

@@ -96,9 +96,10 @@ class TetherBounceVectorEnv(VectorEnv):
     def step(self, actions):
         if self._tasks is None:
             raise RuntimeError("call reset() before step()")
-        out = core.step_batch(actions, self._tasks, self._cfg)
         final_obs = self._obs
-        self._tasks, self._obs = core.reset_batch(self._uniforms(), self._cfg)
+        out, self._tasks, self._obs = core.step_and_reset_batch(
+            actions, self._tasks, self._cfg, self._uniforms()
+        )
         info = core.outcome_info(out) if self.num_envs > 1 else _as_arrays(core.outcome_info(out))
         info["final_info"] = dict(info)
         info["_final_info"] = self._done
