@@ -1,0 +1,18 @@
+"""The random baseline: uniform actions, the floor every agent must clear."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class RandomAgent:
+    """Uniform actions in [-1, 1]^4 from its own seeded generator (the env's draws are apart)."""
+
+    def __init__(self, seed: int = 0):
+        self.rng = np.random.default_rng(seed)
+
+    def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
+        """SB3's interface; `deterministic` is ignored: the baseline is random by design."""
+        obs = np.asarray(obs)
+        action = self.rng.uniform(-1.0, 1.0, size=(*obs.shape[:-1], 4)).astype(np.float32)
+        return action, state

@@ -1,0 +1,115 @@
+"""The evaluation harness: same episodes for every agent, clear errors, a CLI that keeps files."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import tether_gym  # noqa: F401
+from agents.evaluate import evaluate, format_table, load_agent, main, wilson_interval
+from agents.oracle import ImpulseOracle
+from agents.random_agent import RandomAgent
+
+
+def test_two_agents_see_identical_episodes():
+    """Issue 4: every agent is evaluated on the same seeded episodes; another seed differs."""
+    kwargs = {"rho": (5.0, 1000.0), "inertia_ratio": (0.3, 2.0)}
+    a, b = evaluate({"oracle": ImpulseOracle(), "random": RandomAgent(1)}, kwargs, 250, seed=7)
+    (c,) = evaluate({"random": RandomAgent(2)}, kwargs, 250, seed=8)
+    for field in ("task", "target_heading", "rho"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
+        assert not np.array_equal(getattr(a, field), getattr(c, field))
+    assert a.success_rate > b.success_rate
+    assert a.episodes == len(a.rho) == 250
+
+
+def test_table_has_a_row_per_agent():
+    results = evaluate({"oracle": ImpulseOracle(), "random": RandomAgent()}, {}, 50)
+    table = format_table(results).splitlines()
+    assert len(table) == 4 and table[2].startswith("| oracle |")
+    low, high = results[0].success_ci
+    assert low <= results[0].success_rate <= high
+
+
+def test_wilson_interval():
+    """The textbook Wilson interval: 50/100 -> [0.404, 0.596]; never outside [0, 1]."""
+    np.testing.assert_allclose(wilson_interval(50, 100), (0.4038, 0.5962), atol=1e-4)
+    low, high = wilson_interval(100, 100)
+    assert 0.96 < low < 1.0 and high == 1.0
+
+
+def test_random_agent_acts_in_the_action_space():
+    agent = RandomAgent(3)
+    space = gym.make("TetherBounce-v0").action_space
+    single, _ = agent.predict(np.zeros(10, np.float32))
+    batch, _ = agent.predict(np.zeros((8, 10), np.float32))
+    assert space.contains(single) and batch.shape == (8, 4)
+    assert np.all(np.abs(batch) <= 1.0) and np.ptp(batch) > 0.5
+
+
+def test_load_agent_rejects_a_missing_or_unreadable_path(tmp_path):
+    """Issue 4: the harness rejects a missing or unreadable model path with a clear error."""
+    missing = tmp_path / "nope.zip"
+    with pytest.raises(ValueError, match=re.escape(str(missing))):
+        load_agent(missing)
+    garbage = tmp_path / "garbage.zip"
+    garbage.write_bytes(b"not a zip")
+    with pytest.raises(ValueError, match=re.escape(str(garbage))):
+        load_agent(garbage)
+
+
+def test_load_agent_runs_a_saved_model_with_its_normalizer(tmp_path):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    venv = VecNormalize(DummyVecEnv([lambda: gym.make("TetherBounce-v0")]))
+    PPO("MlpPolicy", venv, n_steps=16, batch_size=16, device="cpu").save(tmp_path / "m.zip")
+    venv.obs_rms.mean[:] = 5.0  # distinguishable statistics
+    venv.save(tmp_path / "vecnormalize.pkl")
+    agent = load_agent(tmp_path / "m.zip")
+    np.testing.assert_array_equal(agent.normalizer.obs_rms.mean, 5.0)
+    (result,) = evaluate({"ppo": agent}, {}, 20)
+    assert result.episodes == 20
+
+
+def test_cli_help_documents_every_option():
+    out = subprocess.run(
+        [sys.executable, "-m", "agents.evaluate", "--help"], capture_output=True, text=True
+    ).stdout
+    options = ["--agents", "--episodes", "--seed", "--task", "--dynamics", "--rho", "--stiffness",
+               "--inertia-ratio", "--restitution", "--spin-disturbance", "--csv", "--json",
+               "--plot", "--plot-against", "--overwrite", "--no-progress"]  # fmt: skip
+    for option in options:
+        assert option in out
+
+
+def test_cli_writes_outputs_and_never_silently_overwrites(tmp_path, capsys):
+    csv, js, png = tmp_path / "t.csv", tmp_path / "t.json", tmp_path / "t.png"
+    args = ["--agents", "oracle", "random", "--episodes", "30", "--rho", "20", "200",
+            "--no-progress", "--csv", str(csv), "--json", str(js), "--plot", str(png)]  # fmt: skip
+    main(args)
+    assert "| oracle |" in capsys.readouterr().out
+    assert len(csv.read_text().splitlines()) == 3 and png.stat().st_size > 0
+    payload = json.loads(js.read_text())
+    assert payload["env_kwargs"]["rho"] == [20.0, 200.0]
+    assert [r["name"] for r in payload["results"]] == ["oracle", "random"]
+    before = csv.read_text()
+    with pytest.raises(SystemExit):
+        main(args)
+    assert csv.read_text() == before
+    main([*args, "--overwrite", "--plot-against", "target"])
+
+
+def test_cli_rejects_bad_options(tmp_path):
+    with pytest.raises(SystemExit):
+        main(["--rho", "1", "2", "3", "--no-progress"])
+    with pytest.raises(SystemExit):
+        main(["--agents", str(tmp_path / "missing.zip"), "--episodes", "5", "--no-progress"])
+    with pytest.raises(SystemExit):
+        main(["--task", "juggle", "--episodes", "5", "--no-progress"])
