@@ -34,6 +34,7 @@ figures: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/physics.py
 	$(BIN)/python benchmarks/env.py
+	$(BIN)/python benchmarks/pymunk_model.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache build *.egg-info
