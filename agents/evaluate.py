@@ -116,7 +116,7 @@ def evaluate(
     progress: bool = False,
 ) -> list[EvalResult]:
     """Run every agent on the same `episodes` seeded episodes of `TetherBounce-v0(**env_kwargs)`."""
-    if not isinstance(episodes, int) or episodes < 1:
+    if not isinstance(episodes, (int, np.integer)) or episodes < 1:
         raise ValueError(f"episodes must be an integer in [1, inf), got {episodes!r}")
     results = []
     for name, agent in agents.items():

@@ -31,7 +31,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import elementwise, least_squares
 
-from tether_gym.envs.core import ACTION_HIGH, ACTION_LOW, DYNAMICS, MASS, RADIUS, TETHER_LENGTH
+from tether_gym.envs.core import (
+    ACTION_HIGH,
+    ACTION_LOW,
+    DYNAMICS,
+    MASS,
+    RADIUS,
+    TETHER_LENGTH,
+    env_stiffness,
+)
 from tether_gym.physics import bounce, bounce_one, setup_for_velocity, wrap_angle
 
 SPEED_GRID = np.linspace(ACTION_LOW[0], ACTION_HIGH[0], 201)
@@ -172,10 +180,11 @@ class ShootingOracle(ImpulseOracle):
     """The impulse oracle's set-up corrected against the env's own dynamics by root finding.
 
     Heading: the centre-of-mass tether angle, batched bracketing (scipy's elementwise
-    `bracket_root` and `find_root`). Velocity: (launch speed, tether angle, offset angle);
-    deadspin: (tether angle, offset angle); each episode by `least_squares` on the bounce's
-    outcome within the action ranges, so an unreachable target gets the nearest set-up.
-    The stiffness is the env's: its `stiffness` argument, else the observed rho at 3 m/s.
+    `bracket_root` and `find_root`); a root that leaves a residual (the wrap of the heading
+    error at +-pi) is rejected for the impulse answer. Velocity and deadspin: the whole set-up
+    (launch speed, tether angle, offset angle, offset), each episode by `least_squares` on the
+    bounce's velocity within the action ranges, so an unreachable target gets the nearest
+    set-up. The stiffness is the env's: its `stiffness` argument, else the observed rho.
     """
 
     def __init__(self, env_kwargs: dict | None = None, tolerance: float = 1e-10):
@@ -194,7 +203,7 @@ class ShootingOracle(ImpulseOracle):
         stiffness = (
             np.full_like(ep.rho, self.stiffness)
             if self.stiffness is not None
-            else MASS * (ep.rho * ACTION_HIGH[0] / TETHER_LENGTH) ** 2
+            else env_stiffness(ep.rho)
         )
         heading = ep.task == 0
         if np.any(heading):
@@ -224,7 +233,8 @@ class ShootingOracle(ImpulseOracle):
         root = elementwise.find_root(
             error, bracket.bracket, args=args, tolerances={"xatol": 1e-12, "xrtol": 0.0}
         )
-        return np.where(bracket.success & root.success, root.x, setup[:, 1])
+        solved = bracket.success & root.success & (np.abs(root.f_x) < 1e-9)
+        return np.where(solved, root.x, setup[:, 1])
 
     def _shoot_one(self, ep: Episode, i: int, setup: np.ndarray, stiffness: float) -> np.ndarray:
         """One velocity or deadspin episode: bounded least squares on the bounce's velocity over

@@ -247,3 +247,50 @@ def test_pymunk_dynamics_pass_the_checkers():
     env.reset(seed=0, options={"task": "heading", "target_heading": math.pi / 2})
     _, _, _, _, info = env.step(normalized(2.0, math.pi / 4, 0.0, 0.0))
     assert info["is_success"], "the pymunk bank shot misses the 90 degree heading"
+
+
+def test_an_episode_is_one_step():
+    env = gym.make("TetherBounce-v0", dynamics="impulse")
+    env.reset(seed=0)
+    env.step(env.action_space.sample())
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(env.action_space.sample())
+
+
+def test_heading_targets_stay_clear_of_the_unbounced_flight():
+    """A slack tether leaves the puck on its launch heading: no target may sit there."""
+    env = gym.make("TetherBounce-v0", dynamics="impulse")
+    with pytest.raises(ValueError, match="target_heading"):
+        env.reset(options={"task": "heading", "target_heading": 0.0})
+    headings = [
+        math.atan2(obs[4], obs[3])
+        for obs in (env.reset(seed=s, options={"task": "heading"})[0] for s in range(200))
+    ]
+    assert min(abs(h) for h in headings) >= math.pi / 12 - 1e-6
+
+
+def test_vector_env_takes_reset_options():
+    envs = TetherBounceVectorEnv(6, dynamics="impulse")
+    obs, _ = envs.reset(seed=0, options={"task": "deadspin"})
+    assert np.all(obs[:, 2] == 1.0) and np.all(obs[:, :2] == 0.0)
+    with pytest.raises(ValueError, match="task"):
+        envs.reset(options={"task": "juggle"})
+
+
+def test_rho_and_stiffness_are_exclusive():
+    with pytest.raises(ValueError, match="rho.*stiffness|stiffness.*rho"):
+        gym.make("TetherBounce-v0", rho=(5.0, 100.0), stiffness=10.0)
+    obs, _ = gym.make("TetherBounce-v0", stiffness=1000.0).reset(seed=0)
+    k_from_rho = 0.03 * (10.0 ** obs[8] * 3.0 / 1.0) ** 2  # eq. (11) at the fastest launch
+    assert k_from_rho == pytest.approx(1000.0, rel=1e-5)
+
+
+def test_wrong_action_shape_names_the_action():
+    env = gym.make("TetherBounce-v0", dynamics="impulse")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="action"):
+        env.step(np.zeros(3, dtype=np.float32))
+    envs = TetherBounceVectorEnv(2, dynamics="impulse")
+    envs.reset(seed=0)
+    with pytest.raises(ValueError, match="action"):
+        envs.step(np.zeros((4, 2), dtype=np.float32))

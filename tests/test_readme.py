@@ -17,3 +17,12 @@ def test_readme_has_examples():
 def test_readme_example_runs(code, capsys):
     exec(compile(code, str(README), "exec"), {})
     assert capsys.readouterr().out.strip(), "the example printed nothing"
+
+
+def test_readme_physics_example_prints_the_bank_shot(capsys):
+    """Paper sec. 4: the 45 degree tether on the centre of mass is a 90 degree bank shot at
+    unchanged speed, as the README's physics example says it prints."""
+    block = next(code for code in BLOCKS if "bounce(" in code)
+    exec(compile(block, str(README), "exec"), {})
+    deflection, ratio = (float(x) for x in capsys.readouterr().out.split()[:2])
+    assert deflection == pytest.approx(90.0) and ratio == pytest.approx(1.0)

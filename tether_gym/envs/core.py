@@ -20,21 +20,20 @@ from numba import prange
 
 from tether_gym.physics import bounce
 from tether_gym.physics.checks import check_float
-from tether_gym.physics.geometry import deflection_and_speed_ratio
+from tether_gym.physics.geometry import deflection_and_speed_ratio, fold_angle
 from tether_gym.physics.hybrid import damping_ratio, hybrid_core
 from tether_gym.physics.impulse import impulse_core
 
 TASKS = ("heading", "velocity", "deadspin")
 DYNAMICS = ("hybrid", "impulse", "pymunk")
 
-# Physical ranges of the normalized actions, in the order of the action vector.
-ACTION_NAMES = ("launch_speed", "tether_angle", "offset_angle", "offset")
+# Physical ranges of the normalized actions: launch speed, tether angle, offset angle, offset.
 ACTION_LOW = np.array([1.0, 0.0, -math.pi / 2, 0.0])
 ACTION_HIGH = np.array([3.0, math.pi, math.pi / 2, 1.0])
 
 MIN_HEADING = math.pi / 12
-"""Heading targets have |heading| in [pi/12, pi]: a smaller deflection is a near-miss of the
-tether, which is no bounce at all."""
+"""Heading targets have |heading| in [pi/12, pi]: a tether that leaves the puck flying on
+unbounced (deflection 0) must not come near a target."""
 TARGET_SPEED = (0.5, 2.5)
 """Velocity targets' speeds, m/s; those under the slowest launch need spin to shed speed."""
 
@@ -44,6 +43,8 @@ MAX_INERTIA_RATIO = 4.0
 MAX_SPIN_DISTURBANCE = 50.0
 """rad/s: a rim speed of 2 m/s at R = 4 cm."""
 RHO_RANGE = (1.0, 1e6)
+DEFAULT_RHO = 850.0
+"""The paper's experimental stiffness (its rho > 850)."""
 
 HEADING_TOLERANCE = math.radians(2.0)
 SPEED_TOLERANCE = 0.02
@@ -75,6 +76,32 @@ OUTCOME = {name: i for i, name in enumerate(OUTCOME_NAMES)}
     O_TERM_SLACK,
 ) = range(len(OUTCOME_NAMES))  # fmt: skip
 REWARD_TERMS = ("heading", "speed", "deadspin", "success", "slack")
+INFO_NAMES = (
+    "is_success", "deflection", "speed_ratio", "spin", "bounced", "completed", "heading_error",
+    "speed_error", "residual_speed", "vx", "vy", "launch_speed", "tether_angle", "offset_angle",
+    "offset",
+)  # fmt: skip
+"""The outcome columns reported in `info` (the reward terms come as `info["reward_terms"]`)."""
+
+# Entries of the configuration array the kernels read (`EnvConfig.as_array`).
+(
+    C_TASK, C_DYNAMICS, C_KAPPA_LOW, C_KAPPA_HIGH, C_E_LOW, C_E_HIGH, C_LOG_RHO_LOW,
+    C_LOG_RHO_HIGH, C_STIFFNESS, C_SPIN, C_ZETA,
+) = range(11)  # fmt: skip
+IMPULSE, PYMUNK = DYNAMICS.index("impulse"), DYNAMICS.index("pymunk")
+
+
+@numba.njit(cache=True)
+def env_stiffness(rho):
+    """The spring constant (N/m) whose rho (eq. 11) is `rho` at the fastest launch, taking
+    v_theta = 3 m/s: with no spin disturbance, the lowest rho any action meets."""
+    return MASS * (rho * ACTION_HIGH[0] / TETHER_LENGTH) ** 2
+
+
+@numba.njit(cache=True)
+def env_rho(stiffness):
+    """The inverse of `env_stiffness`."""
+    return math.sqrt(stiffness / MASS) * TETHER_LENGTH / ACTION_HIGH[0]
 
 
 def _range(name: str, value, low: float, high: float, low_open: bool = False):
@@ -97,12 +124,9 @@ class EnvConfig:
     dynamics: str = "hybrid"
     inertia_ratio: tuple[float, float] = (0.5, 0.5)
     restitution: tuple[float, float] = (1.0, 1.0)
-    rho: tuple[float, float] = (850.0, 850.0)
+    rho: tuple[float, float] = (DEFAULT_RHO, DEFAULT_RHO)
     stiffness: float | None = None
     spin_disturbance: float = 0.0
-    mass: float = MASS
-    radius: float = RADIUS
-    tether_length: float = TETHER_LENGTH
 
     @classmethod
     def build(
@@ -111,10 +135,11 @@ class EnvConfig:
         dynamics: str = "hybrid",
         inertia_ratio=0.5,
         restitution=1.0,
-        rho=850.0,
+        rho=None,
         stiffness: float | None = None,
         spin_disturbance: float = 0.0,
     ) -> EnvConfig:
+        """Validate the env's arguments; ValueError naming the argument and its range."""
         if task not in (*TASKS, "mixed"):
             raise ValueError(f"task must be one of {(*TASKS, 'mixed')}, got {task!r}")
         if dynamics not in DYNAMICS:
@@ -125,9 +150,12 @@ class EnvConfig:
                 f"restitution must be in (0, 1] for dynamics={dynamics!r}: "
                 "e = 0 needs an infinite damper"
             )
+        if stiffness is not None and rho is not None:
+            raise ValueError("give the tether's stiffness either as rho or as stiffness, not both")
         if stiffness is not None:
-            low, high = (MASS * (r * ACTION_HIGH[0] / TETHER_LENGTH) ** 2 for r in RHO_RANGE)
+            low, high = (env_stiffness(r) for r in RHO_RANGE)
             stiffness = check_float("stiffness", stiffness, low, high)
+            rho = env_rho(stiffness)
         return cls(
             task=task,
             dynamics=dynamics,
@@ -135,7 +163,7 @@ class EnvConfig:
                 "inertia_ratio", inertia_ratio, 0.0, MAX_INERTIA_RATIO, low_open=True
             ),
             restitution=restitution,
-            rho=_range("rho", rho, *RHO_RANGE),
+            rho=_range("rho", DEFAULT_RHO if rho is None else rho, *RHO_RANGE),
             stiffness=stiffness,
             spin_disturbance=check_float(
                 "spin_disturbance", spin_disturbance, 0.0, MAX_SPIN_DISTURBANCE
@@ -143,13 +171,12 @@ class EnvConfig:
         )
 
     def as_array(self) -> np.ndarray:
-        """The numbers the kernels need, in the order `_unpack` reads them."""
+        """The numbers the kernels need, at the indices C_* name."""
         task_code = -1 if self.task == "mixed" else TASKS.index(self.task)
         k = -1.0 if self.stiffness is None else self.stiffness
         return np.array(
             [task_code, DYNAMICS.index(self.dynamics), *self.inertia_ratio, *self.restitution,
-             math.log(self.rho[0]), math.log(self.rho[1]), k, self.spin_disturbance, self.mass,
-             self.radius, self.tether_length, self.radius / ACTION_HIGH[0],
+             math.log(self.rho[0]), math.log(self.rho[1]), k, self.spin_disturbance,
              damping_ratio(self.restitution[0])],
             dtype=np.float64,
         )  # fmt: skip
@@ -158,19 +185,17 @@ class EnvConfig:
 @numba.njit(cache=True)
 def _sample_one(u, cfg, task_row, obs_row):
     """Draw one episode's task from its uniforms `u`; write its task row and observation."""
-    task = int(cfg[0]) if cfg[0] >= 0 else min(int(u[0] * 3.0), 2)
+    task = int(cfg[C_TASK]) if cfg[C_TASK] >= 0 else min(int(u[0] * 3.0), 2)
     sign = 1.0 if u[2] < 0.5 else -1.0
     heading = sign * (MIN_HEADING + u[1] * (math.pi - MIN_HEADING))
     speed = TARGET_SPEED[0] + u[3] * (TARGET_SPEED[1] - TARGET_SPEED[0])
-    kappa = cfg[2] + u[4] * (cfg[3] - cfg[2])
-    e = cfg[4] + u[5] * (cfg[5] - cfg[4])
-    rho = math.exp(cfg[6] + u[6] * (cfg[7] - cfg[6]))
-    mass, tether_length = cfg[10], cfg[12]
-    stiffness = cfg[8] if cfg[8] > 0.0 else mass * (rho * ACTION_HIGH[0] / tether_length) ** 2
-    if cfg[8] > 0.0:  # a fixed stiffness: observe the rho it gives at the fastest launch
-        rho = math.sqrt(stiffness / mass) * tether_length / ACTION_HIGH[0]
-    spin = cfg[9] * (2.0 * u[7] - 1.0)
-    zeta = cfg[14] if cfg[4] == cfg[5] or cfg[1] == 1 else damping_ratio(e)
+    kappa = cfg[C_KAPPA_LOW] + u[4] * (cfg[C_KAPPA_HIGH] - cfg[C_KAPPA_LOW])
+    e = cfg[C_E_LOW] + u[5] * (cfg[C_E_HIGH] - cfg[C_E_LOW])
+    rho = math.exp(cfg[C_LOG_RHO_LOW] + u[6] * (cfg[C_LOG_RHO_HIGH] - cfg[C_LOG_RHO_LOW]))
+    stiffness = cfg[C_STIFFNESS] if cfg[C_STIFFNESS] > 0.0 else env_stiffness(rho)
+    spin = cfg[C_SPIN] * (2.0 * u[7] - 1.0)
+    fixed = cfg[C_E_LOW] == cfg[C_E_HIGH] or cfg[C_DYNAMICS] == IMPULSE
+    zeta = cfg[C_ZETA] if fixed else damping_ratio(e)
     task_row[TASK], task_row[HEADING], task_row[SPEED] = task, heading, speed
     task_row[KAPPA], task_row[RESTITUTION], task_row[ZETA] = kappa, e, zeta
     task_row[STIFFNESS], task_row[RHO], task_row[SPIN] = stiffness, rho, spin
@@ -190,7 +215,7 @@ def _observe_one(task_row, cfg, obs_row):
         obs_row[5] = task_row[SPEED] / ACTION_HIGH[0]
     obs_row[6], obs_row[7] = task_row[KAPPA], task_row[RESTITUTION]
     obs_row[8] = math.log10(task_row[RHO])
-    obs_row[9] = task_row[SPIN] * cfg[13]  # a rim speed over the fastest launch
+    obs_row[9] = task_row[SPIN] * RADIUS / ACTION_HIGH[0]  # a rim speed over the fastest launch
 
 
 def _reset_kernel(uniforms, cfg, tasks, obs):
@@ -218,10 +243,10 @@ def _simulate_one(task_row, cfg, out):
     """Bounce the decoded set-up with the impulse or hybrid model; write vx, vy, spin, flags."""
     speed, beta = out[O_LAUNCH], out[O_LAUNCH + 1]
     alpha, offset = out[O_LAUNCH + 2], out[O_LAUNCH + 3]
-    kappa, radius = task_row[KAPPA], cfg[11]
-    if cfg[1] == 1:
+    kappa = task_row[KAPPA]
+    if cfg[C_DYNAMICS] == IMPULSE:
         vx, vy, w, bounced = impulse_core(
-            beta, alpha, offset, kappa, speed, task_row[SPIN], task_row[RESTITUTION], radius
+            beta, alpha, offset, kappa, speed, task_row[SPIN], task_row[RESTITUTION], RADIUS
         )
         completed = True
     else:
@@ -233,9 +258,9 @@ def _simulate_one(task_row, cfg, out):
             speed,
             task_row[SPIN],
             task_row[ZETA],
-            radius,
-            cfg[10],
-            cfg[12],
+            RADIUS,
+            MASS,
+            TETHER_LENGTH,
             task_row[STIFFNESS],
         )
     out[O_VX], out[O_VY], out[O_SPIN] = vx, vy, w
@@ -256,8 +281,7 @@ def _score_one(task_row, out):
         term_deadspin = 1.0 - min(residual, 1.0)
         success = residual < DEADSPIN_TOLERANCE
     else:
-        # folded into (-pi, pi], as geometry.wrap_angle does
-        heading_error = math.pi - (math.pi - deflection + task_row[HEADING]) % (2.0 * math.pi)
+        heading_error = fold_angle(deflection - task_row[HEADING])
         term_heading = 1.0 - abs(heading_error) / math.pi
         success = abs(heading_error) < HEADING_TOLERANCE
         if task == 1:
@@ -266,6 +290,7 @@ def _score_one(task_row, out):
             term_heading *= 0.5
             term_speed *= 0.5
             success = success and abs(speed_error) < SPEED_TOLERANCE
+    success = success and out[O_BOUNCED] == 1.0  # flying on unbounced never succeeds
     term_success = 1.0 if success else 0.0
     term_slack = 0.0 if out[O_BOUNCED] else -SLACK_PENALTY
     out[O_TERM_HEADING], out[O_TERM_SPEED] = term_heading, term_speed
@@ -334,9 +359,12 @@ def set_targets(tasks: np.ndarray, obs: np.ndarray, cfg: np.ndarray, options: di
             raise ValueError(f"options['task'] must be one of {TASKS}, got {options['task']!r}")
         tasks[:, TASK] = TASKS.index(options["task"])
     if "target_heading" in options:
-        tasks[:, HEADING] = check_float(
-            "target_heading", options["target_heading"], -math.pi, math.pi
-        )
+        heading = check_float("target_heading", options["target_heading"], -math.pi, math.pi)
+        if abs(heading) < MIN_HEADING:
+            raise ValueError(
+                f"target_heading must satisfy |target_heading| in [pi/12, pi], got {heading!r}"
+            )
+        tasks[:, HEADING] = heading
     if "target_speed" in options:
         tasks[:, SPEED] = check_float("target_speed", options["target_speed"], *TARGET_SPEED)
     for i in range(tasks.shape[0]):
@@ -346,7 +374,10 @@ def set_targets(tasks: np.ndarray, obs: np.ndarray, cfg: np.ndarray, options: di
 def _checked_actions(actions, n: int) -> np.ndarray:
     """Actions as an (n, 4) float64 array (the kernels are compiled for it, and run several
     times slower on float32); ValueError for NaN or infinity."""
-    actions = np.asarray(actions, dtype=np.float64).reshape(n, 4)
+    actions = np.asarray(actions, dtype=np.float64)
+    if actions.size != 4 * n or actions.shape[-1:] != (4,):
+        raise ValueError(f"action must have shape {(n, 4) if n > 1 else (4,)}, got {actions.shape}")
+    actions = actions.reshape(n, 4)
     if not np.isfinite(actions).all():
         raise ValueError(f"action must be finite (no NaN or infinity), got {actions!r}")
     return actions
@@ -358,7 +389,7 @@ def step_and_reset_batch(
     """`step_batch` then `reset_batch(uniforms, cfg)`, in one pass where the dynamics allow:
     (outcomes, next task rows, next observations)."""
     n = tasks.shape[0]
-    if cfg[1] == DYNAMICS.index("pymunk") or n < PARALLEL_MIN_BATCH:
+    if cfg[C_DYNAMICS] == PYMUNK or n < PARALLEL_MIN_BATCH:
         return (step_batch(actions, tasks, cfg), *reset_batch(uniforms, cfg))
     actions = _checked_actions(actions, n)
     out = np.empty((n, len(OUTCOME_NAMES)))
@@ -375,7 +406,7 @@ def step_batch(actions: np.ndarray, tasks: np.ndarray, cfg: np.ndarray) -> np.nd
     """
     actions = _checked_actions(actions, tasks.shape[0])
     out = np.empty((tasks.shape[0], len(OUTCOME_NAMES)))
-    if cfg[1] != DYNAMICS.index("pymunk"):
+    if cfg[C_DYNAMICS] != PYMUNK:
         kernel = _step_parallel if tasks.shape[0] >= PARALLEL_MIN_BATCH else _step_serial
         kernel(actions, tasks, cfg, out)
         return out
@@ -384,7 +415,7 @@ def step_batch(actions: np.ndarray, tasks: np.ndarray, cfg: np.ndarray) -> np.nd
     result = bounce(
         launch[:, 1], launch[:, 2], offset=launch[:, 3], inertia_ratio=tasks[:, KAPPA],
         speed=launch[:, 0], spin=tasks[:, SPIN], restitution=tasks[:, RESTITUTION],
-        model="pymunk", mass=cfg[10], radius=cfg[11], tether_length=cfg[12],
+        model="pymunk", mass=MASS, radius=RADIUS, tether_length=TETHER_LENGTH,
         stiffness=tasks[:, STIFFNESS],
     )  # fmt: skip
     out[:, O_VX], out[:, O_VY] = result.velocity[:, 0], result.velocity[:, 1]
@@ -397,7 +428,7 @@ def step_batch(actions: np.ndarray, tasks: np.ndarray, cfg: np.ndarray) -> np.nd
 def outcome_info(out: np.ndarray) -> dict:
     """The outcome array as Gymnasium info: named arrays (or scalars for a single row)."""
     pick = out[0].tolist().__getitem__ if out.shape[0] == 1 else (lambda j: out[:, j])
-    info = {name: pick(OUTCOME[name]) for name in OUTCOME_NAMES[1:16]}
+    info = {name: pick(OUTCOME[name]) for name in INFO_NAMES}
     for flag in ("is_success", "bounced", "completed"):
         info[flag] = bool(info[flag]) if out.shape[0] == 1 else info[flag].astype(bool)
     info["reward_terms"] = {term: pick(OUTCOME["term_" + term]) for term in REWARD_TERMS}

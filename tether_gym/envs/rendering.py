@@ -24,12 +24,12 @@ SHOW_TIME = 0.3
 class Renderer:
     """Draws frames for `TetherBounceEnv`; `render_mode` "rgb_array" or "human"."""
 
-    def __init__(self, config: core.EnvConfig, render_mode: str, fps: int):
+    def __init__(self, render_mode: str, fps: int):
         import pygame
 
         self._pygame = pygame
-        self.config, self.render_mode, self.fps = config, render_mode, fps
-        self.scale = SIZE / (2.6 * config.tether_length)  # pixels per metre
+        self.render_mode, self.fps = render_mode, fps
+        self.scale = SIZE / (2.6 * core.TETHER_LENGTH)  # pixels per metre
         self.surface = pygame.Surface((SIZE, SIZE))
         self.window = None
         self.clock = None
@@ -39,9 +39,9 @@ class Renderer:
         return (round(SIZE / 2 + point[0] * self.scale), round(SIZE / 2 - point[1] * self.scale))
 
     def _puck(self, centre, orientation: float, attachment) -> None:
-        draw, radius = self._pygame.draw, max(3, round(self.config.radius * self.scale))
+        draw, radius = self._pygame.draw, max(3, round(core.RADIUS * self.scale))
         draw.circle(self.surface, PUCK, self._px(centre), radius)
-        rim = centre + self.config.radius * np.array([math.cos(orientation), math.sin(orientation)])
+        rim = centre + core.RADIUS * np.array([math.cos(orientation), math.sin(orientation)])
         draw.line(self.surface, MARK, self._px(centre), self._px(rim), 2)
         if attachment is not None:
             draw.circle(self.surface, TAUT, self._px(attachment), 3)
@@ -80,13 +80,13 @@ class Renderer:
 
     def _bounce(self, outcome: np.ndarray, origin, incoming) -> None:
         """Anchor, taut tether, incoming and outgoing paths, and the puck after the bounce."""
-        draw, cfg = self._pygame.draw, self.config
+        draw = self._pygame.draw
         speed = outcome[core.O_LAUNCH]
         beta, alpha = outcome[core.O_TETHER_ANGLE], outcome[core.O_OFFSET_ANGLE]
-        arm = outcome[core.O_OFFSET] * cfg.radius
+        arm = outcome[core.O_OFFSET] * core.RADIUS
         u = np.array([math.cos(beta), math.sin(beta)])
         r = -arm * np.array([math.cos(beta + alpha), math.sin(beta + alpha)])
-        anchor = r - cfg.tether_length * u  # relative to the centre of mass at tautening
+        anchor = r - core.TETHER_LENGTH * u  # relative to the centre of mass at tautening
         velocity = np.array([outcome[core.O_VX], outcome[core.O_VY]])
         draw.line(self.surface, PATH, self._px(-SHOW_TIME * speed * incoming),
                   self._px(origin), 2)  # fmt: skip

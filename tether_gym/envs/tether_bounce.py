@@ -17,7 +17,7 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
 
     A planar puck (mass 0.03 kg, radius 0.04 m) slides along +y towards the instant its tether
     (rest length 1 m, anchored to the ground) goes taut, and bounces off that "virtual wall"
-    (Hallenbeck-style impulse redirection of a tethered projectile). The agent chooses the
+    (the impulse redirection of a tethered projectile). The agent chooses the
     set-up before the bounce: how fast to launch, the tether's angle and where on the puck it
     is attached. One episode is one bounce, so the environment is a contextual bandit: `reset`
     draws a task and its target, `step` bounces the puck once and the episode terminates.
@@ -56,19 +56,28 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
     | 3   | cos(target heading)  | -1      | 1       | 0 for deadspin                        |
     | 4   | sin(target heading)  | -1      | 1       | heading from +y, counter-clockwise    |
     | 5   | target speed / 3 m/s | 0       | 0.833   | velocity task only, else 0            |
-    | 6   | inertia ratio        | range   | range   | kappa = I / (m R^2)                   |
-    | 7   | restitution          | range   | range   | e                                     |
-    | 8   | log10(rho)           | range   | range   | tether stiffness, see `rho`           |
-    | 9   | spin * R / 3 m/s     | -max    | max     | pre-bounce spin disturbance           |
+    | 6   | inertia ratio        | 0       | 4       | kappa = I / (m R^2)                   |
+    | 7   | restitution          | 0       | 1       | e                                     |
+    | 8   | log10(rho)           | 0       | 6       | tether stiffness, see `rho`           |
+    | 9   | spin * R / 3 m/s     | -0.667  | 0.667   | pre-bounce spin disturbance           |
+
+    The bounds are those of every valid configuration, so a policy trained on one
+    configuration can be evaluated on another.
 
     ## Rewards
 
     Named terms, summed, and reported in `info["reward_terms"]`:
     `heading` = 1 - |heading error| / pi (halved for the velocity task), `speed` =
-    (1 - min(|speed error| / target speed, 1)) / 2 (velocity task), `deadspin` = 1 - min(
-    residual speed / launch speed, 1) (deadspin task), `success` = 1 on success, and `slack` =
-    -0.5 if the tether never went taut. `info["is_success"]`: heading within 2 degrees, speed
-    within 2% of the target, deadspin residual speed under 2% of the launch speed.
+    (1 - min(|speed error|, 1)) / 2 with the speed error relative to the target speed (velocity
+    task), `deadspin` = 1 - min(residual speed, 1) with the residual speed |v_after| / launch
+    speed (deadspin task), `success` = 1 on success, and `slack` = -0.5 if the tether never went
+    taut. `info["is_success"]` (never for an unbounced puck): heading within 2 degrees, speed
+    within 2% of the target, residual speed under 2%.
+
+    `info` also holds the bounce's outcome: `deflection`, `speed_ratio`, post-bounce `spin`
+    (rad/s), `bounced`, `completed`, `heading_error` (rad, in (-pi, pi]), `speed_error`,
+    `residual_speed` (0 where the task has no such target), the post-bounce velocity `vx`, `vy`,
+    and the decoded set-up `launch_speed`, `tether_angle`, `offset_angle`, `offset`.
 
     ## Starting State
 
@@ -80,7 +89,8 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Episode End
 
-    Every episode terminates after its one step (never truncated).
+    Every episode terminates after its one step (never truncated); a second `step` without a
+    `reset` raises, so that an agent cannot try several actions on one context.
 
     ## Arguments
 
@@ -88,16 +98,17 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
     |--------------------|------------|------------------------------------------------------------|
     | `task`             | `"mixed"`  | `"heading"`, `"velocity"`, `"deadspin"` or `"mixed"`       |
     | `dynamics`         | `"hybrid"` | `"hybrid"` (spring tether), `"impulse"`, or `"pymunk"`     |
-    | `inertia_ratio`    | `0.5`      | kappa, or a `(low, high)` range drawn uniformly            |
+    | `inertia_ratio`    | `0.5`      | kappa in (0, 4], or a `(low, high)` range drawn uniformly  |
     | `restitution`      | `1.0`      | e in [0, 1] ((0, 1] unless impulse), or a range            |
-    | `rho`              | `850.0`    | stiffness as the paper's rho at the fastest launch, or a   |
-    |                    |            | range drawn log-uniformly                                  |
-    | `stiffness`        | `None`     | a spring constant in N/m instead of `rho`                  |
-    | `spin_disturbance` | `0.0`      | pre-bounce spin drawn uniformly in +-this, rad/s           |
+    | `rho`              | `850.0`    | stiffness as the paper's rho at the fastest launch, in     |
+    |                    |            | [1, 1e6], or a range drawn log-uniformly                   |
+    | `stiffness`        | `None`     | a spring constant in N/m instead of `rho` (not both)       |
+    | `spin_disturbance` | `0.0`      | pre-bounce spin drawn uniformly in +-this, in [0, 50] rad/s|
     | `render_mode`      | `None`     | `"rgb_array"` or `"human"`                                 |
 
-    `rho` is eq. (11) with the fastest launch (3 m/s) as v_theta: every episode's actual rho is
-    at least this. Bad arguments raise `ValueError` naming the argument.
+    `rho` is eq. (11) with the fastest launch (3 m/s) as v_theta: without a spin disturbance,
+    every episode's actual rho is at least this (spin can add to v_theta). Bad arguments raise
+    `ValueError` naming the argument.
 
     ## Version History
 
@@ -112,7 +123,7 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
         dynamics: str = "hybrid",
         inertia_ratio: float | tuple[float, float] = 0.5,
         restitution: float | tuple[float, float] = 1.0,
-        rho: float | tuple[float, float] = 850.0,
+        rho: float | tuple[float, float] | None = None,
         stiffness: float | None = None,
         spin_disturbance: float = 0.0,
         render_mode: str | None = None,
@@ -133,6 +144,7 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
         self._task: np.ndarray | None = None
         self._obs: np.ndarray | None = None
         self._outcome: np.ndarray | None = None
+        self._finished = True
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
@@ -140,15 +152,16 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
         if options:
             core.set_targets(tasks, obs, self._cfg, options)
         self._task, self._obs, self._outcome = tasks, obs[0], None
+        self._finished = False
         if self.render_mode == "human":
             self.render()
-        return self._obs, {}
+        return self._obs.copy(), {}
 
     def step(self, action):
-        if self._task is None:
-            raise RuntimeError("call reset() before step()")
+        if self._finished:
+            raise RuntimeError("the episode (one bounce) is over: call reset() before step()")
         out = core.step_batch(action, self._task, self._cfg)
-        self._outcome = out[0]
+        self._outcome, self._finished = out[0], True
         if self.render_mode == "human":
             self.render()
         return self._obs.copy(), float(out[0, core.O_REWARD]), True, False, core.outcome_info(out)
@@ -163,7 +176,7 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
         if self._renderer is None:
             from tether_gym.envs.rendering import Renderer
 
-            self._renderer = Renderer(self.config, self.render_mode, self.metadata["render_fps"])
+            self._renderer = Renderer(self.render_mode, self.metadata["render_fps"])
         task = None if self._task is None else self._task[0]
         return self._renderer.render(task, self._outcome)
 

@@ -25,7 +25,12 @@ class TetherBounceVectorEnv(VectorEnv):
     `seed[i]` for a list), each copy keeps its own generator, and so copy i sees exactly the
     episodes of a `TetherBounceEnv` reset with the same seed. Uniforms are drawn in blocks of
     `block` episodes per copy to keep the per-step cost flat. Arguments after `num_envs` are
-    those of `TetherBounceEnv`; rendering is not supported.
+    those of `TetherBounceEnv`, and `reset(options=...)` takes the same keys (applied to every
+    copy); rendering is not supported.
+
+    Gymnasium's "sync" and "async" vector envs autoreset on the next step by default, which
+    wastes every other step of a one-step episode: use this one, or pass
+    `vector_kwargs={"autoreset_mode": AutoresetMode.SAME_STEP}`.
     """
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.SAME_STEP}
@@ -37,7 +42,7 @@ class TetherBounceVectorEnv(VectorEnv):
         dynamics: str = "hybrid",
         inertia_ratio: float | tuple[float, float] = 0.5,
         restitution: float | tuple[float, float] = 1.0,
-        rho: float | tuple[float, float] = 850.0,
+        rho: float | tuple[float, float] | None = None,
         stiffness: float | None = None,
         spin_disturbance: float = 0.0,
         render_mode: str | None = None,
@@ -63,8 +68,6 @@ class TetherBounceVectorEnv(VectorEnv):
         self._cursor = self._block
         self._tasks: np.ndarray | None = None
         self._obs: np.ndarray | None = None
-        self._done = np.ones(self.num_envs, dtype=bool)
-        self._not_truncated = np.zeros(self.num_envs, dtype=bool)
 
     def _uniforms(self) -> np.ndarray:
         """The next episode's uniforms for every copy, (num_envs, N_UNIFORMS)."""
@@ -91,7 +94,9 @@ class TetherBounceVectorEnv(VectorEnv):
             self._generators = [seeding.np_random(s)[0] for s in seeds]
             self._cursor = self._block
         self._tasks, self._obs = core.reset_batch(self._uniforms(), self._cfg)
-        return self._obs, {}
+        if options:
+            core.set_targets(self._tasks, self._obs, self._cfg, options)
+        return self._obs.copy(), {}
 
     def step(self, actions):
         if self._tasks is None:
@@ -101,11 +106,13 @@ class TetherBounceVectorEnv(VectorEnv):
             actions, self._tasks, self._cfg, self._uniforms()
         )
         info = core.outcome_info(out) if self.num_envs > 1 else _as_arrays(core.outcome_info(out))
+        done = np.ones(self.num_envs, dtype=bool)
         info["final_info"] = dict(info)
-        info["_final_info"] = self._done
+        info["_final_info"] = done
         info["final_obs"] = final_obs
-        info["_final_obs"] = self._done
-        return self._obs, out[:, core.O_REWARD], self._done.copy(), self._not_truncated.copy(), info
+        info["_final_obs"] = done.copy()
+        truncated = np.zeros(self.num_envs, dtype=bool)
+        return self._obs.copy(), out[:, core.O_REWARD], done.copy(), truncated, info
 
 
 def _as_arrays(info: dict) -> dict:

@@ -116,7 +116,7 @@ def bounce(
         mass, radius: the puck's, kg and m, > 0.
         tether_length: rest length L0 of the tether, the anchor's distance from the attachment
             point at tautening, m, > 0.
-        stiffness: spring constant k of the tether, N/m, > 0 (required by the hybrid model).
+        stiffness: spring constant k of the tether, N/m, > 0 (required by hybrid and pymunk).
 
     Raises:
         ValueError: naming the parameter and its allowed range.

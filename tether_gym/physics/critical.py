@@ -34,7 +34,8 @@ def deadspin_offset_angles(inertia_ratio, offset=1.0, restitution=1.0):
 
 
 def max_deceleration_offset_angles(inertia_ratio, offset=1.0, restitution=1.0):
-    """Offset angles of the greatest loss of speed, for any tether angle that bounces.
+    """Offset angles of the greatest loss of speed, for any tether angle that bounces a puck
+    without pre-bounce spin (spin shifts the optimum: see `setup_for_velocity`).
 
     The speed is lowest when the velocity along the tether is cancelled, s = e: the moment arm
     d sin(alpha) equals the radius of gyration for e = 1 (the paper's eq. 12). Where that needs

@@ -46,6 +46,12 @@ def deflection_and_speed_ratio(vx, vy, speed):
     return angle, math.hypot(vx, vy) / speed
 
 
+@numba.njit(cache=True)
+def fold_angle(angle):
+    """One angle folded into (-pi, pi] (the scalar, compiled `wrap_angle`)."""
+    return math.pi - (math.pi - angle) % (2.0 * math.pi)
+
+
 def wrap_angle(angle):
     """Angles folded into (-pi, pi]."""
     wrapped = np.pi - np.mod(np.pi - np.asarray(angle, dtype=np.float64), 2.0 * np.pi)

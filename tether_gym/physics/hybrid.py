@@ -42,6 +42,17 @@ MAX_HALF_PERIODS = 400
 
 
 @numba.njit(cache=True)
+def effective_mass(mass, kappa, offset, alpha):
+    """The puck's mass as the tether feels it at tautening: m / (1 + (d sin alpha)^2 / kappa).
+
+    The damper c = 2 zeta sqrt(k m_eff) of every spring model is set from it, so that the
+    contact's restitution is e in the stiff limit whatever the set-up.
+    """
+    arm = offset * math.sin(alpha)
+    return mass / (1.0 + arm * arm / kappa)
+
+
+@numba.njit(cache=True)
 def restitution_from_damping(zeta):
     """Restitution of a linear spring-damper contact that ends when its force returns to zero."""
     if zeta <= 0.0:
@@ -140,8 +151,7 @@ def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, res
         return vx, vy, w, False, True, 0.0
     inertia = kappa * mass * radius * radius
     inv_m, inv_i = 1.0 / mass, 1.0 / inertia
-    arm = offset * math.sin(alpha)
-    m_eff = mass / (1.0 + arm * arm / kappa)
+    m_eff = effective_mass(mass, kappa, offset, alpha)
     natural = math.sqrt(k / m_eff)
     c = 2.0 * zeta * math.sqrt(k * m_eff)
     fastest = natural * (zeta + math.sqrt(zeta * zeta - 1.0) if zeta > 1.0 else 1.0)

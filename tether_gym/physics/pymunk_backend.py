@@ -10,10 +10,11 @@ Step and error. The taut step is 1/64 of the half period of the stiffest spring 
 present (`pymunk_world.STEPS_PER_HALF_PERIOD`). Symplectic Euler is leapfrog with staggered
 velocities, and the tension vanishes at both ends of an elastic contact, so the error falls
 with the step about as h^2: at the default stiffness (rho = 850 for the 45 degree tether) over
-the paper's sweeps it stays within about 0.02 degrees of deflection, 2e-4 of speed ratio and
-spin and 3e-4 of energy (`tests/test_pymunk.py` holds it to 0.5 degrees, 1% and 1e-3). The
-velocity is that after the last taut step (the force of that last sample acts over a whole
-step); the slack instant, hence `contact_time`, is interpolated inside the step.
+the paper's sweeps it stays within 0.008 degrees of deflection, 1.5e-4 of speed ratio,
+1.9e-4 rad/s of spin and 3e-4 of energy (`benchmarks/pymunk_model.py` measures it;
+`tests/test_pymunk.py` holds it to 0.5 degrees, 1% and 1e-3). The velocity is that after the
+last taut step (the force of that last sample acts over a whole step); the slack instant,
+hence `contact_time`, is interpolated inside the step.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from __future__ import annotations
 import math
 
 from tether_gym.physics.geometry import deflection_and_speed_ratio, initial_state
-from tether_gym.physics.hybrid import MAX_HALF_PERIODS
+from tether_gym.physics.hybrid import MAX_HALF_PERIODS, effective_mass
 from tether_gym.physics.pymunk_world import TetherWorld
 
 
@@ -33,8 +34,7 @@ def pymunk_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, res
     _, _, vx, vy, rx, ry, w = state
     if (vx - w * ry) * math.cos(beta) + (vy + w * rx) * math.sin(beta) <= 0.0:
         return vx, vy, w, False, True, 0.0
-    arm = offset * math.sin(alpha)
-    m_eff = mass / (1.0 + arm * arm / kappa)
+    m_eff = effective_mass(mass, kappa, offset, alpha)
     world = TetherWorld(
         mass=mass,
         radius=radius,

@@ -171,12 +171,11 @@ class TetherWorld:
         `world` passes the table, release and step options on to the constructor.
         """
         from tether_gym.physics.geometry import initial_state
-        from tether_gym.physics.hybrid import damping_ratio
+        from tether_gym.physics.hybrid import damping_ratio, effective_mass
 
         e = check_float("restitution", restitution, 0.0, 1.0, low_open=True)
         kappa = check_float("inertia_ratio", inertia_ratio, 0.0, INF, low_open=True)
-        arm = offset * math.sin(offset_angle)
-        m_eff = mass / (1.0 + arm * arm / kappa)
+        m_eff = effective_mass(mass, kappa, offset, offset_angle)
         damping = 2.0 * damping_ratio(e) * math.sqrt(stiffness * m_eff)
         made = cls(
             mass=mass,

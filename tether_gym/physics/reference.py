@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from tether_gym.physics.hybrid import damping_ratio
+from tether_gym.physics.hybrid import damping_ratio, effective_mass
 
 
 @dataclass(frozen=True)
@@ -52,8 +52,7 @@ def reference_bounce(
     phi0 = beta + offset_angle + math.pi
     x0 = tether_length * math.cos(beta) - arm * math.cos(phi0)
     y0 = tether_length * math.sin(beta) - arm * math.sin(phi0)
-    moment_arm = offset * math.sin(offset_angle)
-    m_eff = mass / (1.0 + moment_arm**2 / inertia_ratio)
+    m_eff = effective_mass(mass, inertia_ratio, offset, offset_angle)
     c = 2.0 * damping_ratio(restitution) * math.sqrt(stiffness * m_eff)
 
     def attachment(state):
