@@ -278,7 +278,7 @@ def test_vector_env_takes_reset_options():
 
 
 def test_rho_and_stiffness_are_exclusive():
-    with pytest.raises(ValueError, match="rho.*stiffness|stiffness.*rho"):
+    with pytest.raises(ValueError, match=r"rho.*stiffness"):
         gym.make("TetherBounce-v0", rho=(5.0, 100.0), stiffness=10.0)
     obs, _ = gym.make("TetherBounce-v0", stiffness=1000.0).reset(seed=0)
     k_from_rho = 0.03 * (10.0 ** obs[8] * 3.0 / 1.0) ** 2  # eq. (11) at the fastest launch
