@@ -1,10 +1,13 @@
 """Environment throughput against Gymnasium's CartPole-v1, measured in one run, one harness.
 
-Random actions from the action space, resets included (every TetherBounce episode is one step).
-Prints medians over repeats and the ratios the environment issue asks for:
+The harness of the environment issue: random actions from the action space, resets included
+(every TetherBounce episode is one step). Prints medians over repeats and the ratios it asks for:
   single env via gym.make, impulse: >= 0.3x CartPole-v1's steps/s
   native vector env at N = 1024, impulse: >= 0.5x CartPoleVectorEnv's env-steps/s
   the same with hybrid dynamics: >= 200,000 env-steps/s
+The same loops are then timed on actions drawn beforehand, for both environments: Gymnasium's
+`Box.sample` (about 15 us for four floats) costs more than a TetherBounce step and reset, while
+CartPole's `Discrete.sample` costs about 2 us, so the second table shows the environments alone.
 
     python benchmarks/env.py [--quick]
 """
@@ -20,75 +23,76 @@ import gymnasium as gym
 import tether_gym  # noqa: F401  (registers TetherBounce-v0)
 
 
-def single_steps_per_second(env: gym.Env, steps: int) -> float:
+def single_steps_per_second(env: gym.Env, steps: int, predrawn: bool) -> float:
     env.reset(seed=0)
     env.action_space.seed(0)
+    actions = [env.action_space.sample() for _ in range(steps)] if predrawn else None
     start = time.perf_counter()
-    for _ in range(steps):
-        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+    for i in range(steps):
+        action = actions[i] if predrawn else env.action_space.sample()
+        _, _, terminated, truncated, _ = env.step(action)
         if terminated or truncated:
             env.reset()
     return steps / (time.perf_counter() - start)
 
 
-def vector_steps_per_second(envs: gym.vector.VectorEnv, steps: int) -> float:
+def vector_steps_per_second(envs: gym.vector.VectorEnv, steps: int, predrawn: bool) -> float:
     envs.reset(seed=0)
     envs.action_space.seed(0)
+    actions = [envs.action_space.sample() for _ in range(steps)] if predrawn else None
     start = time.perf_counter()
-    for _ in range(steps):
-        envs.step(envs.action_space.sample())
+    for i in range(steps):
+        envs.step(actions[i] if predrawn else envs.action_space.sample())
     return steps * envs.num_envs / (time.perf_counter() - start)
-
-
-def median(measure, repeats: int) -> float:
-    return statistics.median(measure() for _ in range(repeats))
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="a short smoke run")
-    parser.add_argument("--repeats", type=int, default=7)
-    parser.add_argument("--num-envs", type=int, default=1024)
+    parser.add_argument("--repeats", type=int, default=7, help="repeats per case (median)")
+    parser.add_argument("--num-envs", type=int, default=1024, help="copies in the vector envs")
     args = parser.parse_args()
     repeats = 2 if args.quick else args.repeats
-    single, vector = (2_000, 20) if args.quick else (50_000, 300)
-    n = args.num_envs
+    single, vector, n = (2_000, 20, args.num_envs) if args.quick else (50_000, 300, args.num_envs)
 
-    def make_vec(env_id, **kwargs):
+    def make_vec(env_id: str, **kwargs):
         return gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
 
     cases = {
-        "CartPole-v1 (gym.make)": lambda: single_steps_per_second(gym.make("CartPole-v1"), single),
-        "TetherBounce-v0 impulse (gym.make)": lambda: single_steps_per_second(
-            gym.make("TetherBounce-v0", dynamics="impulse"), single
+        "CartPole-v1 (gym.make)": (single_steps_per_second, lambda: gym.make("CartPole-v1")),
+        "TetherBounce-v0 impulse (gym.make)": (
+            single_steps_per_second,
+            lambda: gym.make("TetherBounce-v0", dynamics="impulse"),
         ),
-        "TetherBounce-v0 hybrid (gym.make)": lambda: single_steps_per_second(
-            gym.make("TetherBounce-v0"), single
+        "TetherBounce-v0 hybrid (gym.make)": (
+            single_steps_per_second,
+            lambda: gym.make("TetherBounce-v0"),
         ),
-        f"CartPoleVectorEnv N={n}": lambda: vector_steps_per_second(
-            make_vec("CartPole-v1"), vector
+        f"CartPoleVectorEnv N={n}": (vector_steps_per_second, lambda: make_vec("CartPole-v1")),
+        f"TetherBounce vector impulse N={n}": (
+            vector_steps_per_second,
+            lambda: make_vec("TetherBounce-v0", dynamics="impulse"),
         ),
-        f"TetherBounce vector impulse N={n}": lambda: vector_steps_per_second(
-            make_vec("TetherBounce-v0", dynamics="impulse"), vector
-        ),
-        f"TetherBounce vector hybrid N={n}": lambda: vector_steps_per_second(
-            make_vec("TetherBounce-v0"), vector
+        f"TetherBounce vector hybrid N={n}": (
+            vector_steps_per_second,
+            lambda: make_vec("TetherBounce-v0"),
         ),
     }
-    single_steps_per_second(gym.make("TetherBounce-v0"), 10)  # warm-up: numba's compile/cache
-    results = {}
-    for name, measure in cases.items():
-        results[name] = median(measure, repeats)
-        print(f"{name:40s} {results[name]:>14,.0f} steps/s (median of {repeats})")
-    names = list(results)
-    print()
-    print(f"single impulse / CartPole-v1          {results[names[1]] / results[names[0]]:.2f}x "
-          "(target >= 0.3)")  # fmt: skip
-    print(f"single hybrid / CartPole-v1           {results[names[2]] / results[names[0]]:.2f}x")
-    print(f"vector impulse / CartPoleVectorEnv    {results[names[4]] / results[names[3]]:.2f}x "
-          "(target >= 0.5)")  # fmt: skip
-    print(f"vector hybrid / CartPoleVectorEnv     {results[names[5]] / results[names[3]]:.2f}x "
-          f"({results[names[5]]:,.0f} env-steps/s, target >= 200,000)")  # fmt: skip
+    for measure, make in cases.values():  # warm-up: numba compiles or loads its cache
+        measure(make(), 5, predrawn=True)
+    for predrawn in (False, True):
+        print("actions drawn beforehand" if predrawn else "actions sampled in the loop (issue)")
+        rate = {}
+        for name, (measure, make) in cases.items():
+            steps = single if measure is single_steps_per_second else vector
+            rate[name] = statistics.median(measure(make(), steps, predrawn) for _ in range(repeats))
+            print(f"  {name:38s} {rate[name]:>14,.0f} steps/s (median of {repeats})")
+        cart, imp, hyb, cart_vec, vec_imp, vec_hyb = rate.values()
+        print(f"  single impulse / CartPole-v1        {imp / cart:6.2f}x  (target >= 0.3)")
+        print(f"  single hybrid / CartPole-v1         {hyb / cart:6.2f}x")
+        print(f"  vector impulse / CartPoleVectorEnv  {vec_imp / cart_vec:6.2f}x  (target >= 0.5)")
+        print(f"  vector hybrid / CartPoleVectorEnv   {vec_hyb / cart_vec:6.2f}x  "
+              f"({vec_hyb:,.0f} env-steps/s, target >= 200,000)")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -23,6 +23,7 @@ from tether_gym.physics.checks import check_float
 from tether_gym.physics.geometry import deflection_and_speed_ratio, fold_angle
 from tether_gym.physics.hybrid import damping_ratio, hybrid_core
 from tether_gym.physics.impulse import impulse_core
+from tether_gym.physics.jit import serial_and_parallel
 
 TASKS = ("heading", "velocity", "deadspin")
 DYNAMICS = ("hybrid", "impulse", "pymunk")
@@ -223,8 +224,7 @@ def _reset_kernel(uniforms, cfg, tasks, obs):
         _sample_one(uniforms[i], cfg, tasks[i], obs[i])
 
 
-_reset_serial = numba.njit(cache=True)(_reset_kernel)
-_reset_parallel = numba.njit(cache=True, parallel=True)(_reset_kernel)
+_reset_serial, _reset_parallel = serial_and_parallel(_reset_kernel)
 PARALLEL_MIN_BATCH = 256
 """Below this many episodes a thread pool costs more than it saves."""
 
@@ -310,8 +310,7 @@ def _step_kernel(actions, tasks, cfg, out):
         _score_one(tasks[i], out[i])
 
 
-_step_serial = numba.njit(cache=True)(_step_kernel)
-_step_parallel = numba.njit(cache=True, parallel=True)(_step_kernel)
+_step_serial, _step_parallel = serial_and_parallel(_step_kernel)
 
 
 @numba.njit(cache=True, parallel=True)

@@ -36,6 +36,7 @@ import numpy as np
 from numba import prange
 
 from tether_gym.physics.geometry import deflection_and_speed_ratio, initial_state
+from tether_gym.physics.jit import serial_and_parallel
 
 STEPS_PER_HALF_PERIOD = 48
 MAX_HALF_PERIODS = 400
@@ -254,8 +255,7 @@ def _hybrid_kernel(
         out_time[i] = t
 
 
-_serial = numba.njit(cache=True)(_hybrid_kernel)
-_parallel = numba.njit(cache=True, parallel=True)(_hybrid_kernel)
+_serial, _parallel = serial_and_parallel(_hybrid_kernel)
 
 PARALLEL_MIN_BATCH = 64
 """Below this many bounces a thread pool costs more than it saves."""

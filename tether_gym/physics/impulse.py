@@ -20,6 +20,7 @@ import numba
 from numba import prange
 
 from tether_gym.physics.geometry import deflection_and_speed_ratio
+from tether_gym.physics.jit import serial_and_parallel
 
 
 @numba.njit(cache=True)
@@ -79,8 +80,7 @@ def _impulse_kernel(
         out_bounced[i] = bounced
 
 
-_serial = numba.njit(cache=True)(_impulse_kernel)
-_parallel = numba.njit(cache=True, parallel=True)(_impulse_kernel)
+_serial, _parallel = serial_and_parallel(_impulse_kernel)
 
 PARALLEL_MIN_BATCH = 20_000
 """Below this many bounces a thread pool costs more than it saves."""
