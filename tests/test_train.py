@@ -1,0 +1,137 @@
+"""train.py: a smoke training, resume, Ctrl-C checkpoints and the up-front errors."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+pytest.importorskip("stable_baselines3")
+
+import train
+
+# 8 envs x 64 steps: 512 timesteps per rollout, one small epoch, a tiny network.
+FAST = [
+    "--n-envs", "8", "--eval-episodes", "40", "--no-progress-bar", "--hyperparams",
+    "n_steps:64", "batch_size:256", "n_epochs:1",
+    "policy_kwargs:dict(net_arch=[16], log_std_init=-1.0)",
+]  # fmt: skip
+
+
+def run(tmp_path: Path, *args: str) -> int:
+    return train.main(["--runs-dir", str(tmp_path), "--name", "smoke", *args, *FAST])
+
+
+def saved_timesteps(folder: Path) -> int:
+    return yaml.safe_load((folder / "config.yaml").read_text())["num_timesteps"]
+
+
+def test_smoke_training_saves_models_logs_and_prints_the_table(tmp_path, capsys):
+    assert run(tmp_path, "--timesteps", "1024", "--eval-freq", "512") == 0
+    folder = tmp_path / "smoke"
+    for which in ("best", "last"):
+        assert (folder / which / "model.zip").is_file()
+    assert saved_timesteps(folder / "last") == 1024
+    best = yaml.safe_load((folder / "best" / "config.yaml").read_text())
+    assert 0.0 <= best["eval_success_rate"] <= 1.0
+    assert any((folder / "tb").rglob("events.out.tfevents*"))
+    out = capsys.readouterr().out
+    assert "[eval] 512 timesteps" in out
+    for name in ("PPO (best)", "PPO (last)", "impulse oracle", "shooting oracle", "random"):
+        assert f"| {name} |" in out
+    assert "| PPO (last) |" in (folder / "results.md").read_text()
+
+
+def test_interruption_leaves_a_checkpoint_that_resume_continues(tmp_path, monkeypatch, capsys):
+    def interrupt(self):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(train.OracleEvalCallback, "run_eval", interrupt)
+    normalized = ["--timesteps", "2048", "--eval-freq", "1024", "--hyperparams", "normalize:true"]
+    assert run(tmp_path, *normalized) == 130
+    folder = tmp_path / "smoke"
+    assert (folder / "last" / "vecnormalize.pkl").is_file()
+    interrupted = saved_timesteps(folder / "last")
+    assert 1024 <= interrupted < 2048
+    assert "--resume" in capsys.readouterr().err
+    monkeypatch.undo()
+    argv = ["--resume", str(folder), "--eval-episodes", "40", "--no-progress-bar"]
+    assert train.main(argv) == 0
+    assert saved_timesteps(folder / "last") == 2048
+    assert "training PPO for 1,024 timesteps" in capsys.readouterr().out
+
+
+def test_resume_refuses_a_new_config(tmp_path, capsys):
+    (tmp_path / "config.yaml").write_text("{}")
+    with pytest.raises(SystemExit):
+        train.main(["--resume", str(tmp_path), "--rho", "5"])
+    assert "drop --rho" in capsys.readouterr().err
+
+
+def test_an_existing_run_is_never_overwritten_unless_asked(tmp_path, capsys):
+    earlier = tmp_path / "smoke" / "earlier.txt"
+    earlier.parent.mkdir()
+    earlier.write_text("keep me")
+    with pytest.raises(SystemExit):
+        run(tmp_path, "--timesteps", "512")
+    assert "--overwrite" in capsys.readouterr().err
+    assert earlier.read_text() == "keep me"
+    assert run(tmp_path, "--timesteps", "512", "--eval-freq", "0", "--overwrite") == 0
+    assert not earlier.exists() and (tmp_path / "smoke" / "last" / "model.zip").is_file()
+
+
+def test_an_unwritable_output_folder_fails_up_front(tmp_path, capsys):
+    blocker = tmp_path / "not-a-folder"
+    blocker.write_text("")
+    with pytest.raises(SystemExit):
+        train.main(["--runs-dir", str(blocker), "--timesteps", "512", *FAST])
+    assert "cannot write the run folder" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("TetherBounce-v0: {n_steps: [32", "cannot parse the hyperparameter file"),
+        ("CartPole-v1: {n_steps: 32}", "no mapping for 'TetherBounce-v0'"),
+        ("TetherBounce-v0: {n_stepz: 32}", "unknown PPO hyperparameters ['n_stepz']"),
+        ("TetherBounce-v0: {learning_rate: lin_fast}", "bad hyperparameter value"),
+    ],
+)
+def test_a_bad_hyperparameter_file_fails_up_front(tmp_path, capsys, text, message):
+    conf = tmp_path / "ppo.yml"
+    conf.write_text(text)
+    with pytest.raises(SystemExit):
+        train.main(["--conf-file", str(conf), "--runs-dir", str(tmp_path / "runs")])
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "runs").exists(), "nothing is written before the checks pass"
+
+
+def test_bad_options_name_the_parameter(tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        train.main(["--rho", "0.5", "--runs-dir", str(tmp_path)])
+    assert "rho" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        train.main(["--hyperparams", "n_steps=32", "--runs-dir", str(tmp_path)])
+    assert "key:value" in capsys.readouterr().err
+
+
+def test_default_names_differ_by_config_and_seed():
+    assert train.default_name({}, 0) == "ppo_mixed_hybrid_seed0"
+    low = train.default_name({"rho": [5.0, 100.0]}, 1)
+    assert low == "ppo_mixed_hybrid_rho5-100_seed1"
+
+
+def test_rl_zoo_trains_from_the_hyperparameter_file(tmp_path):
+    """The optional extra "zoo": rl-baselines3-zoo reads hyperparams/ppo.yml and trains."""
+    pytest.importorskip("rl_zoo3")
+    command = [
+        sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", "TetherBounce-v0",
+        "--gym-packages", "tether_gym", "--conf-file", str(train.DEFAULT_CONF), "-n", "1024",
+        "-f", str(tmp_path), "--seed", "0", "-params", "n_envs:4", "n_steps:128", "n_epochs:1",
+    ]  # fmt: skip
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert list(tmp_path.rglob("TetherBounce-v0.zip"))
