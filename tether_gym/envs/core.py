@@ -44,6 +44,7 @@ MAX_INERTIA_RATIO = 4.0
 MAX_SPIN_DISTURBANCE = 50.0
 """rad/s: a rim speed of 2 m/s at R = 4 cm."""
 RHO_RANGE = (1.0, 1e6)
+LN10 = math.log(10.0)
 DEFAULT_RHO = 850.0
 """The paper's experimental stiffness (its rho > 850)."""
 
@@ -53,7 +54,7 @@ DEADSPIN_TOLERANCE = 0.02
 SLACK_PENALTY = 0.5
 
 # Columns of the per-episode task array.
-TASK, HEADING, SPEED, KAPPA, RESTITUTION, ZETA, STIFFNESS, RHO, SPIN = range(9)
+TASK, HEADING, SPEED, KAPPA, RESTITUTION, ZETA, STIFFNESS, LOG10_RHO, SPIN = range(9)
 N_TASK_COLUMNS = 9
 N_UNIFORMS = 8
 
@@ -174,7 +175,9 @@ class EnvConfig:
     def as_array(self) -> np.ndarray:
         """The numbers the kernels need, at the indices C_* name."""
         task_code = -1 if self.task == "mixed" else TASKS.index(self.task)
-        k = -1.0 if self.stiffness is None else self.stiffness
+        k = self.stiffness
+        if k is None:  # -1: a rho drawn per episode, its stiffness with it
+            k = env_stiffness(self.rho[0]) if self.rho[0] == self.rho[1] else -1.0
         return np.array(
             [task_code, DYNAMICS.index(self.dynamics), *self.inertia_ratio, *self.restitution,
              math.log(self.rho[0]), math.log(self.rho[1]), k, self.spin_disturbance,
@@ -183,7 +186,7 @@ class EnvConfig:
         )  # fmt: skip
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _sample_one(u, cfg, task_row, obs_row):
     """Draw one episode's task from its uniforms `u`; write its task row and observation."""
     task = int(cfg[C_TASK]) if cfg[C_TASK] >= 0 else min(int(u[0] * 3.0), 2)
@@ -192,18 +195,19 @@ def _sample_one(u, cfg, task_row, obs_row):
     speed = TARGET_SPEED[0] + u[3] * (TARGET_SPEED[1] - TARGET_SPEED[0])
     kappa = cfg[C_KAPPA_LOW] + u[4] * (cfg[C_KAPPA_HIGH] - cfg[C_KAPPA_LOW])
     e = cfg[C_E_LOW] + u[5] * (cfg[C_E_HIGH] - cfg[C_E_LOW])
-    rho = math.exp(cfg[C_LOG_RHO_LOW] + u[6] * (cfg[C_LOG_RHO_HIGH] - cfg[C_LOG_RHO_LOW]))
-    stiffness = cfg[C_STIFFNESS] if cfg[C_STIFFNESS] > 0.0 else env_stiffness(rho)
+    log_rho = cfg[C_LOG_RHO_LOW] + u[6] * (cfg[C_LOG_RHO_HIGH] - cfg[C_LOG_RHO_LOW])
+    fixed_k = cfg[C_STIFFNESS] > 0.0  # a fixed rho or stiffness: no exp per episode
+    stiffness = cfg[C_STIFFNESS] if fixed_k else env_stiffness(math.exp(log_rho))
     spin = cfg[C_SPIN] * (2.0 * u[7] - 1.0)
     fixed = cfg[C_E_LOW] == cfg[C_E_HIGH] or cfg[C_DYNAMICS] == IMPULSE
     zeta = cfg[C_ZETA] if fixed else damping_ratio(e)
     task_row[TASK], task_row[HEADING], task_row[SPEED] = task, heading, speed
     task_row[KAPPA], task_row[RESTITUTION], task_row[ZETA] = kappa, e, zeta
-    task_row[STIFFNESS], task_row[RHO], task_row[SPIN] = stiffness, rho, spin
+    task_row[STIFFNESS], task_row[LOG10_RHO], task_row[SPIN] = stiffness, log_rho / LN10, spin
     _observe_one(task_row, cfg, obs_row)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _observe_one(task_row, cfg, obs_row):
     """The observation of one task row (see the env's observation table); a row keeps a
     heading and a speed for every task, the observation shows only those the task uses."""
@@ -215,7 +219,7 @@ def _observe_one(task_row, cfg, obs_row):
     if task == 1:
         obs_row[5] = task_row[SPEED] / ACTION_HIGH[0]
     obs_row[6], obs_row[7] = task_row[KAPPA], task_row[RESTITUTION]
-    obs_row[8] = math.log10(task_row[RHO])
+    obs_row[8] = task_row[LOG10_RHO]
     obs_row[9] = task_row[SPIN] * RADIUS / ACTION_HIGH[0]  # a rim speed over the fastest launch
 
 
@@ -229,7 +233,7 @@ PARALLEL_MIN_BATCH = 256
 """Below this many episodes a thread pool costs more than it saves."""
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _decode_one(action, out):
     """Clip a normalized action to [-1, 1] and map it linearly onto the physical ranges."""
     for j in range(4):
@@ -238,7 +242,7 @@ def _decode_one(action, out):
         out[O_LAUNCH + j] = value
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _simulate_one(task_row, cfg, out):
     """Bounce the decoded set-up with the impulse or hybrid model; write vx, vy, spin, flags."""
     speed, beta = out[O_LAUNCH], out[O_LAUNCH + 1]
@@ -267,7 +271,7 @@ def _simulate_one(task_row, cfg, out):
     out[O_BOUNCED], out[O_COMPLETED] = bounced, completed
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _score_one(task_row, out):
     """Named reward terms, their sum and success, from the bounce already in `out`."""
     speed = out[O_LAUNCH]

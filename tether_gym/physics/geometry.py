@@ -43,7 +43,7 @@ def deflection_and_speed_ratio(vx, vy, speed):
     angle = math.atan2(-vx, vy)
     if angle <= -math.pi:  # atan2 gives -pi for (-0.0, negative): fold it onto +pi
         angle += 2.0 * math.pi
-    return angle, math.hypot(vx, vy) / speed
+    return angle, math.sqrt(vx * vx + vy * vy) / speed
 
 
 @numba.njit(cache=True)
