@@ -2,8 +2,9 @@
 
     python -m agents.evaluate --agents oracle shooting random --episodes 1000 --rho 5 100
 
-Every agent sees the same episodes: the native vector env (`BATCH` copies) reset with the
-same seed, so the first k episodes of an evaluation do not depend on its length either.
+Every agent sees the same episodes: the native vector env (`BATCH` copies) with copy i seeded
+BATCH * seed + i, so the first k episodes of an evaluation do not depend on its length, and
+two seeds share no episodes (Gymnasium's seed + i would share all but one copy's).
 """
 
 from __future__ import annotations
@@ -85,7 +86,7 @@ def _run(agent, env_kwargs: dict, episodes: int, seed: int, bar) -> dict[str, np
         vectorization_mode="vector_entry_point",
         **env_kwargs,
     )
-    obs, _ = env.reset(seed=seed)
+    obs, _ = env.reset(seed=BATCH * seed)
     keys = ("is_success", "heading_error", "residual_speed")
     rows: dict[str, list] = {key: [] for key in (*keys, "obs", "reward")}
     elapsed, done = 0.0, 0

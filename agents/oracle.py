@@ -181,10 +181,11 @@ class ShootingOracle(ImpulseOracle):
 
     Heading: the centre-of-mass tether angle, batched bracketing (scipy's elementwise
     `bracket_root` and `find_root`); a root that leaves a residual (the wrap of the heading
-    error at +-pi) is rejected for the impulse answer. Velocity and deadspin: the whole set-up
-    (launch speed, tether angle, offset angle, offset), each episode by `least_squares` on the
-    bounce's velocity within the action ranges, so an unreachable target gets the nearest
-    set-up. The stiffness is the env's: its `stiffness` argument, else the observed rho.
+    error at +-pi) is rejected. Velocity, deadspin, and headings without such a root (small
+    ones on a soft tether): the whole set-up (launch speed, tether angle, offset angle,
+    offset), each episode by `least_squares` on the bounce's velocity within the action
+    ranges, so an unreachable target gets the nearest set-up. The stiffness is the env's: its
+    `stiffness` argument, else the observed rho.
     """
 
     def __init__(self, env_kwargs: dict | None = None, tolerance: float = 1e-10):
@@ -206,14 +207,18 @@ class ShootingOracle(ImpulseOracle):
             else env_stiffness(ep.rho)
         )
         heading = ep.task == 0
+        solved = np.zeros_like(heading)
         if np.any(heading):
-            setup[heading, 1] = self._shoot_heading(ep, heading, setup[heading], stiffness)
-        for i in np.flatnonzero(~heading):
+            setup[heading, 1], solved[heading] = self._shoot_heading(
+                ep, heading, setup[heading], stiffness
+            )
+        for i in np.flatnonzero(~solved):
             setup[i] = self._shoot_one(ep, i, setup[i], stiffness[i])
         return setup
 
-    def _shoot_heading(self, ep: Episode, rows, setup, stiffness) -> np.ndarray:
-        """Tether angles whose bounce leaves along the target heading (batched brackets)."""
+    def _shoot_heading(self, ep: Episode, rows, setup, stiffness) -> tuple[np.ndarray, np.ndarray]:
+        """Centre-of-mass tether angles whose bounce leaves along the target heading (batched
+        brackets), and which episodes have one (a soft tether's may not: small headings)."""
 
         def error(beta, heading, speed, kappa, spin, e, k):
             # scipy passes only the episodes still unsolved: everything per-episode is an arg
@@ -234,14 +239,14 @@ class ShootingOracle(ImpulseOracle):
             error, bracket.bracket, args=args, tolerances={"xatol": 1e-12, "xrtol": 0.0}
         )
         solved = bracket.success & root.success & (np.abs(root.f_x) < 1e-9)
-        return np.where(solved, root.x, setup[:, 1])
+        return np.where(solved, root.x, setup[:, 1]), solved
 
     def _shoot_one(self, ep: Episode, i: int, setup: np.ndarray, stiffness: float) -> np.ndarray:
-        """One velocity or deadspin episode: bounded least squares on the bounce's velocity over
-        the whole set-up (underdetermined: the solver stays near the impulse answer)."""
-        target = np.zeros(2)
-        if ep.task[i] == 1:
-            target = ep.speed[i] * np.array([-math.sin(ep.heading[i]), math.cos(ep.heading[i])])
+        """One episode by bounded least squares over the whole set-up (underdetermined: the
+        solver stays near the impulse answer) on the bounce's velocity: its direction for a
+        heading, the velocity itself for a velocity target, zero for a deadspin."""
+        direction = np.array([-math.sin(ep.heading[i]), math.cos(ep.heading[i])])
+        target = ep.speed[i] * direction if ep.task[i] == 1 else np.zeros(2)
         args = dict(
             inertia_ratio=ep.inertia_ratio[i],
             spin=ep.spin[i],
@@ -254,8 +259,10 @@ class ShootingOracle(ImpulseOracle):
         )
 
         def residual(x):
-            out = bounce_one(x[1], x[2], offset=x[3], speed=x[0], **args)
-            return (out.velocity - target) / x[0]
+            velocity = bounce_one(x[1], x[2], offset=x[3], speed=x[0], **args).velocity
+            if ep.task[i] == 0:
+                return velocity / max(np.hypot(*velocity), 1e-12) - direction
+            return (velocity - target) / x[0]
 
         x0 = np.clip(setup, ACTION_LOW + 1e-9, ACTION_HIGH - 1e-9)
         fit = least_squares(

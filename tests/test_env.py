@@ -5,18 +5,20 @@ from __future__ import annotations
 import math
 import os
 import pickle
+import platform
 import subprocess
 import sys
 import warnings
 
 import gymnasium as gym
+import numba
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import tether_gym  # noqa: F401
-from tether_gym.envs import TetherBounceEnv, TetherBounceVectorEnv
+from tether_gym.envs import TetherBounceEnv, TetherBounceVectorEnv, core
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
@@ -294,3 +296,49 @@ def test_wrong_action_shape_names_the_action():
     envs.reset(seed=0)
     with pytest.raises(ValueError, match="action"):
         envs.step(np.zeros((4, 2), dtype=np.float32))
+
+
+@pytest.mark.parametrize("dynamics", DYNAMICS)
+def test_threaded_step_and_reset_equals_the_serial_kernels(dynamics):
+    """The vector env's fused pass across threads (batches of two chunks or more) gives the same
+    outcomes and next tasks as `step_batch` then `reset_batch`, bit for bit."""
+    config = core.EnvConfig.build(
+        dynamics=dynamics, restitution=(0.6, 1.0), inertia_ratio=(0.3, 2.0), spin_disturbance=5.0
+    )
+    cfg, n = config.as_array(), 3 * core.PARALLEL_CHUNK[core.DYNAMICS.index(dynamics)] + 1
+    rng = np.random.default_rng(5)
+    tasks, _ = core.reset_batch(rng.random((n, config.n_uniforms)), cfg)
+    actions = rng.uniform(-1.0, 1.0, (n, 4)).astype(np.float32)
+    uniforms = rng.random((n, config.n_uniforms))
+    fused = core.step_and_reset_batch(actions, tasks, cfg, uniforms)
+    serial = (core.step_batch(actions, tasks, cfg), *core.reset_batch(uniforms, cfg))
+    for a, b in zip(fused, serial, strict=True):
+        np.testing.assert_array_equal(a, b)
+    actions[n - 1, 2] = np.nan
+    with pytest.raises(ValueError, match="action"):
+        core.step_and_reset_batch(actions, tasks, cfg, uniforms)
+
+
+def test_a_refused_vector_step_loses_no_episode():
+    """A NaN action raises before the next episodes are drawn: the copies go on with exactly
+    the episodes of an env that never saw it."""
+    envs, clean = (TetherBounceVectorEnv(3, dynamics="impulse") for _ in range(2))
+    envs.reset(seed=4)
+    clean.reset(seed=4)
+    with pytest.raises(ValueError, match="action"):
+        envs.step(np.full((3, 4), np.nan, dtype=np.float32))
+    actions = np.zeros((3, 4), dtype=np.float32)
+    np.testing.assert_array_equal(envs.step(actions)[0], clean.step(actions)[0])
+
+
+@pytest.mark.skipif(
+    "NUMBA_THREADING_LAYER" in os.environ
+    or not (sys.platform == "linux" and platform.machine() == "x86_64"),
+    reason="the threading layer is the user's choice, or tbb is not a dependency here",
+)
+def test_threaded_kernels_run_on_tbb_where_it_is_a_dependency():
+    """numba finds pip's libtbb through `choose_threading_layer` (not workqueue's slow wake-up)."""
+    envs = TetherBounceVectorEnv(2 * core.PARALLEL_CHUNK[core.IMPULSE], dynamics="impulse")
+    envs.reset(seed=0)
+    envs.step(envs.action_space.sample())
+    assert numba.threading_layer() == "tbb"

@@ -148,7 +148,7 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        tasks, obs = core.reset_batch(self.np_random.random((1, core.N_UNIFORMS)), self._cfg)
+        tasks, obs = core.reset_batch(self.np_random.random((1, self.config.n_uniforms)), self._cfg)
         if options:
             core.set_targets(tasks, obs, self._cfg, options)
         self._task, self._obs, self._outcome = tasks, obs[0], None

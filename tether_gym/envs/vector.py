@@ -64,19 +64,19 @@ class TetherBounceVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._block = int(block)
         self._generators: list[np.random.Generator] | None = None
-        self._buffer = np.empty((self.num_envs, self._block, core.N_UNIFORMS))
+        self._buffer = np.empty((self.num_envs, self._block, self.config.n_uniforms))
         self._cursor = self._block
         self._tasks: np.ndarray | None = None
         self._obs: np.ndarray | None = None
 
     def _uniforms(self) -> np.ndarray:
-        """The next episode's uniforms for every copy, (num_envs, N_UNIFORMS)."""
+        """The next episode's uniforms for every copy, (num_envs, n_uniforms); they stay the
+        next ones until `_cursor` moves on (after a step that did not raise)."""
         if self._cursor == self._block:
             for generator, block in zip(self._generators, self._buffer, strict=True):
                 generator.random(out=block)
             self._cursor = 0
-        self._cursor += 1
-        return self._buffer[:, self._cursor - 1]
+        return self._buffer[:, self._cursor]
 
     def reset(
         self,
@@ -93,9 +93,10 @@ class TetherBounceVectorEnv(VectorEnv):
         if seed is not None or self._generators is None:
             self._generators = [seeding.np_random(s)[0] for s in seeds]
             self._cursor = self._block
-        self._tasks, self._obs = core.reset_batch(self._uniforms(), self._cfg)
+        tasks, obs = core.reset_batch(self._uniforms(), self._cfg)
         if options:
-            core.set_targets(self._tasks, self._obs, self._cfg, options)
+            core.set_targets(tasks, obs, self._cfg, options)
+        self._tasks, self._obs, self._cursor = tasks, obs, self._cursor + 1
         return self._obs.copy(), {}
 
     def step(self, actions):
@@ -105,6 +106,7 @@ class TetherBounceVectorEnv(VectorEnv):
         out, self._tasks, self._obs = core.step_and_reset_batch(
             actions, self._tasks, self._cfg, self._uniforms()
         )
+        self._cursor += 1
         info = core.outcome_info(out) if self.num_envs > 1 else _as_arrays(core.outcome_info(out))
         done = np.ones(self.num_envs, dtype=bool)
         info["final_info"] = dict(info)

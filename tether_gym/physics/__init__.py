@@ -6,19 +6,9 @@
 - `critical`: the paper's critical points and the inverse map, in closed form.
 - `geometry`: the launch frame's conventions, and the paper's rho (eq. 11).
 
-The parallel kernels use numba's "workqueue" threading layer unless NUMBA_THREADING_LAYER says
-otherwise: OpenMP's threads spin at their barriers, and with the cores shared (with torch's
-training threads, say) a vector-env step ran 40 times slower under it (7.8 ms against 0.18 ms
-for 1024 bounces, measured). Workqueue does not allow two Python threads to launch parallel
-kernels at once; set NUMBA_THREADING_LAYER=omp (or tbb) where that matters.
+The parallel kernels use numba's TBB threading layer where it loads (pip's `tbb` on Linux
+x86-64), else workqueue, unless NUMBA_THREADING_LAYER says otherwise; `jit.py` says why.
 """
-
-import os
-
-import numba
-
-if "NUMBA_THREADING_LAYER" not in os.environ:
-    numba.config.THREADING_LAYER = "workqueue"
 
 from tether_gym.physics.api import MODELS, BounceResult, bounce, bounce_one
 from tether_gym.physics.critical import (
@@ -28,6 +18,9 @@ from tether_gym.physics.critical import (
     setup_for_velocity,
 )
 from tether_gym.physics.geometry import perpendicular_speed, rho, stiffness_from_rho, wrap_angle
+from tether_gym.physics.jit import choose_threading_layer
+
+choose_threading_layer()  # before any parallel kernel runs: numba fixes its layer at the first
 
 __all__ = [
     "MODELS",
