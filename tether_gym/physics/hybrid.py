@@ -9,12 +9,13 @@ and the bounce ends at the first instant T falls to zero: the tether never pushe
 before and after is exact, so only the contact phase is integrated.
 
 Integration. Classic fourth-order Runge-Kutta with a fixed step, `STEPS_PER_HALF_PERIOD` steps
-per half period of the fastest time scale: the spring along the tether, or the puck's spin
-when that can be faster (bounded by energy, w^2 <= w0^2 + v0^2 / (kappa R^2)). The slack instant is
+per half period of the fastest time scale: the spring along the tether (with the least effective
+mass any orientation gives, since the puck turns during the contact), or the puck's spin when
+that can be faster (bounded by energy, w^2 <= w0^2 + v0^2 / (kappa R^2)). The slack instant is
 located inside the last step: the step is re-taken from its start with a length found by the
 Illinois (regula falsi) method on T, so the kink at L = L0 never falls inside a step and the
-method keeps its order. The attachment point is carried as a vector (rx, ry) that turns with
-the spin, which spares the trigonometry of an angle state. A bounce still taut after
+method keeps its order. The attachment point is carried as a vector (rx, ry) that turns with the
+spin, which spares the trigonometry of an angle state. A bounce still taut after
 `MAX_HALF_PERIODS` half periods is reported with `completed = False` instead of hanging.
 
 Dissipation. The damper's coefficient is c = 2 zeta sqrt(k m_eff), m_eff the puck's effective
@@ -152,10 +153,14 @@ def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, res
         return vx, vy, w, False, True, 0.0
     inertia = kappa * mass * radius * radius
     inv_m, inv_i = 1.0 / mass, 1.0 / inertia
-    m_eff = effective_mass(mass, kappa, offset, alpha)
-    natural = math.sqrt(k / m_eff)
-    c = 2.0 * zeta * math.sqrt(k * m_eff)
-    fastest = natural * (zeta + math.sqrt(zeta * zeta - 1.0) if zeta > 1.0 else 1.0)
+    c = 2.0 * zeta * math.sqrt(k * effective_mass(mass, kappa, offset, alpha))
+    # The step resolves the stiffest spring and the strongest damper the puck can present as it
+    # turns during the contact: the least effective mass, at alpha = pi/2. Sized for the mass at
+    # tautening, a heavily damped bounce of a light-inertia puck was unstable (NaN).
+    m_least = effective_mass(mass, kappa, offset, 0.5 * math.pi)
+    natural = math.sqrt(k / m_least)
+    z = c / (2.0 * math.sqrt(k * m_least))
+    fastest = natural * (z + math.sqrt(z * z - 1.0) if z > 1.0 else 1.0)
     if offset > 0.0:  # the attachment point whirls: resolve the fastest spin energy allows
         fastest = max(fastest, math.sqrt(spin * spin + speed * speed / (kappa * radius * radius)))
     h = math.pi / (fastest * STEPS_PER_HALF_PERIOD)
