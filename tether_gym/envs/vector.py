@@ -94,9 +94,10 @@ class TetherBounceVectorEnv(VectorEnv):
             self._generators = [seeding.np_random(s)[0] for s in seeds]
             self._cursor = self._block
         tasks, obs = core.reset_batch(self._uniforms(), self._cfg)
+        self._cursor += 1  # drawn even if the options are refused, as by a single env's reset
         if options:
             core.set_targets(tasks, obs, self._cfg, options)
-        self._tasks, self._obs, self._cursor = tasks, obs, self._cursor + 1
+        self._tasks, self._obs = tasks, obs
         return self._obs.copy(), {}
 
     def step(self, actions):
