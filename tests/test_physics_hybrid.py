@@ -179,3 +179,21 @@ def test_hybrid_resolves_a_fast_spin(seed):
     assert np.sqrt(gyration2) * abs(res.spin - ref.spin) / scale < 1e-6
     after = kinetic_energy(res.velocity, res.spin, gyration2)
     assert after == pytest.approx(kinetic_energy([0.0, 1.0], setup["spin"], gyration2), rel=1e-6)
+
+
+def test_hybrid_resolves_a_turning_light_puck_with_a_heavy_damper():
+    """Regression: a light-inertia puck (kappa 0.015) on a heavy damper (e = 0.143) turns during
+    the contact until the tether feels a fraction of its mass; the step sized for the mass at
+    tautening went unstable (NaN). It now matches the reference to 1e-6 relative, and the
+    contact, longer than 400 half periods of the fastest time scale, completes."""
+    setup = dict(
+        tether_angle=1.2249, offset_angle=-0.1159, offset=0.8322, inertia_ratio=0.0148,
+        speed=2.9946, restitution=0.143, mass=0.03, radius=0.04, tether_length=1.0,
+        stiffness=0.03 * (1657.5 * 3.0) ** 2,
+    )  # fmt: skip
+    res = bounce_one(**setup, model="hybrid")
+    ref = reference_bounce(**setup)
+    assert res.completed
+    np.testing.assert_allclose(res.velocity, ref.velocity, rtol=1e-6)
+    assert res.spin * setup["radius"] == pytest.approx(ref.spin * setup["radius"], rel=1e-6)
+    assert res.contact_time == pytest.approx(ref.contact_time, rel=1e-6)

@@ -8,6 +8,8 @@
 
 The parallel kernels use numba's TBB threading layer where it loads (pip's `tbb` on Linux
 x86-64), else workqueue, unless NUMBA_THREADING_LAYER says otherwise; `jit.py` says why.
+Workqueue does not allow two Python threads to launch parallel kernels at once; where it is the
+fallback and that matters, set NUMBA_THREADING_LAYER=omp.
 """
 
 from tether_gym.physics.api import MODELS, BounceResult, bounce, bounce_one

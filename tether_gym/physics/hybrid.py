@@ -16,7 +16,8 @@ located inside the last step: the step is re-taken from its start with a length 
 Illinois (regula falsi) method on T, so the kink at L = L0 never falls inside a step and the
 method keeps its order. The attachment point is carried as a vector (rx, ry) that turns with the
 spin, which spares the trigonometry of an angle state. A bounce still taut after
-`MAX_HALF_PERIODS` half periods is reported with `completed = False` instead of hanging.
+`MAX_HALF_PERIODS` half periods of the slowest time scale (or `MAX_STEPS` steps) is reported with
+`completed = False` instead of hanging.
 
 Dissipation. The damper's coefficient is c = 2 zeta sqrt(k m_eff), m_eff the puck's effective
 mass along the tether at tautening, m / (1 + (d sin alpha)^2 / kappa). For a linear
@@ -41,6 +42,8 @@ from tether_gym.physics.jit import serial_and_parallel
 
 STEPS_PER_HALF_PERIOD = 48
 MAX_HALF_PERIODS = 400
+MAX_STEPS = 1 << 22
+"""At most about half a second of work for one bounce (a stiff, heavily damped contact)."""
 
 
 @numba.njit(cache=True)
@@ -164,12 +167,16 @@ def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, res
     if offset > 0.0:  # the attachment point whirls: resolve the fastest spin energy allows
         fastest = max(fastest, math.sqrt(spin * spin + speed * speed / (kappa * radius * radius)))
     h = math.pi / (fastest * STEPS_PER_HALF_PERIOD)
+    # It gives up after MAX_HALF_PERIODS of the slowest scale: the spring with the whole mass,
+    # or the stretch of an overdamped one relaxing at k / c.
+    slowest = min(math.sqrt(k / mass), k / c) if c > 0.0 else math.sqrt(k / mass)
+    steps = min(int(MAX_HALF_PERIODS * STEPS_PER_HALF_PERIOD * fastest / slowest), MAX_STEPS)
     p = (k, c, rest_length, inv_m, inv_i)
 
     ax, ay, al, tension = _accel(cx, cy, vx, vy, rx, ry, w, *p)
     peak = 0.0
     t = 0.0
-    for _ in range(MAX_HALF_PERIODS * STEPS_PER_HALF_PERIOD):
+    for _ in range(steps):
         new = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, h, *p)
         nax, nay, nal, new_tension = _accel(*new, *p)
         if new_tension > 0.0:

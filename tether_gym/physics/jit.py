@@ -4,38 +4,52 @@ kernel twice, on one thread and across threads."""
 from __future__ import annotations
 
 import ctypes
+import functools
 import importlib.metadata
-import os
 import types
 
 import numba
 
+LIBTBB = "libtbb.so.12"
+TBB_INTERFACE_VERSION = 12060
+"""The least TBB numba's TBB layer accepts (TBB 2021.6)."""
+
 
 def tbb_loads() -> bool:
     """Whether numba's TBB threading layer can load. numba links libtbb.so.12 by name, and
-    pip's `tbb` wheel puts it in the environment's lib/, off the loader's path: load it first."""
+    pip's `tbb` wheel puts it in the environment's lib/, off the loader's path: load it here
+    first, for a layer the user chose as well."""
     try:
-        for path in importlib.metadata.files("tbb") or ():
-            if path.name == "libtbb.so.12":
-                ctypes.CDLL(str(path.locate()), mode=ctypes.RTLD_GLOBAL)
+        paths = [path for path in importlib.metadata.files("tbb") or () if path.name == LIBTBB]
+    except importlib.metadata.PackageNotFoundError:
+        paths = []
+    try:
+        tbb = ctypes.CDLL(str(paths[0].locate()) if paths else LIBTBB, mode=ctypes.RTLD_GLOBAL)
+        if tbb.TBB_runtime_interface_version() < TBB_INTERFACE_VERSION:
+            return False
         from numba.np.ufunc import tbbpool  # noqa: F401
-    except (importlib.metadata.PackageNotFoundError, OSError, ImportError):
+    except (OSError, AttributeError, ImportError):
         return False
     return True
 
 
+@functools.cache
 def choose_threading_layer() -> str:
-    """TBB where it loads, else workqueue; never OpenMP, unless NUMBA_THREADING_LAYER says so.
+    """The layer numba's parallel kernels use: TBB where it loads, else workqueue, never OpenMP;
+    a layer the user chose (NUMBA_THREADING_LAYER, numba's config) is kept.
 
     Measured on 2 cores, for one vector-env step of 1024 impulse bounces: serial 111 us, TBB
     74 us, OpenMP 65 us, workqueue 144 us (waking its threads costs more than it saves); with
     another process holding a core, TBB and serial both about 113 us. OpenMP is left out: its
     threads spin at barriers, and it shares its runtime with torch's, so that numba's first
-    parallel call resets torch's thread count.
+    parallel call resets torch's thread count. numba makes the choice at the first parallel
+    call, falling back along the priority set here if TBB does not load after all.
     """
-    if "NUMBA_THREADING_LAYER" not in os.environ:
-        numba.config.THREADING_LAYER = "tbb" if tbb_loads() else "workqueue"
-    return numba.config.THREADING_LAYER
+    tbb = tbb_loads()
+    if numba.config.THREADING_LAYER != "default":
+        return numba.config.THREADING_LAYER
+    numba.config.THREADING_LAYER_PRIORITY = ["tbb", "workqueue", "omp"]
+    return "tbb" if tbb else "workqueue"
 
 
 def serial_and_parallel(kernel):
