@@ -137,6 +137,7 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
             task, dynamics, inertia_ratio, restitution, rho, stiffness, spin_disturbance
         )
         self._cfg = self.config.as_array()
+        self._n_uniforms = self.config.n_uniforms  # per reset: not recounted on the hot path
         self.action_space = action_space()
         self.observation_space = observation_space()
         self.render_mode = render_mode
@@ -148,7 +149,7 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        tasks, obs = core.reset_batch(self.np_random.random((1, self.config.n_uniforms)), self._cfg)
+        tasks, obs = core.reset_batch(self.np_random.random((1, self._n_uniforms)), self._cfg)
         if options:
             core.set_targets(tasks, obs, self._cfg, options)
         self._task, self._obs, self._outcome = tasks, obs[0], None
