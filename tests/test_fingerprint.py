@@ -7,10 +7,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import fingerprint
 import numpy as np
 import pytest
-
-import fingerprint
 
 RECORDED = Path(__file__).parent / "data" / "tether_bounce_fingerprint.npz"
 
