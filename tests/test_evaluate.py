@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
-from agents.evaluate import evaluate, format_table, load_agent, main, wilson_interval
-from agents.oracle import ImpulseOracle
-from agents.random_agent import RandomAgent
+from tether_gym.agents.evaluate import evaluate, format_table, load_agent, main, wilson_interval
+from tether_gym.agents.oracle import ImpulseOracle
+from tether_gym.agents.random_agent import RandomAgent
 
 
 def test_two_agents_see_identical_episodes():
@@ -82,7 +82,9 @@ def test_load_agent_runs_a_saved_model_with_its_normalizer(tmp_path):
 
 def test_cli_help_documents_every_option():
     out = subprocess.run(
-        [sys.executable, "-m", "agents.evaluate", "--help"], capture_output=True, text=True
+        [sys.executable, "-m", "tether_gym.agents.evaluate", "--help"],
+        capture_output=True,
+        text=True,
     ).stdout
     options = ["--agents", "--episodes", "--seed", "--task", "--dynamics", "--rho", "--stiffness",
                "--inertia-ratio", "--restitution", "--spin-disturbance", "--csv", "--json",

@@ -11,7 +11,7 @@ import yaml
 
 pytest.importorskip("stable_baselines3")
 
-import train
+from tether_gym.training import train
 
 # 8 envs x 64 steps: 512 timesteps per rollout, one small epoch, a tiny network.
 FAST = [

@@ -22,8 +22,8 @@ import gymnasium as gym
 import numpy as np
 
 import tether_gym  # noqa: F401  (registers TetherBounce-v0)
-from agents.oracle import ImpulseOracle, ShootingOracle
-from agents.random_agent import RandomAgent
+from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
+from tether_gym.agents.random_agent import RandomAgent
 
 BATCH = 100
 """Episodes per vector-env step (the progress bar's granularity)."""

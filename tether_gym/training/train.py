@@ -33,11 +33,11 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.utils import LinearSchedule
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-from agents.evaluate import SB3Agent, evaluate, format_table, load_agent
-from agents.oracle import ImpulseOracle, ShootingOracle
-from agents.random_agent import RandomAgent
+from tether_gym.agents.evaluate import SB3Agent, evaluate, format_table, load_agent
+from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
+from tether_gym.agents.random_agent import RandomAgent
 from tether_gym.envs.core import EnvConfig
-from tether_gym.sb3 import make_sb3_vec_env
+from tether_gym.training.sb3 import make_sb3_vec_env
 
 ENV_ID = "TetherBounce-v0"
 ROOT = Path(__file__).resolve().parent
