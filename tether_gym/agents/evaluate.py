@@ -1,6 +1,6 @@
 """Evaluate agents on the same fixed, seeded TetherBounce-v0 episodes and tabulate the results.
 
-    python -m agents.evaluate --agents oracle shooting random --episodes 1000 --rho 5 100
+    tether-evaluate --agents oracle shooting random --episodes 1000 --rho 5 100
 
 Every agent sees the same episodes: the native vector env (`BATCH` copies) with copy i seeded
 BATCH * seed + i, so the first k episodes of an evaluation do not depend on its length, and
@@ -21,9 +21,9 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
-import tether_gym  # noqa: F401  (registers TetherBounce-v0)
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 from tether_gym.agents.random_agent import RandomAgent
+from tether_gym.cli import DEFAULT_ENV_ID, add_env_arguments, env_from_args, require_extra
 
 BATCH = 100
 """Episodes per vector-env step (the progress bar's granularity)."""
@@ -78,10 +78,12 @@ def _mean(values: np.ndarray) -> float:
     return float(values.mean()) if values.size else math.nan
 
 
-def _run(agent, env_kwargs: dict, episodes: int, seed: int, bar) -> dict[str, np.ndarray]:
+def _run(
+    agent, env_id: str, env_kwargs: dict, episodes: int, seed: int, bar
+) -> dict[str, np.ndarray]:
     """Per-episode observations and outcomes of one agent, and its wall time."""
     env = gym.make_vec(
-        "TetherBounce-v0",
+        env_id,
         num_envs=min(episodes, BATCH),
         vectorization_mode="vector_entry_point",
         **env_kwargs,
@@ -115,8 +117,9 @@ def evaluate(
     episodes: int = 1000,
     seed: int = 0,
     progress: bool = False,
+    env_id: str = DEFAULT_ENV_ID,
 ) -> list[EvalResult]:
-    """Run every agent on the same `episodes` seeded episodes of `TetherBounce-v0(**env_kwargs)`."""
+    """Run every agent on the same `episodes` seeded episodes of `env_id(**env_kwargs)`."""
     if not isinstance(episodes, (int, np.integer)) or episodes < 1:
         raise ValueError(f"episodes must be an integer in [1, inf), got {episodes!r}")
     results = []
@@ -126,7 +129,7 @@ def evaluate(
             from tqdm import tqdm
 
             bar = tqdm(total=episodes, desc=name, unit="ep", leave=False)
-        run = _run(agent, env_kwargs, episodes, seed, bar)
+        run = _run(agent, env_id, env_kwargs, episodes, seed, bar)
         if bar is not None:
             bar.close()
         obs = run["obs"].astype(np.float64)
@@ -224,6 +227,7 @@ def make_agent(spec: str, env_kwargs: dict, seed: int = 0):
         return ShootingOracle(env_kwargs)
     if spec == "random":
         return RandomAgent(seed)
+    require_extra(f"the model {spec!r}", ("stable_baselines3", "torch"))
     return load_agent(spec)
 
 
@@ -254,15 +258,9 @@ def plot(results: list[EvalResult], path: Path, against: str = "rho") -> None:
     plt.close(fig)
 
 
-def _range(values: list[float] | None):
-    if values is None:
-        return None
-    return values[0] if len(values) == 1 else tuple(values)
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="python -m agents.evaluate",
+        prog="tether-evaluate",
         description="Evaluate agents on the same fixed, seeded TetherBounce-v0 episodes.",
     )
     add = parser.add_argument
@@ -271,17 +269,6 @@ def build_parser() -> argparse.ArgumentParser:
         "(default: oracle shooting random)")  # fmt: skip
     add("--episodes", type=int, default=1000, help="episodes per agent (default 1000)")
     add("--seed", type=int, default=0, help="seed of the episodes (default 0)")
-    add("--task", default="mixed", help="heading, velocity, deadspin or mixed (default mixed)")
-    add("--dynamics", default="hybrid", help="hybrid, impulse or pymunk (default hybrid)")
-    add("--rho", type=float, nargs="+", metavar="RHO",
-        help="stiffness as the paper's rho at 3 m/s: one value or LOW HIGH (log-uniform); "
-        "default 850")  # fmt: skip
-    add("--stiffness", type=float, help="tether spring constant, N/m (instead of --rho)")
-    add("--inertia-ratio", type=float, nargs="+", metavar="KAPPA",
-        help="I / (m R^2): one value or LOW HIGH (default 0.5)")  # fmt: skip
-    add("--restitution", type=float, nargs="+", metavar="E",
-        help="coefficient of restitution: one value or LOW HIGH (default 1)")  # fmt: skip
-    add("--spin-disturbance", type=float, help="pre-bounce spin drawn in +-this, rad/s")
     add("--csv", type=Path, metavar="PATH", help="write the table as CSV")
     add("--json", type=Path, metavar="PATH", help="write the table and the config as JSON")
     add("--plot", type=Path, metavar="PNG", help="plot heading error, agents side by side")
@@ -289,37 +276,28 @@ def build_parser() -> argparse.ArgumentParser:
         help="x axis of --plot: rho or the target heading (default rho)")  # fmt: skip
     add("--overwrite", action="store_true", help="replace existing output files")
     add("--no-progress", action="store_true", help="no progress bar")
+    add_env_arguments(parser)
     return parser
 
 
 def main(argv: list[str] | None = None) -> None:
+    """The console script `tether-evaluate`."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    for name in ("rho", "inertia_ratio", "restitution"):
-        values = getattr(args, name)
-        if values is not None and len(values) > 2:
-            parser.error(f"--{name.replace('_', '-')} takes one value or two (LOW HIGH)")
     outputs = [p for p in (args.csv, args.json, args.plot) if p is not None]
     for path in outputs:
         if path.exists() and not args.overwrite:
             parser.error(f"{path} exists; pass --overwrite to replace it")
-    env_kwargs = {"task": args.task, "dynamics": args.dynamics}
-    optional = {
-        "rho": _range(args.rho),
-        "stiffness": args.stiffness,
-        "inertia_ratio": _range(args.inertia_ratio),
-        "restitution": _range(args.restitution),
-        "spin_disturbance": args.spin_disturbance,
-    }
-    env_kwargs.update({key: value for key, value in optional.items() if value is not None})
     try:
-        gym.make("TetherBounce-v0", **env_kwargs).close()  # validate before any work
+        env_id, env_kwargs = env_from_args(args)  # validated before any work
         agents = {
             Path(spec).stem if spec.endswith(".zip") else spec: make_agent(spec, env_kwargs)
             for spec in args.agents
         }
-        results = evaluate(agents, env_kwargs, args.episodes, args.seed, not args.no_progress)
-    except ValueError as error:
+        results = evaluate(
+            agents, env_kwargs, args.episodes, args.seed, not args.no_progress, env_id
+        )
+    except (ValueError, ModuleNotFoundError) as error:
         parser.error(str(error))
     print(format_table(results))
     if args.csv is not None:
@@ -333,7 +311,12 @@ def main(argv: list[str] | None = None) -> None:
                                  *(s[k] for k in SUMMARY_FIELDS[4:])])  # fmt: skip
     if args.json is not None:
         results_json = [r.summary() for r in results]
-        payload = {"env_kwargs": env_kwargs, "seed": args.seed, "results": results_json}
+        payload = {
+            "env_id": env_id,
+            "env_kwargs": env_kwargs,
+            "seed": args.seed,
+            "results": results_json,
+        }
         args.json.write_text(json.dumps(payload, indent=2) + "\n")
     if args.plot is not None:
         plot(results, args.plot, args.plot_against)
