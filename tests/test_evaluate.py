@@ -81,7 +81,7 @@ def test_load_agent_runs_a_saved_model_with_its_normalizer(tmp_path):
     assert result.episodes == 20
 
 
-@pytest.mark.parametrize("module", ["tether_gym.agents.evaluate"])
+@pytest.mark.parametrize("module", ["tether_gym.agents.evaluate", "agents.evaluate"])
 def test_cli_help_documents_every_option(module):
     """`python -m agents.evaluate`, the repository's shim, is the same command."""
     root = Path(__file__).resolve().parents[1]

@@ -192,3 +192,12 @@ def test_rl_zoo_trains_from_the_hyperparameter_file(tmp_path):
     assert done.returncode == 0, done.stderr[-2000:]
     assert list(tmp_path.rglob("TetherBounce-v0.zip"))
 
+
+def test_the_clone_keeps_python_train_py_and_hyperparams():
+    """A clone's root: `python train.py` is tether-train, hyperparams/ the packaged folder."""
+    root = Path(__file__).resolve().parents[1]
+    command = [sys.executable, "train.py", "--help"]
+    done = subprocess.run(command, cwd=root, capture_output=True, text=True, timeout=120)
+    assert done.stdout.startswith("usage: tether-train")
+    packaged = Path(str(train.DEFAULT_CONF))
+    assert (root / "hyperparams" / "ppo.yml").resolve() == packaged.resolve()
