@@ -1,5 +1,2 @@
-"""Agents for TetherBounce-v0 and their evaluation: the oracles, a random baseline, a harness.
-
-Every agent has stable-baselines3's `predict(obs, state=None, episode_start=None,
-deterministic=True) -> (action, state)`, for one observation or a batch.
-"""
+"""Shim: the agents live in `tether_gym.agents`; this folder keeps `python -m agents.evaluate`
+working from a clone's root."""

@@ -1,7 +1,7 @@
 """PPO training throughput on TetherBounce-v0, and how much of it the environment costs.
 
-With the default hyperparameters (hyperparams/ppo.yml), measured in one run:
-  env only:  random actions through the SB3 adapter (tether_gym.sb3), env steps/s;
+With the default hyperparameters (the packaged hyperparams/ppo.yml), measured in one run:
+  env only:  random actions through the SB3 adapter (tether_gym.training.sb3), env steps/s;
   training:  PPO.learn timesteps/s (rollouts, i.e. policy forward passes + env, and updates);
   profile:   cProfile of a training run: the share of its time inside the env's step/reset.
 The environment is not the bottleneck when its share is small and env-only steps/s is many
@@ -16,16 +16,13 @@ import argparse
 import cProfile
 import pstats
 import statistics
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 from stable_baselines3 import PPO
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from tether_gym.sb3 import make_sb3_vec_env
-from train import DEFAULT_CONF, load_hyperparams, ppo_kwargs, use_one_thread
+from tether_gym.training.sb3 import make_sb3_vec_env
+from tether_gym.training.train import DEFAULT_CONF, load_hyperparams, ppo_kwargs, use_one_thread
 
 
 def env_steps_per_second(n_envs: int, steps: int) -> float:

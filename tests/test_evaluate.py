@@ -6,15 +6,16 @@ import json
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
-from agents.evaluate import evaluate, format_table, load_agent, main, wilson_interval
-from agents.oracle import ImpulseOracle
-from agents.random_agent import RandomAgent
+from tether_gym.agents.evaluate import evaluate, format_table, load_agent, main, wilson_interval
+from tether_gym.agents.oracle import ImpulseOracle
+from tether_gym.agents.random_agent import RandomAgent
 
 
 def test_two_agents_see_identical_episodes():
@@ -80,13 +81,16 @@ def test_load_agent_runs_a_saved_model_with_its_normalizer(tmp_path):
     assert result.episodes == 20
 
 
-def test_cli_help_documents_every_option():
-    out = subprocess.run(
-        [sys.executable, "-m", "agents.evaluate", "--help"], capture_output=True, text=True
-    ).stdout
-    options = ["--agents", "--episodes", "--seed", "--task", "--dynamics", "--rho", "--stiffness",
-               "--inertia-ratio", "--restitution", "--spin-disturbance", "--csv", "--json",
-               "--plot", "--plot-against", "--overwrite", "--no-progress"]  # fmt: skip
+@pytest.mark.parametrize("module", ["tether_gym.agents.evaluate", "agents.evaluate"])
+def test_cli_help_documents_every_option(module):
+    """`python -m agents.evaluate`, the repository's shim, is the same command."""
+    root = Path(__file__).resolve().parents[1]
+    command = [sys.executable, "-m", module, "--help"]
+    out = subprocess.run(command, capture_output=True, text=True, cwd=root).stdout
+    options = ["--agents", "--episodes", "--seed", "--env", "--env-kwargs", "--task",
+               "--dynamics", "--rho", "--stiffness", "--inertia-ratio", "--restitution",
+               "--spin-disturbance", "--csv", "--json", "--plot", "--plot-against", "--overwrite",
+               "--no-progress"]  # fmt: skip
     for option in options:
         assert option in out
 
@@ -99,7 +103,8 @@ def test_cli_writes_outputs_and_never_silently_overwrites(tmp_path, capsys):
     assert "| oracle |" in capsys.readouterr().out
     assert len(csv.read_text().splitlines()) == 3 and png.stat().st_size > 0
     payload = json.loads(js.read_text())
-    assert payload["env_kwargs"]["rho"] == [20.0, 200.0]
+    assert payload["env_id"] == "TetherBounce-v0"
+    assert payload["env_kwargs"] == {"rho": [20, 200]}
     assert [r["name"] for r in payload["results"]] == ["oracle", "random"]
     before = csv.read_text()
     with pytest.raises(SystemExit):
@@ -115,3 +120,5 @@ def test_cli_rejects_bad_options(tmp_path):
         main(["--agents", str(tmp_path / "missing.zip"), "--episodes", "5", "--no-progress"])
     with pytest.raises(SystemExit):
         main(["--task", "juggle", "--episodes", "5", "--no-progress"])
+    with pytest.raises(SystemExit):
+        main(["--env-kwargs", "restitution:2", "--episodes", "5", "--no-progress"])

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
-from agents.evaluate import evaluate
-from agents.oracle import ImpulseOracle, ShootingOracle
+from tether_gym.agents.evaluate import evaluate
+from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 from tether_gym.envs.core import RADIUS
 from tether_gym.physics import setup_for_velocity
 

@@ -1,4 +1,4 @@
-"""The SB3 VecEnv adapter over the native vector env (tether_gym.sb3)."""
+"""The SB3 VecEnv adapter over the native vector env (tether_gym.training.sb3)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import tether_gym  # noqa: F401
-from tether_gym.sb3 import SB3VecEnv, make_sb3_vec_env
+from tether_gym.training.sb3 import SB3VecEnv, make_sb3_vec_env
 
 N = 6
 

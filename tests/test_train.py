@@ -1,4 +1,4 @@
-"""train.py: a smoke training, resume, Ctrl-C checkpoints and the up-front errors."""
+"""tether-train: a smoke training, resume, Ctrl-C checkpoints and the up-front errors."""
 
 from __future__ import annotations
 
@@ -11,14 +11,22 @@ import yaml
 
 pytest.importorskip("stable_baselines3")
 
-import train
+from tether_gym.training import train
 
 # 8 envs x 64 steps: 512 timesteps per rollout, one small epoch, a tiny network.
-FAST = [
-    "--n-envs", "8", "--eval-episodes", "40", "--no-progress-bar", "--hyperparams",
+FAST_PARAMS = [
     "n_steps:64", "batch_size:256", "n_epochs:1",
     "policy_kwargs:dict(net_arch=[16], log_std_init=-1.0)",
 ]  # fmt: skip
+FAST = [
+    "--n-envs",
+    "8",
+    "--eval-episodes",
+    "40",
+    "--no-progress-bar",
+    "--hyperparams",
+    *FAST_PARAMS,
+]
 
 
 def run(tmp_path: Path, *args: str) -> int:
@@ -62,13 +70,48 @@ def test_interruption_leaves_a_checkpoint_that_resume_continues(tmp_path, monkey
     assert train.main(argv) == 0
     assert saved_timesteps(folder / "last") == 2048
     assert "training PPO for 1,024 timesteps" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        train.main(["--resume", str(folder), "--timesteps", "2048"])
+    assert "has 2048 timesteps" in capsys.readouterr().err
+
+
+def test_train_runs_a_config_as_the_cli_does(tmp_path):
+    """The seam for sweeps: `make_config` + `train()` give the CLI's run folder, periodic
+    evaluations (handed to `report`), summary and resume."""
+    params = train.load_hyperparams(train.DEFAULT_CONF, FAST_PARAMS)
+    config = train.make_config(
+        "TetherBounce-v0", {"rho": [20.0, 200.0]}, params,
+        n_envs=8, timesteps=1024, eval_episodes=40, eval_freq=512,
+    )  # fmt: skip
+    folder = tmp_path / "trial"
+    reports: list[dict] = []
+    summary = train.train(config, folder, report=reports.append)
+    assert [r["timesteps"] for r in reports] == [512, 1024]
+    assert summary["best_eval_success_rate"] == max(r["success_rate"] for r in reports)
+    assert yaml.safe_load((folder / "config.yaml").read_text()) == config
+    assert {"best", "last", "tb", "config.yaml", "results.md"} <= {p.name for p in folder.iterdir()}
+    names = [r["name"] for r in summary["results"]]
+    assert names == ["PPO (best)", "PPO (last)", "impulse oracle", "shooting oracle", "random"]
+    assert summary["table"] == (folder / "results.md").read_text().strip()
+    summary = train.train({**config, "timesteps": 1536}, folder, resume=True)
+    assert summary["timesteps"] == saved_timesteps(folder / "last") == 1536
+    with pytest.raises(ValueError, match="has 1536 timesteps"):
+        train.train({**config, "timesteps": 1536}, folder, resume=True)
+
+
+def test_env_kwargs_and_named_flags_make_one_config(tmp_path):
+    assert run(tmp_path, "--timesteps", "512", "--eval-freq", "0", "--task", "heading",
+               "--env-kwargs", "rho:(20, 200)", "restitution:0.9") == 0  # fmt: skip
+    config = yaml.safe_load((tmp_path / "smoke" / "config.yaml").read_text())
+    assert config["env_id"] == "TetherBounce-v0"
+    assert config["env_kwargs"] == {"rho": [20, 200], "restitution": 0.9, "task": "heading"}
 
 
 def test_resume_refuses_a_new_config(tmp_path, capsys):
     (tmp_path / "config.yaml").write_text("{}")
     with pytest.raises(SystemExit):
-        train.main(["--resume", str(tmp_path), "--rho", "5"])
-    assert "drop --rho" in capsys.readouterr().err
+        train.main(["--resume", str(tmp_path), "--rho", "5", "--env-kwargs", "task:heading"])
+    assert "drop --env-kwargs, --rho" in capsys.readouterr().err
 
 
 def test_an_existing_run_is_never_overwritten_unless_asked(tmp_path, capsys):
@@ -109,23 +152,36 @@ def test_a_bad_hyperparameter_file_fails_up_front(tmp_path, capsys, text, messag
     assert not (tmp_path / "runs").exists(), "nothing is written before the checks pass"
 
 
-def test_bad_options_name_the_parameter(tmp_path, capsys):
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--rho", "0.5"], "rho must be"),
+        (["--rho", "5", "10", "20"], "rho must be a number or a (low, high) pair"),
+        (["--env-kwargs", "task:juggle"], "task must be one of"),
+        (["--env-kwargs", "rho:5", "--rho", "6"], "rho is given twice"),
+        (["--env-kwargs", "rho=5"], "key:value"),
+        (["--env-kwargs", "wind:3"], "unexpected keyword argument 'wind'"),
+        (["--env", "TetherBonce-v0"], "doesn't exist"),
+        (["--hyperparams", "n_steps=32"], "key:value"),
+        (["--n-envs", "0"], "n_envs must be at least 1"),
+    ],
+)
+def test_bad_options_name_the_parameter_before_any_work(tmp_path, capsys, args, message):
     with pytest.raises(SystemExit):
-        train.main(["--rho", "0.5", "--runs-dir", str(tmp_path)])
-    assert "rho" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        train.main(["--hyperparams", "n_steps=32", "--runs-dir", str(tmp_path)])
-    assert "key:value" in capsys.readouterr().err
+        train.main([*args, "--runs-dir", str(tmp_path / "runs")])
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "runs").exists()
 
 
 def test_default_names_differ_by_config_and_seed():
-    assert train.default_name({}, 0) == "ppo_mixed_hybrid_seed0"
-    low = train.default_name({"rho": [5.0, 100.0]}, 1)
-    assert low == "ppo_mixed_hybrid_rho5-100_seed1"
+    assert train.default_name("TetherBounce-v0", {}, 0) == "ppo_mixed_hybrid_seed0"
+    low = train.default_name("TetherBounce-v0", {"rho": [5.0, 100.0], "task": "heading"}, 1)
+    assert low == "ppo_heading_hybrid_rho5-100_seed1"
+    assert train.default_name("Other-v1", {}, 2) == "ppo_Other-v1_mixed_hybrid_seed2"
 
 
 def test_rl_zoo_trains_from_the_hyperparameter_file(tmp_path):
-    """The optional extra "zoo": rl-baselines3-zoo reads hyperparams/ppo.yml and trains."""
+    """The optional extra "zoo": rl-baselines3-zoo reads the packaged ppo.yml and trains."""
     pytest.importorskip("rl_zoo3")
     command = [
         sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", "TetherBounce-v0",
@@ -135,3 +191,13 @@ def test_rl_zoo_trains_from_the_hyperparameter_file(tmp_path):
     done = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr[-2000:]
     assert list(tmp_path.rglob("TetherBounce-v0.zip"))
+
+
+def test_the_clone_keeps_python_train_py_and_hyperparams():
+    """A clone's root: `python train.py` is tether-train, hyperparams/ the packaged folder."""
+    root = Path(__file__).resolve().parents[1]
+    command = [sys.executable, "train.py", "--help"]
+    done = subprocess.run(command, cwd=root, capture_output=True, text=True, timeout=120)
+    assert done.stdout.startswith("usage: tether-train")
+    packaged = Path(str(train.DEFAULT_CONF))
+    assert (root / "hyperparams" / "ppo.yml").resolve() == packaged.resolve()

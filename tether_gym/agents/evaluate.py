@@ -1,0 +1,326 @@
+"""Evaluate agents on the same fixed, seeded TetherBounce-v0 episodes and tabulate the results.
+
+    tether-evaluate --agents oracle shooting random --episodes 1000 --rho 5 100
+
+Every agent sees the same episodes: the native vector env (`BATCH` copies) with copy i seeded
+BATCH * seed + i, so the first k episodes of an evaluation do not depend on its length, and
+two seeds share no episodes (Gymnasium's seed + i would share all but one copy's).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import pickle
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
+from tether_gym.agents.random_agent import RandomAgent
+from tether_gym.cli import DEFAULT_ENV_ID, add_env_arguments, env_from_args, require_extra
+
+BATCH = 100
+"""Episodes per vector-env step (the progress bar's granularity)."""
+SUMMARY_FIELDS = (
+    "name", "episodes", "success_rate", "success_ci", "heading_error_mean_deg",
+    "heading_error_p95_deg", "deadspin_residual_mean", "reward_mean", "episodes_per_second",
+)  # fmt: skip
+
+
+@dataclass
+class EvalResult:
+    """One agent's evaluation: the summary and the per-episode arrays behind it."""
+
+    name: str
+    episodes: int
+    success_rate: float
+    success_ci: tuple[float, float]
+    heading_error_mean_deg: float
+    """Over the heading and velocity episodes (NaN if none)."""
+    heading_error_p95_deg: float
+    deadspin_residual_mean: float
+    """Mean |v'| / launch speed over the deadspin episodes (NaN if none)."""
+    reward_mean: float
+    episodes_per_second: float
+    task: np.ndarray = field(repr=False)
+    target_heading: np.ndarray = field(repr=False)
+    rho: np.ndarray = field(repr=False)
+    heading_error: np.ndarray = field(repr=False)
+    """|heading error|, rad (0 for deadspin episodes)."""
+    residual_speed: np.ndarray = field(repr=False)
+    success: np.ndarray = field(repr=False)
+    reward: np.ndarray = field(repr=False)
+
+    def summary(self) -> dict:
+        """The summary fields (NaN as None, so that the JSON is standard)."""
+        values = {name: getattr(self, name) for name in SUMMARY_FIELDS}
+        return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in values.items()}
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+    """The 95% Wilson score interval of a success rate (sound near 0 and 1, unlike Wald's)."""
+    if n == 0:
+        return (0.0, 1.0)
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    # exact at the ends, where rounding would leave the rate just outside its own interval
+    return (0.0 if successes == 0 else centre - half, 1.0 if successes == n else centre + half)
+
+
+def _mean(values: np.ndarray) -> float:
+    return float(values.mean()) if values.size else math.nan
+
+
+def _run(
+    agent, env_id: str, env_kwargs: dict, episodes: int, seed: int, bar
+) -> dict[str, np.ndarray]:
+    """Per-episode observations and outcomes of one agent, and its wall time."""
+    env = gym.make_vec(
+        env_id,
+        num_envs=min(episodes, BATCH),
+        vectorization_mode="vector_entry_point",
+        **env_kwargs,
+    )
+    obs, _ = env.reset(seed=BATCH * seed)
+    keys = ("is_success", "heading_error", "residual_speed")
+    rows: dict[str, list] = {key: [] for key in (*keys, "obs", "reward")}
+    elapsed, done = 0.0, 0
+    while done < episodes:
+        start = time.perf_counter()
+        action, _ = agent.predict(obs, deterministic=True)
+        next_obs, reward, _, _, info = env.step(action)
+        elapsed += time.perf_counter() - start
+        rows["obs"].append(obs)
+        rows["reward"].append(reward)
+        for key in keys:
+            rows[key].append(info[key])
+        if bar is not None:
+            bar.update(min(len(obs), episodes - done))
+        done += len(obs)
+        obs = next_obs
+    env.close()
+    out = {key: np.concatenate(value)[:episodes] for key, value in rows.items()}
+    out["elapsed"] = elapsed
+    return out
+
+
+def evaluate(
+    agents: dict[str, object],
+    env_kwargs: dict,
+    episodes: int = 1000,
+    seed: int = 0,
+    progress: bool = False,
+    env_id: str = DEFAULT_ENV_ID,
+) -> list[EvalResult]:
+    """Run every agent on the same `episodes` seeded episodes of `env_id(**env_kwargs)`."""
+    if not isinstance(episodes, (int, np.integer)) or episodes < 1:
+        raise ValueError(f"episodes must be an integer in [1, inf), got {episodes!r}")
+    results = []
+    for name, agent in agents.items():
+        bar = None
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=episodes, desc=name, unit="ep", leave=False)
+        run = _run(agent, env_id, env_kwargs, episodes, seed, bar)
+        if bar is not None:
+            bar.close()
+        obs = run["obs"].astype(np.float64)
+        task = np.argmax(obs[:, 0:3], axis=1)
+        success = run["is_success"].astype(bool)
+        error = np.abs(run["heading_error"])
+        aimed = np.degrees(error[task != 2])
+        results.append(
+            EvalResult(
+                name=name,
+                episodes=episodes,
+                success_rate=float(success.mean()),
+                success_ci=wilson_interval(int(success.sum()), episodes),
+                heading_error_mean_deg=_mean(aimed),
+                heading_error_p95_deg=float(np.percentile(aimed, 95)) if aimed.size else math.nan,
+                deadspin_residual_mean=_mean(run["residual_speed"][task == 2]),
+                reward_mean=float(run["reward"].mean()),
+                episodes_per_second=episodes / run["elapsed"],
+                task=task,
+                target_heading=np.arctan2(obs[:, 4], obs[:, 3]),
+                rho=10.0 ** obs[:, 8],
+                heading_error=error,
+                residual_speed=run["residual_speed"],
+                success=success,
+                reward=run["reward"],
+            )
+        )
+    return results
+
+
+def format_table(results: list[EvalResult]) -> str:
+    """The results as one Markdown table."""
+    lines = [
+        "| agent | episodes | success (95% CI) | heading error mean (deg) | heading error p95 "
+        "(deg) | deadspin residual | reward | episodes/s |",
+        "|---|---:|---|---:|---:|---:|---:|---:|",
+    ]
+    for r in results:
+        low, high = r.success_ci
+        lines.append(
+            f"| {r.name} | {r.episodes} | {100 * r.success_rate:.1f}% "
+            f"[{100 * low:.1f}, {100 * high:.1f}] | {r.heading_error_mean_deg:.3g} | "
+            f"{r.heading_error_p95_deg:.3g} | {r.deadspin_residual_mean:.3g} | "
+            f"{r.reward_mean:.3f} | {r.episodes_per_second:,.0f} |"
+        )
+    return "\n".join(lines)
+
+
+class SB3Agent:
+    """A saved stable-baselines3 PPO model, with its VecNormalize statistics if saved beside it."""
+
+    def __init__(self, model, normalizer=None):
+        self.model, self.normalizer = model, normalizer
+
+    def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
+        if self.normalizer is not None:
+            obs = self.normalizer.normalize_obs(np.asarray(obs, dtype=np.float32))
+        return self.model.predict(obs, state, episode_start, deterministic)
+
+
+def load_agent(path: str | Path) -> SB3Agent:
+    """A saved SB3 PPO model (zip) as an agent; `vecnormalize.pkl` beside it is applied.
+
+    Raises:
+        ValueError: naming the path, if it is missing or not a loadable SB3 model.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"model path {str(path)!r} does not exist or is not a file")
+    from stable_baselines3 import PPO
+
+    try:
+        model = PPO.load(path, device="cpu")
+    except Exception as error:
+        raise ValueError(
+            f"model path {str(path)!r} is not a loadable SB3 PPO model: {error}"
+        ) from error
+    stats = path.parent / "vecnormalize.pkl"
+    normalizer = None
+    if stats.is_file():
+        try:
+            with stats.open("rb") as handle:
+                normalizer = pickle.load(handle)  # what VecNormalize.load does, without a venv
+        except Exception as error:
+            raise ValueError(f"cannot read VecNormalize stats {str(stats)!r}: {error}") from error
+        normalizer.training = False
+    return SB3Agent(model, normalizer)
+
+
+def make_agent(spec: str, env_kwargs: dict, seed: int = 0):
+    """ "oracle", "shooting", "random" or the path of a saved SB3 model zip."""
+    if spec == "oracle":
+        return ImpulseOracle()
+    if spec == "shooting":
+        return ShootingOracle(env_kwargs)
+    if spec == "random":
+        return RandomAgent(seed)
+    require_extra(f"the model {spec!r}", ("stable_baselines3", "torch"))
+    return load_agent(spec)
+
+
+def plot(results: list[EvalResult], path: Path, against: str = "rho") -> None:
+    """Heading error against rho or the target heading, agents side by side (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(
+        1, len(results), figsize=(4 * len(results), 3.5), sharey=True, squeeze=False
+    )
+    for ax, r in zip(axes[0], results, strict=True):
+        aimed = r.task != 2
+        x = r.rho[aimed] if against == "rho" else np.degrees(r.target_heading[aimed])
+        ax.scatter(x, np.degrees(np.maximum(r.heading_error[aimed], 1e-9)), s=4, alpha=0.5)
+        ax.axhline(2.0, color="k", lw=0.8, ls="--", label="success tolerance")
+        ax.set_yscale("log")
+        if against == "rho":
+            ax.set_xscale("log")
+        ax.set_title(r.name)
+        ax.set_xlabel("rho (eq. 11, at 3 m/s)" if against == "rho" else "target heading (deg)")
+    axes[0, 0].set_ylabel("|heading error| (deg)")
+    axes[0, 0].legend(loc="lower left", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="tether-evaluate",
+        description="Evaluate agents on the same fixed, seeded TetherBounce-v0 episodes.",
+    )
+    add = parser.add_argument
+    add("--agents", nargs="+", default=["oracle", "shooting", "random"], metavar="AGENT",
+        help="oracle (impulse), shooting (model-based), random, or a saved SB3 model zip path "
+        "(default: oracle shooting random)")  # fmt: skip
+    add("--episodes", type=int, default=1000, help="episodes per agent (default 1000)")
+    add("--seed", type=int, default=0, help="seed of the episodes (default 0)")
+    add("--csv", type=Path, metavar="PATH", help="write the table as CSV")
+    add("--json", type=Path, metavar="PATH", help="write the table and the config as JSON")
+    add("--plot", type=Path, metavar="PNG", help="plot heading error, agents side by side")
+    add("--plot-against", choices=("rho", "target"), default="rho",
+        help="x axis of --plot: rho or the target heading (default rho)")  # fmt: skip
+    add("--overwrite", action="store_true", help="replace existing output files")
+    add("--no-progress", action="store_true", help="no progress bar")
+    add_env_arguments(parser)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> None:
+    """The console script `tether-evaluate`."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    outputs = [p for p in (args.csv, args.json, args.plot) if p is not None]
+    for path in outputs:
+        if path.exists() and not args.overwrite:
+            parser.error(f"{path} exists; pass --overwrite to replace it")
+    try:
+        env_id, env_kwargs = env_from_args(args)  # validated before any work
+        agents = {
+            Path(spec).stem if spec.endswith(".zip") else spec: make_agent(spec, env_kwargs)
+            for spec in args.agents
+        }
+        results = evaluate(
+            agents, env_kwargs, args.episodes, args.seed, not args.no_progress, env_id
+        )
+    except (ValueError, ModuleNotFoundError) as error:
+        parser.error(str(error))
+    print(format_table(results))
+    if args.csv is not None:
+        with args.csv.open("w", newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow([*SUMMARY_FIELDS[:3], "success_ci_low", "success_ci_high",
+                             *SUMMARY_FIELDS[4:]])  # fmt: skip
+            for r in results:
+                s = r.summary()
+                writer.writerow([s["name"], s["episodes"], s["success_rate"], *s["success_ci"],
+                                 *(s[k] for k in SUMMARY_FIELDS[4:])])  # fmt: skip
+    if args.json is not None:
+        results_json = [r.summary() for r in results]
+        payload = {
+            "env_id": env_id,
+            "env_kwargs": env_kwargs,
+            "seed": args.seed,
+            "results": results_json,
+        }
+        args.json.write_text(json.dumps(payload, indent=2) + "\n")
+    if args.plot is not None:
+        plot(results, args.plot, args.plot_against)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,520 @@
+"""Train PPO (stable-baselines3) on TetherBounce-v0 and compare it with the oracles.
+
+    tether-train                                     # the default run (`make train`)
+    tether-train --rho 5 100                         # the low-stiffness configuration
+    tether-train --resume runs/<name>                # continue an interrupted run
+
+(`python train.py ...` from a clone's root is the same command.) Hyperparameters come from the
+packaged `hyperparams/ppo.yml` (`DEFAULT_CONF`) in rl-baselines3-zoo's format (keyed by env id,
+`lin_<x>` for a linear schedule, `policy_kwargs` as a Python expression), or `--conf-file`, and
+`--hyperparams key:value ...` overrides them. The native vector env feeds SB3 through
+`tether_gym.training.sb3`. Every `--eval-freq` timesteps the deterministic policy plays the same
+fixed, seeded episodes as the impulse oracle; the best policy so far and the last one are kept in
+`runs/<name>/best/` and `runs/<name>/last/` (model.zip, config.yaml, vecnormalize.pkl if used),
+TensorBoard logs in `runs/<name>/tb/`. At the end PPO, the impulse oracle, the shooting oracle and
+a random agent play the same fresh test episodes and the table is printed and saved to
+`runs/<name>/results.md`. Ctrl-C saves the last model before exiting; an existing run is never
+overwritten without `--overwrite`.
+
+`train(config, run_dir)` is that whole run for callers that make their own configs (a sweep's
+trials): `make_config` gives the schema, saved as `config.yaml`, and `check_run` the checks.
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import shutil
+import sys
+import time
+from collections.abc import Callable
+from importlib.resources import files
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import torch
+import yaml
+from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.utils import LinearSchedule
+from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+from tether_gym.agents.evaluate import EvalResult, SB3Agent, evaluate, format_table, load_agent
+from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
+from tether_gym.agents.random_agent import RandomAgent
+from tether_gym.cli import (
+    DEFAULT_ENV_ID,
+    ENV_DEFAULTS,
+    add_env_arguments,
+    check_env,
+    env_from_args,
+    given_env_options,
+)
+from tether_gym.training.sb3 import make_sb3_vec_env
+
+if TYPE_CHECKING:
+    from importlib.resources.abc import Traversable
+
+DEFAULT_CONF = files("tether_gym.training") / "hyperparams" / "ppo.yml"
+"""The packaged hyperparameter file (a `Path` in an installed or editable package)."""
+EVAL_SEED = 1_000_000
+"""Seed of the periodic evaluation episodes (which pick the best model)."""
+TEST_SEED = 2_000_000
+"""Seed of the final table's episodes, apart from those that picked the best model."""
+ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize")
+"""Keys of a zoo entry that are not PPO arguments."""
+Report = Callable[[dict[str, float]], None]
+"""Receives each periodic evaluation's numbers (e.g. a sweep's `tune.report`)."""
+RUN_OPTIONS = ("seed", "n_envs", "timesteps", "eval_episodes", "eval_freq")
+"""`make_config`'s options that the command line sets (None: not given)."""
+RESUME_OPTIONS = ("timesteps", "eval_episodes", "eval_freq")
+"""The options a resumed run may change."""
+
+
+def load_hyperparams(
+    path: Path | Traversable, overrides: list[str], env_id: str = DEFAULT_ENV_ID
+) -> dict[str, Any]:
+    """The zoo entry for `env_id` in `path`, with `key:value` overrides (YAML scalars) applied.
+
+    Raises ValueError for an unreadable file, a missing entry or a malformed override; the
+    values themselves are checked by `check_config`.
+    """
+    try:
+        conf = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as error:
+        raise ValueError(f"cannot parse the hyperparameter file {str(path)!r}: {error}") from None
+    if not isinstance(conf, dict) or not isinstance(conf.get(env_id), dict):
+        raise ValueError(f"hyperparameter file {str(path)!r} has no mapping for {env_id!r}")
+    params = dict(conf[env_id])
+    for item in overrides:
+        key, sep, value = item.partition(":")
+        if not sep or not key:
+            raise ValueError(f"--hyperparams takes key:value pairs, got {item!r}")
+        params[key] = yaml.safe_load(value)
+    return params
+
+
+def schedule(value: Any) -> Any:
+    """The zoo's `lin_<x>`: linear decay from x to 0 over training; a number stays constant."""
+    if isinstance(value, str) and value.startswith("lin_"):
+        return LinearSchedule(float(value[4:]), 0.0, 1.0)
+    return float(value)
+
+
+def expression(text: str) -> Any:
+    """The zoo's convention for dict values: a Python expression, e.g. "dict(net_arch=[64])"."""
+    return eval(text, {"__builtins__": {}, "dict": dict, "nn": torch.nn})
+
+
+def ppo_kwargs(params: dict[str, Any]) -> dict[str, Any]:
+    """The PPO keyword arguments of a zoo entry (schedules and policy_kwargs evaluated)."""
+    kwargs = {k: v for k, v in params.items() if k not in ZOO_KEYS}
+    try:
+        for key in ("learning_rate", "clip_range", "clip_range_vf"):
+            if kwargs.get(key) is not None:
+                kwargs[key] = schedule(kwargs[key])
+        if isinstance(kwargs.get("policy_kwargs"), str):
+            kwargs["policy_kwargs"] = expression(kwargs["policy_kwargs"])
+        if isinstance(params.get("normalize"), str):
+            expression(params["normalize"])
+    except Exception as error:
+        raise ValueError(f"bad hyperparameter value: {error}") from None
+    return kwargs
+
+
+def make_config(
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    hyperparams: dict[str, Any],
+    seed: int = 0,
+    n_envs: int | None = None,
+    timesteps: float | None = None,
+    eval_episodes: int = 1000,
+    eval_freq: float = 250_000,
+) -> dict[str, Any]:
+    """A run's config as plain data (its `config.yaml`): what `train` reads, nothing else.
+
+    `n_envs` and `timesteps` default to the zoo entry's `n_envs` and `n_timesteps`;
+    `eval_freq` 0 turns the periodic evaluation off.
+    """
+    return {
+        "env_id": env_id,
+        "env_kwargs": env_kwargs,
+        "seed": seed,
+        "n_envs": int(hyperparams.get("n_envs", 8) if n_envs is None else n_envs),
+        "timesteps": int(hyperparams.get("n_timesteps", 1e6) if timesteps is None else timesteps),
+        "eval_episodes": eval_episodes,
+        "eval_freq": int(eval_freq),
+        "hyperparams": hyperparams,
+    }
+
+
+def check_config(config: dict[str, Any]) -> None:
+    """ValueError naming the first bad entry: the env's own check of its arguments, unknown
+    or malformed hyperparameters, sizes below 1."""
+    check_env(config["env_id"], config["env_kwargs"])
+    params = config["hyperparams"]
+    allowed = set(inspect.signature(PPO.__init__).parameters) - {"self", "env", "_init_setup_model"}
+    unknown = set(params) - allowed - set(ZOO_KEYS)
+    if unknown:
+        raise ValueError(f"unknown PPO hyperparameters {sorted(unknown)}")
+    ppo_kwargs(params)
+    for key in ("n_envs", "timesteps", "eval_episodes"):
+        if config[key] < 1:
+            raise ValueError(f"{key} must be at least 1, got {config[key]}")
+    if config["eval_freq"] < 0:
+        raise ValueError(f"eval_freq must be at least 0, got {config['eval_freq']}")
+
+
+def read_yaml(path: Path) -> dict[str, Any]:
+    """A saved config (ValueError naming the file if it cannot be read)."""
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as error:
+        raise ValueError(f"cannot read {str(path)!r}: {error}") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{str(path)!r} does not hold a config mapping")
+    return data
+
+
+def check_run(config: dict[str, Any], run_dir: Path, resume: bool = False) -> None:
+    """Everything `train` checks before any work (ValueError): the config and, to resume, a
+    `last/` checkpoint short of `config["timesteps"]`."""
+    check_config(config)
+    if resume:
+        if not (run_dir / "last" / "model.zip").is_file():
+            raise ValueError(f"cannot resume {str(run_dir)!r}: it has no last/model.zip")
+        done = read_yaml(run_dir / "last" / "config.yaml").get("num_timesteps", 0)
+        if done >= config["timesteps"]:
+            raise ValueError(
+                f"{run_dir} has {done} timesteps: ask for more than that in total (--timesteps)"
+            )
+
+
+def default_name(env_id: str, env_kwargs: dict[str, Any], seed: int) -> str:
+    """runs/<name>: `ppo_<task>_<dynamics>` (after the env id if not the default), the other
+    env arguments given, and the seed."""
+    parts = ["ppo"] if env_id == DEFAULT_ENV_ID else ["ppo", env_id]
+    parts += [str(env_kwargs.get(key, ENV_DEFAULTS[key])) for key in ("task", "dynamics")]
+    for key, value in env_kwargs.items():
+        if key not in ("task", "dynamics"):
+            values = value if isinstance(value, list) else [value]
+            text = "-".join(f"{v:g}" if isinstance(v, (int, float)) else str(v) for v in values)
+            parts.append(f"{key.replace('_', '')}{text}")
+    return "_".join([*parts, f"seed{seed}"])
+
+
+def prepare_run_dir(path: Path, overwrite: bool) -> None:
+    """Create the run folder; refuse an existing run unless `overwrite`; check it is writable."""
+    if path.is_dir() and any(path.iterdir()):
+        if not overwrite:
+            raise ValueError(
+                f"run folder {str(path)!r} exists: pick another --name, continue it with "
+                f"--resume {path}, or pass --overwrite"
+            )
+        shutil.rmtree(path)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as error:
+        raise ValueError(f"cannot write the run folder {str(path)!r}: {error}") from None
+
+
+class Checkpoints:
+    """Saving a model with its config (and VecNormalize stats) in runs/<name>/<best|last>/."""
+
+    def __init__(self, run_dir: Path, config: dict[str, Any]):
+        self.run_dir, self.config = run_dir, config
+
+    def save(self, model: PPO, which: str, **extra: Any) -> Path:
+        folder = self.run_dir / which
+        folder.mkdir(exist_ok=True)
+        model.save(folder / "model.zip")
+        normalizer = model.get_vec_normalize_env()
+        if normalizer is not None:
+            normalizer.save(str(folder / "vecnormalize.pkl"))
+        config = {**self.config, "num_timesteps": int(model.num_timesteps), **extra}
+        (folder / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+        return folder / "model.zip"
+
+
+def as_agent(model: PPO) -> SB3Agent:
+    """The model as an evaluation agent (normalizing observations never updates the stats)."""
+    return SB3Agent(model, model.get_vec_normalize_env())
+
+
+class OracleEvalCallback(BaseCallback):
+    """Every `eval_freq` timesteps: PPO vs the impulse oracle on the same seeded episodes.
+
+    Logs both success rates to TensorBoard, prints a line, hands the numbers to `report`, and
+    saves the best model.
+    """
+
+    def __init__(
+        self,
+        checkpoints: Checkpoints,
+        best: float = -1.0,
+        report: Report | None = None,
+    ):
+        super().__init__()
+        config = checkpoints.config
+        self.checkpoints, self.best, self.report = checkpoints, best, report
+        self.env_id, self.env_kwargs = config["env_id"], config["env_kwargs"]
+        self.episodes = config["eval_episodes"]
+        self.freq = config["eval_freq"] or 2 * config["timesteps"]  # 0: never
+        self.next_eval = self.last_eval = 0
+        self.oracle_rate = float("nan")
+
+    def _evaluate(self, name: str, agent: object) -> EvalResult:
+        (result,) = evaluate(
+            {name: agent}, self.env_kwargs, self.episodes, EVAL_SEED, env_id=self.env_id
+        )
+        return result
+
+    def _on_training_start(self) -> None:
+        self.oracle_rate = self._evaluate("impulse oracle", ImpulseOracle()).success_rate
+        self.next_eval = self.num_timesteps + self.freq
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps >= self.next_eval:
+            self.next_eval += self.freq
+            self.run_eval()
+        return True
+
+    def run_eval(self) -> None:
+        self.last_eval = self.num_timesteps
+        ppo = self._evaluate("ppo", as_agent(self.model))
+        numbers = {
+            "timesteps": self.num_timesteps,
+            "success_rate": ppo.success_rate,
+            "oracle_success_rate": self.oracle_rate,
+            "heading_error_mean_deg": ppo.heading_error_mean_deg,
+            "reward_mean": ppo.reward_mean,
+        }
+        for key, value in numbers.items():
+            if key != "timesteps":
+                self.logger.record(f"eval/{key}", value)
+        improved = ppo.success_rate > self.best
+        if improved:
+            self.best = ppo.success_rate
+            self.checkpoints.save(self.model, "best", eval_success_rate=self.best)
+        print(
+            f"[eval] {self.num_timesteps:,} timesteps: PPO {100 * ppo.success_rate:.1f}% "
+            f"vs impulse oracle {100 * self.oracle_rate:.1f}% success"
+            + (" (new best)" if improved else ""),
+            flush=True,
+        )
+        if self.report is not None:
+            self.report(numbers)
+
+
+def final_results(run_dir: Path, model: PPO, config: dict[str, Any]) -> list[EvalResult]:
+    """PPO (best and last), the oracles and random on the same fresh test episodes."""
+    agents: dict[str, object] = {}
+    if (run_dir / "best" / "model.zip").is_file():
+        agents["PPO (best)"] = load_agent(run_dir / "best" / "model.zip")
+    agents["PPO (last)"] = as_agent(model)
+    agents["impulse oracle"] = ImpulseOracle()
+    agents["shooting oracle"] = ShootingOracle(config["env_kwargs"])
+    agents["random"] = RandomAgent(config["seed"])
+    return evaluate(
+        agents, config["env_kwargs"], config["eval_episodes"], TEST_SEED, env_id=config["env_id"]
+    )
+
+
+def make_model(config: dict[str, Any], run_dir: Path, resume: bool) -> PPO:
+    """A new PPO for `config`, or the run's last model with its VecNormalize statistics."""
+    params, seed = config["hyperparams"], config["seed"]
+    # VecMonitor: episode rewards for the logs (rollout/ep_rew_mean)
+    venv = VecMonitor(
+        make_sb3_vec_env(config["n_envs"], seed, config["env_id"], **config["env_kwargs"])
+    )
+    last = run_dir / "last"
+    normalize = params.get("normalize", False)
+    if resume:
+        if normalize:
+            venv = VecNormalize.load(str(last / "vecnormalize.pkl"), venv)
+        model = PPO.load(last / "model.zip", env=venv, device="cpu")
+        venv.seed(seed + model.num_timesteps)  # fresh episodes, not a replay of the first ones
+        return model
+    if normalize:  # as in the zoo: true, or a dict of VecNormalize arguments
+        options = expression(normalize) if isinstance(normalize, str) else {}
+        venv = VecNormalize(venv, gamma=params.get("gamma", 0.99), **options)
+    return PPO(
+        params.get("policy", "MlpPolicy"),
+        venv,
+        seed=seed,
+        device="cpu",
+        verbose=0,
+        tensorboard_log=str(run_dir / "tb"),
+        **ppo_kwargs(params),
+    )
+
+
+def use_one_thread() -> None:
+    """One torch thread: the gradient steps are small, a second thread does not help."""
+    torch.set_num_threads(1)
+
+
+def train(
+    config: dict[str, Any],
+    run_dir: Path,
+    resume: bool = False,
+    progress_bar: bool = False,
+    report: Report | None = None,
+) -> dict[str, Any]:
+    """Train PPO as `config` (`make_config`'s schema) says into `run_dir`, then evaluate.
+
+    A new run writes `run_dir/config.yaml` (into an existing folder too: the caller decides
+    what may be overwritten); `resume` continues from `run_dir/last/` up to
+    `config["timesteps"]` in total. Periodic evaluations keep the best model in `best/` and
+    hand their numbers to `report`; at the end `last/` is saved and the final table of PPO,
+    the oracles and random is written to `results.md`. On KeyboardInterrupt `last/` is saved
+    and the interrupt propagates. Runs on one torch thread, so that a seed gives one result.
+
+    Returns:
+        The summary: `run_dir`, `timesteps`, `train_seconds`, `best_eval_success_rate`,
+        `results` (one summary dict per agent of the final table) and `table` (Markdown).
+
+    Raises:
+        ValueError: from `check_run`, before any work.
+    """
+    check_run(config, run_dir, resume)
+    use_one_thread()
+    best = -1.0
+    if resume:
+        best_file = run_dir / "best" / "config.yaml"
+        if best_file.is_file():
+            best = read_yaml(best_file).get("eval_success_rate", best)
+    else:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        (run_dir / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+    model = make_model(config, run_dir, resume)
+    start_timesteps = model.num_timesteps
+    checkpoints = Checkpoints(run_dir, config)
+    callback = OracleEvalCallback(checkpoints, best, report)
+    remaining = config["timesteps"] - start_timesteps
+    print(f"training PPO for {remaining:,} timesteps into {run_dir}", flush=True)
+    start = time.perf_counter()
+    try:
+        model.learn(
+            remaining,
+            callback=callback,
+            reset_num_timesteps=not resume,
+            progress_bar=progress_bar,
+            tb_log_name="PPO",
+        )
+    except KeyboardInterrupt:
+        path = checkpoints.save(model, "last")
+        print(f"\ninterrupted at {model.num_timesteps:,} timesteps: saved {path}", file=sys.stderr)
+        raise
+    elapsed = time.perf_counter() - start
+    if config["eval_freq"] and callback.last_eval != model.num_timesteps:
+        callback.run_eval()
+    checkpoints.save(model, "last", train_seconds=round(elapsed, 1))
+    done = model.num_timesteps - start_timesteps
+    print(f"trained {done:,} timesteps in {elapsed:.0f} s ({done / elapsed:,.0f}/s)")
+    results = final_results(run_dir, model, config)
+    table = format_table(results)
+    (run_dir / "results.md").write_text(table + "\n")
+    return {
+        "run_dir": str(run_dir),
+        "timesteps": int(model.num_timesteps),
+        "train_seconds": elapsed,
+        "best_eval_success_rate": callback.best,
+        "results": [result.summary() for result in results],
+        "table": table,
+    }
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="tether-train",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    run = parser.add_argument_group("training")
+    run.add_argument("--n-envs", type=int, help="parallel envs (default: the conf file's)")
+    run.add_argument(
+        "--timesteps", type=float, help="total timesteps (default: the conf file's n_timesteps)"
+    )
+    run.add_argument("--seed", type=int, help="seed of the run (default 0)")
+    run.add_argument(
+        "--conf-file",
+        type=Path,
+        default=DEFAULT_CONF,
+        help="rl-zoo style hyperparameter file (default: the packaged hyperparams/ppo.yml)",
+    )
+    run.add_argument(
+        "-params",
+        "--hyperparams",
+        nargs="+",
+        action="extend",
+        default=[],
+        metavar="KEY:VALUE",
+        help="override hyperparameters, e.g. n_epochs:10 learning_rate:lin_1e-3",
+    )
+    run.add_argument("--eval-episodes", type=int, help="episodes per evaluation (default 1000)")
+    run.add_argument(
+        "--eval-freq", type=float, help="timesteps between evaluations (default 250000; 0: none)"
+    )
+    out = parser.add_argument_group("output")
+    out.add_argument("--name", help="run folder runs/<name> (default: from the config and seed)")
+    out.add_argument("--runs-dir", type=Path, default=Path("runs"), help="default ./runs")
+    out.add_argument(
+        "--resume",
+        type=Path,
+        metavar="RUN_DIR",
+        help="continue runs/<name> from its last model (to --timesteps in total)",
+    )
+    out.add_argument("--overwrite", action="store_true", help="replace an existing run folder")
+    out.add_argument("--no-progress-bar", action="store_true")
+    add_env_arguments(parser)
+    return parser
+
+
+def setup(args: argparse.Namespace) -> tuple[dict[str, Any], Path]:
+    """The run's config and folder from the command line, checked (ValueError)."""
+    given = {key: getattr(args, key) for key in RUN_OPTIONS if getattr(args, key) is not None}
+    if args.resume is not None:
+        fixed = given_env_options(args)
+        fixed += [f"--{key.replace('_', '-')}" for key in given if key not in RESUME_OPTIONS]
+        fixed += [f"--{key}" for key in ("name", "hyperparams") if getattr(args, key)]
+        if fixed:
+            raise ValueError(f"--resume takes the config of {args.resume}: drop {', '.join(fixed)}")
+        config = read_yaml(args.resume / "config.yaml")
+        config.update({key: int(value) for key, value in given.items()})
+        check_run(config, args.resume, resume=True)
+        return config, args.resume
+    env_id, env_kwargs = env_from_args(args)
+    params = load_hyperparams(args.conf_file, args.hyperparams, env_id)
+    config = make_config(env_id, env_kwargs, params, **given)
+    check_config(config)
+    run_dir = args.runs_dir / (args.name or default_name(env_id, env_kwargs, config["seed"]))
+    prepare_run_dir(run_dir, args.overwrite)
+    return config, run_dir
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Train, evaluate, print the table; returns the exit status (130 after Ctrl-C)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        config, run_dir = setup(args)
+    except ValueError as error:
+        parser.error(str(error))
+    try:
+        resume, progress_bar = args.resume is not None, not args.no_progress_bar
+        summary = train(config, run_dir, resume=resume, progress_bar=progress_bar)
+    except KeyboardInterrupt:
+        print(f"continue with: tether-train --resume {run_dir}", file=sys.stderr)
+        return 130
+    env = config["env_kwargs"] or "default env"
+    print(f"\nTest episodes (seed {TEST_SEED}), {config['env_id']} {env}:\n{summary['table']}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
