@@ -11,18 +11,23 @@ which adds Gymnasium's sampling: about 13 us per call for TetherBounce's Box of 
 (45 us for the vector env's 1024 x 4), against about 1 us for CartPole's Discrete (4 us
 batched), i.e. more than the TetherBounce step itself.
 
-    python benchmarks/env.py [--quick]
+    python benchmarks/env.py [--quick] [--json]
+
+`benchmarks/env_against.py` runs these cases against another revision in the same run.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import time
 
 import gymnasium as gym
 
 import tether_gym  # noqa: F401  (registers TetherBounce-v0)
+
+HARNESSES = ("actions drawn beforehand", "actions sampled in the loop")
 
 
 def single_steps_per_second(env: gym.Env, steps: int, predrawn: bool) -> float:
@@ -53,6 +58,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="a short smoke run")
     parser.add_argument("--repeats", type=int, default=7, help="repeats per case (median)")
     parser.add_argument("--num-envs", type=int, default=1024, help="copies in the vector envs")
+    parser.add_argument("--json", action="store_true", help="print the rates as JSON only")
     args = parser.parse_args()
     repeats = 2 if args.quick else args.repeats
     single, vector, n = (2_000, 20, args.num_envs) if args.quick else (50_000, 300, args.num_envs)
@@ -82,13 +88,20 @@ def main() -> None:
     }
     for measure, make in cases.values():  # warm-up: numba compiles or loads its cache
         measure(make(), 5, predrawn=True)
+    rates = {}
     for predrawn in (True, False):
-        print("actions drawn beforehand" if predrawn else "actions sampled in the loop")
-        rate = {}
+        harness = HARNESSES[not predrawn]
+        rate = rates[harness] = {}
         for name, (measure, make) in cases.items():
             steps = single if measure is single_steps_per_second else vector
             rate[name] = statistics.median(measure(make(), steps, predrawn) for _ in range(repeats))
-            print(f"  {name:38s} {rate[name]:>14,.0f} steps/s (median of {repeats})")
+    if args.json:
+        print(json.dumps(rates))
+        return
+    for harness, rate in rates.items():
+        print(harness)
+        for name, value in rate.items():
+            print(f"  {name:38s} {value:>14,.0f} steps/s (median of {repeats})")
         cart, imp, hyb, cart_vec, vec_imp, vec_hyb = rate.values()
         print(f"  single impulse / CartPole-v1        {imp / cart:6.2f}x  (target >= 0.3)")
         print(f"  single hybrid / CartPole-v1         {hyb / cart:6.2f}x")

@@ -9,7 +9,7 @@ import pytest
 
 from tether_gym import cli, training
 from tether_gym.agents import evaluate
-from tether_gym.envs.core import EnvConfig
+from tether_gym.envs import EnvConfig
 
 
 def test_both_commands_have_a_flag_per_envconfig_field():

@@ -17,7 +17,8 @@ from gymnasium.utils.env_checker import check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import tether_gym  # noqa: F401
-from tether_gym.envs import TetherBounceEnv, TetherBounceVectorEnv, core
+from tether_gym.envs import EnvConfig, TetherBounceEnv, TetherBounceVectorEnv
+from tether_gym.envs.tether_bounce import kernel
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
@@ -27,11 +28,24 @@ DYNAMICS = ["impulse", "hybrid"]
 
 
 def normalized(speed: float, tether_angle: float, offset_angle: float, offset: float):
-    """Physical set-up -> the normalized action (inverse of the documented linear map)."""
-    low = np.array([1.0, 0.0, -math.pi / 2, 0.0])
-    high = np.array([3.0, math.pi, math.pi / 2, 1.0])
-    value = np.array([speed, tether_angle, offset_angle, offset])
-    return (2.0 * (value - low) / (high - low) - 1.0).astype(np.float32)
+    """Physical set-up -> the normalized action."""
+    return kernel.ACTION.normalize([speed, tether_angle, offset_angle, offset]).astype(np.float32)
+
+
+def test_the_action_map_is_the_documented_one_compiled_and_not():
+    """The kernels' compiled decoding, the public `ACTION.denormalize` and the docstring's table
+    (launch speed [1, 3] m/s, tether angle [0, pi], offset angle [-pi/2, pi/2], offset [0, 1])
+    are one map; `normalize` inverts it."""
+    ends = [[1.0, 0.0, -math.pi / 2, 0.0], [3.0, math.pi, math.pi / 2, 1.0]]
+    np.testing.assert_allclose(kernel.ACTION.denormalize([[-1] * 4, [1] * 4]), ends)
+    rng = np.random.default_rng(1)
+    actions = rng.uniform(-1.3, 1.3, (50, 4))
+    bounce = kernel.TetherBounceKernel(EnvConfig(dynamics="impulse"))
+    state, _ = bounce.reset(rng.random((50, bounce.n_uniforms)))
+    _, _, out = bounce.step(state, actions)
+    setup = out[:, kernel.SETUP : kernel.SETUP + 4]
+    np.testing.assert_allclose(setup, kernel.ACTION.denormalize(actions), rtol=1e-15)
+    np.testing.assert_allclose(kernel.ACTION.normalize(setup), np.clip(actions, -1, 1), atol=1e-14)
 
 
 @pytest.mark.parametrize("dynamics", DYNAMICS)
@@ -300,22 +314,25 @@ def test_wrong_action_shape_names_the_action():
 @pytest.mark.parametrize("dynamics", DYNAMICS)
 def test_threaded_step_and_reset_equals_the_serial_kernels(dynamics):
     """The vector env's fused pass across threads (batches of two chunks or more) gives the same
-    outcomes and next tasks as `step_batch` then `reset_batch`, bit for bit."""
-    config = core.EnvConfig.build(
+    outcomes and next episodes as the kernel's `step` then `reset`, bit for bit."""
+    config = EnvConfig(
         dynamics=dynamics, restitution=(0.6, 1.0), inertia_ratio=(0.3, 2.0), spin_disturbance=5.0
     )
-    cfg, n = config.as_array(), 3 * core.PARALLEL_CHUNK[core.DYNAMICS.index(dynamics)] + 1
+    bounce = kernel.TetherBounceKernel(config)
+    n = 3 * kernel.PARALLEL_CHUNK[bounce.dynamics] + 1
     rng = np.random.default_rng(5)
-    tasks, _ = core.reset_batch(rng.random((n, config.n_uniforms)), cfg)
+    state, _ = bounce.reset(rng.random((n, bounce.n_uniforms)))
     actions = rng.uniform(-1.0, 1.0, (n, 4)).astype(np.float32)
-    uniforms = rng.random((n, config.n_uniforms))
-    fused = core.step_and_reset_batch(actions, tasks, cfg, uniforms)
-    serial = (core.step_batch(actions, tasks, cfg), *core.reset_batch(uniforms, cfg))
-    for a, b in zip(fused, serial, strict=True):
+    uniforms = rng.random((n, bounce.n_uniforms))
+    next_state, obs, final_obs, out = bounce.step_autoreset(state, actions, uniforms)
+    _, serial_final_obs, serial_out = bounce.step(state, actions)
+    serial_state, serial_obs = bounce.reset(uniforms)
+    np.testing.assert_array_equal(next_state, serial_state)
+    for a, b in [(obs, serial_obs), (final_obs, serial_final_obs), (out, serial_out)]:
         np.testing.assert_array_equal(a, b)
     actions[n - 1, 2] = np.nan
     with pytest.raises(ValueError, match="action"):
-        core.step_and_reset_batch(actions, tasks, cfg, uniforms)
+        bounce.step_autoreset(state, actions, uniforms)
 
 
 def test_a_refused_vector_step_loses_no_episode():
@@ -340,8 +357,9 @@ def test_threaded_kernels_run_on_tbb_where_it_is_a_dependency(layer):
     rather than workqueue, whose slow wake-up costs more than two threads save."""
     code = (
         "import numba, tether_gym\n"
-        "from tether_gym.envs import TetherBounceVectorEnv, core\n"
-        "envs = TetherBounceVectorEnv(2 * core.PARALLEL_CHUNK[core.IMPULSE], dynamics='impulse')\n"
+        "from tether_gym.envs import TetherBounceVectorEnv\n"
+        "from tether_gym.envs.tether_bounce.kernel import IMPULSE, PARALLEL_CHUNK\n"
+        "envs = TetherBounceVectorEnv(2 * PARALLEL_CHUNK[IMPULSE], dynamics='impulse')\n"
         "envs.reset(seed=0)\n"
         "envs.step(envs.action_space.sample())\n"
         "print(numba.threading_layer())\n"

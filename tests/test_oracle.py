@@ -11,7 +11,8 @@ import pytest
 import tether_gym  # noqa: F401
 from tether_gym.agents.evaluate import evaluate
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
-from tether_gym.envs.core import RADIUS
+from tether_gym.envs.tether_bounce import decode_observation
+from tether_gym.envs.tether_bounce.kernel import PUCK_RADIUS
 from tether_gym.physics import setup_for_velocity
 
 RANDOMIZED = dict(inertia_ratio=(0.2, 2.0), restitution=(0.2, 1.0), spin_disturbance=30.0)
@@ -31,19 +32,20 @@ def reachable(task: str, obs: np.ndarray) -> np.ndarray:
     """Whether some impulse set-up in the action space reaches each target, decided apart from
     the oracle: `setup_for_velocity` over a grid of launch speeds (and of speeds after, for a
     heading target, whose speed is free)."""
-    theta = np.arctan2(obs[:, 4], obs[:, 3])[:, None]
+    context = {key: value[:, None] for key, value in decode_observation(obs).items()}
+    theta = context["target_heading"]
     physics = dict(
-        spin=obs[:, 9, None] * 3.0 / RADIUS,
-        inertia_ratio=obs[:, 6, None],
-        restitution=obs[:, 7, None],
-        radius=RADIUS,
+        spin=context["spin"],
+        inertia_ratio=context["inertia_ratio"],
+        restitution=context["restitution"],
+        radius=PUCK_RADIUS,
     )
     if task == "heading":
         speed_after = np.linspace(0.005, 1.0, 200)[None, :]
         target = speed_after[..., None] * np.stack([-np.sin(theta), np.cos(theta)], -1)
         found = setup_for_velocity(target, speed=1.0, **physics)
     else:
-        speed_after = obs[:, 5, None] * 3.0 if task == "velocity" else 0.0 * theta
+        speed_after = context["target_speed"] if task == "velocity" else 0.0 * theta
         target = np.stack([-np.sin(theta), np.cos(theta)], -1) * speed_after[..., None]
         found = setup_for_velocity(target, speed=SPEEDS[None, :], **physics)
     return np.any(found.reachable & (found.tether_angle >= 0.0), axis=1)

@@ -18,7 +18,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from tether_gym.envs.core import EnvConfig  # the one place the CLIs learn the env's arguments
+from tether_gym.envs import EnvConfig  # the one place the CLIs learn the env's arguments
 
 DEFAULT_ENV_ID = "TetherBounce-v0"
 ENV_DEFAULTS: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(EnvConfig)}
@@ -52,6 +52,12 @@ def _flag(name: str) -> str:
     return "--" + name.replace("_", "-")
 
 
+def _takes_range(hint) -> bool:
+    """Whether an `EnvConfig` field's type admits a (low, high) tuple."""
+    options = typing.get_args(hint) if typing.get_origin(hint) is not tuple else (hint,)
+    return any(typing.get_origin(option) is tuple for option in options)
+
+
 def add_env_arguments(parser: argparse.ArgumentParser) -> None:
     """`--env`, `--env-kwargs` and one flag per `EnvConfig` field, all defaulting to None
     (not given: the env's own default)."""
@@ -72,7 +78,7 @@ def add_env_arguments(parser: argparse.ArgumentParser) -> None:
     )
     hints = typing.get_type_hints(EnvConfig)
     for name, default in ENV_DEFAULTS.items():
-        if typing.get_origin(hints[name]) is tuple:
+        if _takes_range(hints[name]):
             nargs, metavar = "+", ("LOW", "HIGH")
             text = f"one value, or LOW HIGH drawn per episode (default {default})"
         else:

@@ -24,6 +24,8 @@ import numpy as np
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 from tether_gym.agents.random_agent import RandomAgent
 from tether_gym.cli import DEFAULT_ENV_ID, add_env_arguments, env_from_args, require_extra
+from tether_gym.envs.tether_bounce import decode_observation
+from tether_gym.tasks.bounce import DEADSPIN
 
 BATCH = 100
 """Episodes per vector-env step (the progress bar's granularity)."""
@@ -132,11 +134,11 @@ def evaluate(
         run = _run(agent, env_id, env_kwargs, episodes, seed, bar)
         if bar is not None:
             bar.close()
-        obs = run["obs"].astype(np.float64)
-        task = np.argmax(obs[:, 0:3], axis=1)
+        context = decode_observation(run["obs"])
+        task = context["task"]
         success = run["is_success"].astype(bool)
         error = np.abs(run["heading_error"])
-        aimed = np.degrees(error[task != 2])
+        aimed = np.degrees(error[task != DEADSPIN])
         results.append(
             EvalResult(
                 name=name,
@@ -145,12 +147,12 @@ def evaluate(
                 success_ci=wilson_interval(int(success.sum()), episodes),
                 heading_error_mean_deg=_mean(aimed),
                 heading_error_p95_deg=float(np.percentile(aimed, 95)) if aimed.size else math.nan,
-                deadspin_residual_mean=_mean(run["residual_speed"][task == 2]),
+                deadspin_residual_mean=_mean(run["residual_speed"][task == DEADSPIN]),
                 reward_mean=float(run["reward"].mean()),
                 episodes_per_second=episodes / run["elapsed"],
                 task=task,
-                target_heading=np.arctan2(obs[:, 4], obs[:, 3]),
-                rho=10.0 ** obs[:, 8],
+                target_heading=context["target_heading"],
+                rho=context["rho"],
                 heading_error=error,
                 residual_speed=run["residual_speed"],
                 success=success,
@@ -242,7 +244,7 @@ def plot(results: list[EvalResult], path: Path, against: str = "rho") -> None:
         1, len(results), figsize=(4 * len(results), 3.5), sharey=True, squeeze=False
     )
     for ax, r in zip(axes[0], results, strict=True):
-        aimed = r.task != 2
+        aimed = r.task != DEADSPIN
         x = r.rho[aimed] if against == "rho" else np.degrees(r.target_heading[aimed])
         ax.scatter(x, np.degrees(np.maximum(r.heading_error[aimed], 1e-9)), s=4, alpha=0.5)
         ax.axhline(2.0, color="k", lw=0.8, ls="--", label="success tolerance")

@@ -31,16 +31,18 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import elementwise, least_squares
 
-from tether_gym.envs.core import (
-    ACTION_HIGH,
-    ACTION_LOW,
+from tether_gym.envs.tether_bounce.kernel import (
+    ACTION,
     DYNAMICS,
-    MASS,
-    RADIUS,
+    PUCK_MASS,
+    PUCK_RADIUS,
     TETHER_LENGTH,
-    env_stiffness,
+    decode_observation,
 )
 from tether_gym.physics import bounce, bounce_one, setup_for_velocity, wrap_angle
+from tether_gym.tasks.bounce import DEADSPIN, HEADING, VELOCITY
+
+ACTION_LOW, ACTION_HIGH = ACTION.low, ACTION.high
 
 SPEED_GRID = np.linspace(ACTION_LOW[0], ACTION_HIGH[0], 201)
 """Launch speeds the velocity task searches when the centre-of-mass bounce is out of range."""
@@ -53,32 +55,32 @@ class Episode:
     """An observation decoded into physical quantities (rows of a batch)."""
 
     task: np.ndarray
-    """0 heading, 1 velocity, 2 deadspin."""
+    """Index into `tasks.bounce.TASKS`: HEADING, VELOCITY or DEADSPIN."""
     heading: np.ndarray
     speed: np.ndarray
     inertia_ratio: np.ndarray
     restitution: np.ndarray
-    rho: np.ndarray
+    stiffness: np.ndarray
     spin: np.ndarray
 
     @classmethod
     def from_obs(cls, obs: np.ndarray) -> Episode:
-        o = np.asarray(obs, dtype=np.float64).reshape(-1, 10)
+        """The env's public decoder, as rows of a batch."""
+        o = decode_observation(np.atleast_2d(obs))
         return cls(
-            task=np.argmax(o[:, 0:3], axis=1),
-            heading=np.arctan2(o[:, 4], o[:, 3]),
-            speed=o[:, 5] * ACTION_HIGH[0],
-            inertia_ratio=o[:, 6],
-            restitution=o[:, 7],
-            rho=10.0 ** o[:, 8],
-            spin=o[:, 9] * ACTION_HIGH[0] / RADIUS,
+            task=o["task"],
+            heading=o["target_heading"],
+            speed=o["target_speed"],
+            inertia_ratio=o["inertia_ratio"],
+            restitution=o["restitution"],
+            stiffness=o["stiffness"],
+            spin=o["spin"],
         )
 
 
 def normalize(setup: np.ndarray) -> np.ndarray:
     """Physical set-ups (n, 4) (speed, tether angle, offset angle, offset) -> actions in [-1, 1]."""
-    action = 2.0 * (setup - ACTION_LOW) / (ACTION_HIGH - ACTION_LOW) - 1.0
-    return np.clip(action, -1.0, 1.0)
+    return np.clip(ACTION.normalize(setup), -1.0, 1.0)
 
 
 def centre_bounce_angle(heading: np.ndarray, restitution: np.ndarray) -> np.ndarray:
@@ -112,7 +114,7 @@ def _velocity_setup(ep: Episode) -> np.ndarray:
         spin=ep.spin[col],
         inertia_ratio=ep.inertia_ratio[col],
         restitution=ep.restitution[col],
-        radius=RADIUS,
+        radius=PUCK_RADIUS,
     )
     ok = found.reachable & (found.tether_angle >= 0.0)
     cost = np.where(ok, np.abs(np.sin(found.offset_angle)), np.inf)
@@ -137,7 +139,7 @@ def _velocity_setup(ep: Episode) -> np.ndarray:
 def deadspin_arm(speed, spin, inertia_ratio, restitution) -> np.ndarray:
     """The moment arm q = sin(alpha) (rim attachment, inline tether) that stops the puck dead:
     the root of least |q| of (s / kappa) q^2 - (1 + e) w R q - e s = 0, clipped to [-1, 1]."""
-    b = (1.0 + restitution) * spin * RADIUS
+    b = (1.0 + restitution) * spin * PUCK_RADIUS
     root = np.sqrt(b**2 + 4.0 * restitution * speed**2 / inertia_ratio)
     big = b + np.where(b > 0.0, root, -root)  # 2 (s / kappa) times the root of larger |q|
     safe = np.where(big != 0.0, big, 1.0)
@@ -154,7 +156,8 @@ def _deadspin_setup(ep: Episode) -> np.ndarray:
 def impulse_setup(ep: Episode) -> np.ndarray:
     """The physical set-ups (n, 4) that solve the episodes in the impulse model."""
     setup = np.empty((ep.task.size, 4))
-    for task, solve in enumerate((_heading_setup, _velocity_setup, _deadspin_setup)):
+    for task, solve in ((HEADING, _heading_setup), (VELOCITY, _velocity_setup),
+                        (DEADSPIN, _deadspin_setup)):  # fmt: skip
         rows = ep.task == task
         if np.any(rows):
             sub = Episode(*(getattr(ep, f)[rows] for f in Episode.__dataclass_fields__))
@@ -202,11 +205,9 @@ class ShootingOracle(ImpulseOracle):
         if self.model == "impulse":
             return setup
         stiffness = (
-            np.full_like(ep.rho, self.stiffness)
-            if self.stiffness is not None
-            else env_stiffness(ep.rho)
+            ep.stiffness if self.stiffness is None else np.full_like(ep.stiffness, self.stiffness)
         )
-        heading = ep.task == 0
+        heading = ep.task == HEADING
         solved = np.zeros_like(heading)
         if np.any(heading):
             setup[heading, 1], solved[heading] = self._shoot_heading(
@@ -224,7 +225,7 @@ class ShootingOracle(ImpulseOracle):
             # scipy passes only the episodes still unsolved: everything per-episode is an arg
             out = bounce(
                 beta, 0.0, offset=0.0, speed=speed, inertia_ratio=kappa, spin=spin,
-                restitution=e, model=self.model, mass=MASS, radius=RADIUS,
+                restitution=e, model=self.model, mass=PUCK_MASS, radius=PUCK_RADIUS,
                 tether_length=TETHER_LENGTH, stiffness=k,
             )  # fmt: skip
             return wrap_angle(out.deflection - heading)
@@ -246,21 +247,21 @@ class ShootingOracle(ImpulseOracle):
         solver stays near the impulse answer) on the bounce's velocity: its direction for a
         heading, the velocity itself for a velocity target, zero for a deadspin."""
         direction = np.array([-math.sin(ep.heading[i]), math.cos(ep.heading[i])])
-        target = ep.speed[i] * direction if ep.task[i] == 1 else np.zeros(2)
+        target = ep.speed[i] * direction if ep.task[i] == VELOCITY else np.zeros(2)
         args = dict(
             inertia_ratio=ep.inertia_ratio[i],
             spin=ep.spin[i],
             restitution=ep.restitution[i],
             model=self.model,
-            mass=MASS,
-            radius=RADIUS,
+            mass=PUCK_MASS,
+            radius=PUCK_RADIUS,
             tether_length=TETHER_LENGTH,
             stiffness=stiffness,
         )
 
         def residual(x):
             velocity = bounce_one(x[1], x[2], offset=x[3], speed=x[0], **args).velocity
-            if ep.task[i] == 0:
+            if ep.task[i] == HEADING:
                 return velocity / max(np.hypot(*velocity), 1e-12) - direction
             return (velocity - target) / x[0]
 

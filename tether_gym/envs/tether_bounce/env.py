@@ -2,16 +2,11 @@
 
 from __future__ import annotations
 
-from typing import Any
-
-import gymnasium as gym
-import numpy as np
-
-from tether_gym.envs import core
-from tether_gym.envs.spaces import action_space, observation_space
+from tether_gym.envs.base import KernelEnv, KernelVectorEnv
+from tether_gym.envs.tether_bounce.kernel import EnvConfig, TetherBounceKernel, decode_observation
 
 
-class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
+class TetherBounceEnv(KernelEnv):
     """
     ## Description
 
@@ -62,7 +57,8 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
     | 9   | spin * R / 3 m/s     | -0.667  | 0.667   | pre-bounce spin disturbance           |
 
     The bounds are those of every valid configuration, so a policy trained on one
-    configuration can be evaluated on another.
+    configuration can be evaluated on another. `TetherBounceEnv.decode_observation(obs)` gives
+    an observation (or a batch) back in physical terms by name, for agents and analysis.
 
     ## Rewards
 
@@ -116,6 +112,7 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+    decode_observation = staticmethod(decode_observation)
 
     def __init__(
         self,
@@ -128,60 +125,46 @@ class TetherBounceEnv(gym.Env[np.ndarray, np.ndarray]):
         spin_disturbance: float = 0.0,
         render_mode: str | None = None,
     ):
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be one of {self.metadata['render_modes']} or None, "
-                f"got {render_mode!r}"
-            )
-        self.config = core.EnvConfig.build(
+        self.config = EnvConfig(
             task, dynamics, inertia_ratio, restitution, rho, stiffness, spin_disturbance
         )
-        self._cfg = self.config.as_array()
-        self._n_uniforms = self.config.n_uniforms  # per reset: not recounted on the hot path
-        self.action_space = action_space()
-        self.observation_space = observation_space()
-        self.render_mode = render_mode
-        self._renderer = None
-        self._task: np.ndarray | None = None
-        self._obs: np.ndarray | None = None
-        self._outcome: np.ndarray | None = None
-        self._finished = True
+        super().__init__(TetherBounceKernel(self.config), render_mode)
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
-        tasks, obs = core.reset_batch(self.np_random.random((1, self._n_uniforms)), self._cfg)
-        if options:
-            core.set_targets(tasks, obs, self._cfg, options)
-        self._task, self._obs, self._outcome = tasks, obs[0], None
-        self._finished = False
-        if self.render_mode == "human":
-            self.render()
-        return self._obs.copy(), {}
+    def make_renderer(self):
+        from tether_gym.envs.tether_bounce.rendering import Renderer
 
-    def step(self, action):
-        if self._finished:
-            raise RuntimeError("the episode (one bounce) is over: call reset() before step()")
-        out = core.step_batch(action, self._task, self._cfg)
-        self._outcome, self._finished = out[0], True
-        if self.render_mode == "human":
-            self.render()
-        return self._obs.copy(), float(out[0, core.O_REWARD]), True, False, core.outcome_info(out)
+        return Renderer(self.render_mode, self.metadata["render_fps"])
 
-    def render(self):
-        if self.render_mode is None:
-            gym.logger.warn(
-                "render() called without a render_mode; "
-                'pass render_mode="rgb_array" or "human" to gym.make'
-            )
-            return None
-        if self._renderer is None:
-            from tether_gym.envs.rendering import Renderer
 
-            self._renderer = Renderer(self.render_mode, self.metadata["render_fps"])
-        task = None if self._task is None else self._task[0]
-        return self._renderer.render(task, self._outcome)
+class TetherBounceVectorEnv(KernelVectorEnv):
+    """`num_envs` copies of `TetherBounceEnv` in lockstep (see `KernelVectorEnv`).
 
-    def close(self):
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+    Every episode is one step, so every step ends all N episodes and starts the next ones.
+    Arguments after `num_envs` are those of `TetherBounceEnv`, and `reset(options=...)` takes
+    the same keys (applied to every copy); `block` is the number of episodes' uniforms drawn
+    at once per copy.
+
+    Gymnasium's "sync" and "async" vector envs autoreset on the next step by default, which
+    wastes every other step of a one-step episode: use this one, or pass
+    `vector_kwargs={"autoreset_mode": AutoresetMode.SAME_STEP}`.
+    """
+
+    decode_observation = staticmethod(decode_observation)
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        task: str = "mixed",
+        dynamics: str = "hybrid",
+        inertia_ratio: float | tuple[float, float] = 0.5,
+        restitution: float | tuple[float, float] = 1.0,
+        rho: float | tuple[float, float] | None = None,
+        stiffness: float | None = None,
+        spin_disturbance: float = 0.0,
+        render_mode: str | None = None,
+        block: int = 256,
+    ):
+        self.config = EnvConfig(
+            task, dynamics, inertia_ratio, restitution, rho, stiffness, spin_disturbance
+        )
+        super().__init__(TetherBounceKernel(self.config), num_envs, render_mode, block)

@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-from tether_gym.envs import core
+from tether_gym.envs.tether_bounce.kernel import OUT, PUCK_RADIUS, TETHER_LENGTH
+from tether_gym.tasks.bounce import DEADSPIN
 
 SIZE = 480
 BACKGROUND, PATH, PUCK, MARK = (250, 250, 245), (120, 120, 120), (40, 90, 160), (250, 250, 250)
@@ -29,7 +30,7 @@ class Renderer:
 
         self._pygame = pygame
         self.render_mode, self.fps = render_mode, fps
-        self.scale = SIZE / (2.6 * core.TETHER_LENGTH)  # pixels per metre
+        self.scale = SIZE / (2.6 * TETHER_LENGTH)  # pixels per metre
         self.surface = pygame.Surface((SIZE, SIZE))
         self.window = None
         self.clock = None
@@ -39,9 +40,9 @@ class Renderer:
         return (round(SIZE / 2 + point[0] * self.scale), round(SIZE / 2 - point[1] * self.scale))
 
     def _puck(self, centre, orientation: float, attachment) -> None:
-        draw, radius = self._pygame.draw, max(3, round(core.RADIUS * self.scale))
+        draw, radius = self._pygame.draw, max(3, round(PUCK_RADIUS * self.scale))
         draw.circle(self.surface, PUCK, self._px(centre), radius)
-        rim = centre + core.RADIUS * np.array([math.cos(orientation), math.sin(orientation)])
+        rim = centre + PUCK_RADIUS * np.array([math.cos(orientation), math.sin(orientation)])
         draw.line(self.surface, MARK, self._px(centre), self._px(rim), 2)
         if attachment is not None:
             draw.circle(self.surface, TAUT, self._px(attachment), 3)
@@ -56,16 +57,18 @@ class Renderer:
                                          s * direction[0] + c * direction[1]])  # fmt: skip
             draw.line(self.surface, colour, self._px(end), self._px(tip), 3)
 
-    def render(self, task: np.ndarray | None, outcome: np.ndarray | None):
+    def render(self, state: np.void | None, outcome: np.ndarray | None):
+        """A frame of the episode `state` (None before the first reset), after the step whose
+        outcome row is `outcome` (None before it)."""
         pygame = self._pygame
         self.surface.fill(BACKGROUND)
         origin = np.zeros(2)
         incoming = np.array([0.0, 1.0])
-        if task is not None:
-            if int(task[core.TASK]) == 2:
+        if state is not None:
+            if state["task"] == DEADSPIN:
                 pygame.draw.circle(self.surface, TARGET, self._px(origin), 14, 3)
             else:
-                heading = task[core.HEADING]
+                heading = state["target_heading"]
                 direction = np.array([-math.sin(heading), math.cos(heading)])
                 self._arrow(origin, direction, 0.9, TARGET)
         if outcome is None:
@@ -81,21 +84,21 @@ class Renderer:
     def _bounce(self, outcome: np.ndarray, origin, incoming) -> None:
         """Anchor, taut tether, incoming and outgoing paths, and the puck after the bounce."""
         draw = self._pygame.draw
-        speed = outcome[core.O_LAUNCH]
-        beta, alpha = outcome[core.O_TETHER_ANGLE], outcome[core.O_OFFSET_ANGLE]
-        arm = outcome[core.O_OFFSET] * core.RADIUS
+        speed = outcome[OUT.launch_speed]
+        beta, alpha = outcome[OUT.tether_angle], outcome[OUT.offset_angle]
+        arm = outcome[OUT.offset] * PUCK_RADIUS
         u = np.array([math.cos(beta), math.sin(beta)])
         r = -arm * np.array([math.cos(beta + alpha), math.sin(beta + alpha)])
-        anchor = r - core.TETHER_LENGTH * u  # relative to the centre of mass at tautening
-        velocity = np.array([outcome[core.O_VX], outcome[core.O_VY]])
+        anchor = r - TETHER_LENGTH * u  # relative to the centre of mass at tautening
+        velocity = np.array([outcome[OUT.vx], outcome[OUT.vy]])
         draw.line(self.surface, PATH, self._px(-SHOW_TIME * speed * incoming),
                   self._px(origin), 2)  # fmt: skip
         after = SHOW_TIME * velocity
         draw.line(self.surface, PATH, self._px(origin), self._px(after), 2)
         draw.circle(self.surface, ANCHOR, self._px(anchor), 5)
-        if outcome[core.O_BOUNCED]:
+        if outcome[OUT.bounced]:
             draw.line(self.surface, TAUT, self._px(anchor), self._px(r), 3)
-        turn = SHOW_TIME * outcome[core.O_SPIN]
+        turn = SHOW_TIME * outcome[OUT.spin]
         r_after = np.array([r[0] * math.cos(turn) - r[1] * math.sin(turn),
                             r[0] * math.sin(turn) + r[1] * math.cos(turn)])  # fmt: skip
         draw.line(self.surface, SLACK, self._px(anchor), self._px(after + r_after), 1)

@@ -1,0 +1,65 @@
+"""`benchmarks/env.py` on the working tree and on another revision, interleaved in one run.
+
+    python benchmarks/env_against.py REV [--repeats 7] [--quick]
+
+REV is checked out into a temporary git worktree. Each repeat runs `env.py --json --repeats 1`
+once against each tree, alternating which goes first, so both see the same machine; the table
+gives the medians over repeats and the ratio of this tree's rate to REV's, for every case and
+both harnesses. The same script (this tree's `env.py`) times both: only the package differs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+ENV_BENCHMARK = Path(__file__).resolve().parent / "env.py"
+
+
+def run_once(tree: Path, quick: bool) -> dict[str, dict[str, float]]:
+    """One repeat of every case with `tree`'s tether_gym first on the path."""
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    command = [sys.executable, str(ENV_BENCHMARK), "--json", "--repeats", "1"]
+    if quick:
+        command.append("--quick")
+    run = subprocess.run(command, cwd=tree, env=env, capture_output=True, text=True, check=True)
+    return json.loads(run.stdout.splitlines()[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("rev", help="the revision to compare with, e.g. a commit or main~3")
+    parser.add_argument("--repeats", type=int, default=7, help="runs per tree (median)")
+    parser.add_argument("--quick", action="store_true", help="a short smoke run")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as folder:
+        base = Path(folder) / "base"
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(base),
+                        args.rev], check=True, capture_output=True)  # fmt: skip
+        try:
+            runs: dict[Path, list] = {ROOT: [], base: []}
+            for repeat in range(args.repeats):
+                order = (ROOT, base) if repeat % 2 == 0 else (base, ROOT)
+                for tree in order:
+                    runs[tree].append(run_once(tree, args.quick))
+        finally:
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(base)],
+                           check=True)  # fmt: skip
+    print(f"median of {args.repeats} runs each, this tree against {args.rev}")
+    for harness, cases in runs[ROOT][0].items():
+        print(harness)
+        for case in cases:
+            new = statistics.median(run[harness][case] for run in runs[ROOT])
+            old = statistics.median(run[harness][case] for run in runs[base])
+            print(f"  {case:38s} {new:>14,.0f} vs {old:>14,.0f} steps/s  {new / old:5.2f}x")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,299 @@
+"""One base for single and vector environments over a kernel.
+
+A kernel is an environment's simulation and task as functions over batches of episodes, in the
+style of gymnax's pure `reset(key, params)` / `step(state, action, params)`:
+
+    reset(uniforms)               -> (state, observation)
+    step(state, actions)          -> (state, observation, outcome)
+    step_autoreset(state, actions, uniforms)
+                                  -> (state, observation, final observation, outcome)
+
+over named fields: `state` is a numpy record array (one record per episode, fields declared by
+the kernel), observations and outcomes are plain float arrays whose columns are declared once as
+`Fields`. The outcome holds `reward`, `terminated` and `truncated`, and everything else it holds
+is reported in `info`. Randomness comes in only as uniforms, drawn by the env from its own
+generators, `n_uniforms` per reset; the kernel's configuration (`params`, a validated record)
+is bound when the kernel is built. Kernels return new arrays and never change their inputs, so
+a refused step (a NaN action raises `ValueError`) changes nothing.
+
+`KernelEnv` and `KernelVectorEnv` do the rest: seeding, spaces, the episode's bookkeeping, the
+vector env's same-step autoreset with a mask (copies whose episode ended start the next one in
+the same step, each from its own stream of uniforms), `info`. A new environment is a kernel
+(its task and its simulation) and a thin subclass of each that documents it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from tether_gym.envs.fields import Fields, InfoLayout
+
+EPISODE_END = ("reward", "terminated", "truncated")
+"""Outcome fields every kernel declares and the envs return apart from `info`."""
+
+
+class Kernel:
+    """An environment's simulation and task over batches; see the module's docstring.
+
+    Subclasses declare `observation`, `outcome` and `action` (the physical ranges that the
+    normalized action [-1, 1] maps onto: `action.denormalize`) and implement `reset`, `step`
+    and, if they take any, `reset_options`; `step_autoreset` may be overridden by a fused
+    kernel.
+    """
+
+    observation: Fields
+    outcome: Fields
+    action: Fields
+    n_uniforms: int
+
+    def reset(self, uniforms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def step(self, state: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, ...]:
+        raise NotImplementedError
+
+    def reset_options(self, options: dict, state: np.ndarray, obs: np.ndarray) -> None:
+        """Apply `reset(options=...)` to new episodes' state and observation, in place."""
+        raise ValueError(f"this environment takes no reset options, got {options!r}")
+
+    def step_autoreset(
+        self, state: np.ndarray, actions: np.ndarray, uniforms: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """`step`, then episodes that ended start anew from their row of `uniforms`."""
+        state, final_obs, outcome = self.step(state, actions)
+        ended = self.ended(outcome)
+        obs = final_obs.copy()
+        if ended.any():
+            state[ended], obs[ended] = self.reset(uniforms[ended])
+        return state, obs, final_obs, outcome
+
+    def ended(self, outcome: np.ndarray) -> np.ndarray:
+        """Which rows of an outcome ended their episode (terminated or truncated)."""
+        index = self.outcome.index
+        return (outcome[:, index["terminated"]] != 0.0) | (outcome[:, index["truncated"]] != 0.0)
+
+    def as_actions(self, actions, n: int) -> np.ndarray:
+        """Actions as an (n, len(action)) float32 or float64 array; ValueError for a wrong
+        shape. (The kernels clip them to [-1, 1] and refuse NaN and infinity.)"""
+        actions = np.asarray(actions)
+        if actions.dtype != np.float32:
+            actions = actions.astype(np.float64, copy=False)
+        size = len(self.action)
+        if actions.size != size * n or actions.shape[-1:] != (size,):
+            shape = (n, size) if n > 1 else (size,)
+            raise ValueError(f"action must have shape {shape}, got {actions.shape}")
+        return actions.reshape(n, size)
+
+    def action_space(self) -> spaces.Box:
+        """Normalized actions: [-1, 1] per entry of `action`, mapped linearly onto its range."""
+        return spaces.Box(-1.0, 1.0, shape=(len(self.action),), dtype=np.float32)
+
+
+def check_render_mode(render_mode: str | None, allowed: Sequence[str]) -> None:
+    if render_mode is not None and render_mode not in allowed:
+        raise ValueError(f"render_mode must be one of {list(allowed)} or None, got {render_mode!r}")
+
+
+class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
+    """One episode at a time over a kernel (a batch of one). Stepping an episode that has
+    ended raises: call `reset` first."""
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+
+    def __init__(self, kernel: Kernel, render_mode: str | None = None):
+        check_render_mode(render_mode, self.metadata["render_modes"])
+        self.kernel = kernel
+        self.render_mode = render_mode
+        self.action_space = kernel.action_space()
+        self.observation_space = kernel.observation.box()
+        self._info = InfoLayout(kernel.outcome, skip=EPISODE_END)
+        self._end = tuple(kernel.outcome.index[name] for name in EPISODE_END)
+        self._renderer = None
+        self._state: np.ndarray | None = None  # (1,) records
+        self.outcome: np.ndarray | None = None
+        """The last step's outcome row (columns `kernel.outcome`), None right after a reset."""
+        self._ended = True
+
+    @property
+    def state(self) -> np.void | None:
+        """The episode's state record (named fields), or None before the first reset."""
+        return None if self._state is None else self._state[0]
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        state, obs = self.kernel.reset(self.np_random.random((1, self.kernel.n_uniforms)))
+        if options:
+            self.kernel.reset_options(options, state, obs)
+        self._state, self.outcome, self._ended = state, None, False
+        if self.render_mode == "human":
+            self.render()
+        return obs[0], {}
+
+    def step(self, action):
+        if self._ended:
+            raise RuntimeError("the episode is over: call reset() before step()")
+        self._state, obs, outcome = self.kernel.step(self._state, action)
+        self.outcome = outcome[0]
+        values = outcome[0].tolist()
+        reward, terminated, truncated = (
+            values[self._end[0]],
+            values[self._end[1]],
+            values[self._end[2]],
+        )
+        self._ended = terminated or truncated
+        if self.render_mode == "human":
+            self.render()
+        return obs[0], reward, bool(terminated), bool(truncated), self._info.one(values)
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn(
+                "render() called without a render_mode; "
+                'pass render_mode="rgb_array" or "human" to gym.make'
+            )
+            return None
+        if self._renderer is None:
+            self._renderer = self.make_renderer()
+        return self._renderer.render(self.state, self.outcome)
+
+    def make_renderer(self):
+        """The object whose `render(state, outcome)` draws a frame (pygame, lazily)."""
+        raise NotImplementedError
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+class KernelVectorEnv(VectorEnv):
+    """`num_envs` copies of a `KernelEnv` in lockstep, without a Python loop over them.
+
+    Autoreset is same-step: a copy whose episode ends starts the next one in the same call,
+    `step` returns the new episode's observation and puts the ended one's in
+    `info["final_obs"]` (its outcome in `info`, also as `info["final_info"]`), with the masks
+    `info["_final_obs"]`, `info["_final_info"]`.
+
+    Seeding follows `SyncVectorEnv`: `reset(seed=s)` seeds copy i with s + i (or `seed[i]` for
+    a list); each copy keeps its own generator and draws its uniforms in the same order as a
+    single env, so copy i sees exactly the episodes of a `KernelEnv` reset with its seed.
+    Uniforms are drawn in blocks of `block` episodes per copy to keep the per-step cost flat.
+    `reset(options=...)` applies to every copy; rendering is not supported.
+    """
+
+    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.SAME_STEP}
+
+    def __init__(
+        self, kernel: Kernel, num_envs: int, render_mode: str | None = None, block: int = 256
+    ):
+        if (
+            isinstance(num_envs, bool)
+            or not isinstance(num_envs, (int, np.integer))
+            or num_envs < 1
+        ):
+            raise ValueError(f"num_envs must be an integer in [1, inf), got {num_envs!r}")
+        if render_mode is not None:
+            raise ValueError(f"render_mode must be None for the vector env, got {render_mode!r}")
+        if isinstance(block, bool) or not isinstance(block, (int, np.integer)) or block < 1:
+            raise ValueError(f"block must be an integer in [1, inf), got {block!r}")
+        self.kernel = kernel
+        self.num_envs = int(num_envs)
+        self.render_mode = None
+        self.single_action_space = kernel.action_space()
+        self.single_observation_space = kernel.observation.box()
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self._info = InfoLayout(kernel.outcome, skip=EPISODE_END)
+        self._end = tuple(kernel.outcome.index[name] for name in EPISODE_END)
+        self._block = int(block)
+        self._generators: list[np.random.Generator] | None = None
+        self._buffer = np.empty((self.num_envs, self._block, kernel.n_uniforms))
+        self._cursor = np.full(self.num_envs, self._block)
+        self._lockstep = True  # every copy at the same cursor: the next uniforms are a view
+        self._rows = np.arange(self.num_envs)
+        self.state: np.ndarray | None = None
+        """The copies' state records (named fields), or None before the first reset."""
+
+    def _uniforms(self) -> np.ndarray:
+        """Every copy's next episode's uniforms, (num_envs, n_uniforms); they stay the next ones
+        until `_advance` moves past them (after a step that did not raise)."""
+        full = self._cursor == self._block if not self._lockstep else None
+        if self._lockstep:
+            if self._cursor[0] == self._block:
+                for generator, block in zip(self._generators, self._buffer, strict=True):
+                    generator.random(out=block)
+                self._cursor[:] = 0
+            return self._buffer[:, self._cursor[0]]
+        for i in np.flatnonzero(full):
+            self._generators[i].random(out=self._buffer[i])
+            self._cursor[i] = 0
+        return self._buffer[self._rows, self._cursor]
+
+    def _advance(self, ended: np.ndarray | None) -> None:
+        """Past the uniforms of the copies that started a new episode (all if None)."""
+        if ended is None or (self._lockstep and ended.all()):
+            self._cursor += 1
+        else:
+            self._cursor += ended
+            self._lockstep = False
+
+    def reset(
+        self,
+        *,
+        seed: int | Sequence[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ):
+        if seed is None or isinstance(seed, (int, np.integer)):
+            seeds = [None if seed is None else int(seed) + i for i in range(self.num_envs)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != self.num_envs:
+                raise ValueError(f"seed must hold num_envs={self.num_envs} seeds, got {seed!r}")
+        if seed is not None or self._generators is None:
+            self._generators = [seeding.np_random(s)[0] for s in seeds]
+            self._cursor[:] = self._block
+            self._lockstep = True
+        state, obs = self.kernel.reset(self._uniforms())
+        self._advance(None)  # drawn even if the options are refused, as by a single env's reset
+        if options:
+            self.kernel.reset_options(options, state, obs)
+        self.state = state
+        return obs, {}
+
+    def step(self, actions):
+        if self.state is None:
+            raise RuntimeError("call reset() before step()")
+        state, obs, final_obs, outcome = self.kernel.step_autoreset(
+            self.state, actions, self._uniforms()
+        )
+        self.state = state
+        columns = outcome.T
+        reward = columns[self._end[0]]
+        terminated, truncated = columns[self._end[1]] != 0.0, columns[self._end[2]] != 0.0
+        ended = terminated | truncated
+        self._advance(ended)
+        if self.num_envs > 1:
+            info = self._info.many(outcome)
+        else:
+            info = _as_arrays(self._info.one(outcome[0].tolist()))
+        info["final_info"] = dict(info)
+        info["_final_info"] = ended
+        info["final_obs"] = final_obs
+        info["_final_obs"] = ended.copy()
+        return obs, reward, terminated, truncated, info
+
+
+def _as_arrays(info: dict) -> dict:
+    """Scalars of a one-copy info as length-1 arrays (the vector convention)."""
+    return {
+        key: _as_arrays(value) if isinstance(value, dict) else np.array([value])
+        for key, value in info.items()
+    }

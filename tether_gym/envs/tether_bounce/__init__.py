@@ -1,0 +1,7 @@
+"""TetherBounce-v0: one tethered bounce per episode (`env`), its kernel (`kernel`) and its
+frames (`rendering`)."""
+
+from tether_gym.envs.tether_bounce.env import TetherBounceEnv, TetherBounceVectorEnv
+from tether_gym.envs.tether_bounce.kernel import EnvConfig, decode_observation
+
+__all__ = ["EnvConfig", "TetherBounceEnv", "TetherBounceVectorEnv", "decode_observation"]

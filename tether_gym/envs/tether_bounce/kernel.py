@@ -1,0 +1,509 @@
+"""TetherBounce's kernel: one bounce per episode, over batches (see `envs.base`).
+
+An episode's state is its task and the physical parameters drawn for it (`STATE`); a step
+decodes the action into the set-up at tautening, bounces the puck with the configured dynamics
+(`physics`) and scores it with the episode's task (`tasks.bounce`). The single env and the vector
+env both run these kernels, so they cannot drift.
+
+Randomness comes in as uniforms, `n_uniforms` per episode (the task if mixed, the goal, and one
+per randomized quantity), drawn by the env from its own generators; everything else is a
+deterministic function of them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numba
+import numpy as np
+from numba import prange
+
+from tether_gym.envs.base import Kernel
+from tether_gym.envs.fields import Field, Fields
+from tether_gym.physics import MODELS, bounce
+from tether_gym.physics.checks import check_float
+from tether_gym.physics.hybrid import damping_ratio, hybrid_core
+from tether_gym.physics.impulse import impulse_core
+from tether_gym.physics.jit import choose_threading_layer
+from tether_gym.tasks import bounce as task
+from tether_gym.tasks.bounce import TARGET_SPEED, TASKS
+
+PUCK_MASS, PUCK_RADIUS, TETHER_LENGTH = 0.03, 0.04, 1.0
+"""The puck (kg, m; an air-hockey puck's) and the tether's rest length (m)."""
+MAX_INERTIA_RATIO = 4.0
+MAX_SPIN_DISTURBANCE = 50.0
+"""rad/s: a rim speed of 2 m/s at R = 4 cm."""
+RHO_RANGE = (1.0, 1e6)
+DEFAULT_RHO = 850.0
+"""The paper's experimental stiffness (its rho > 850)."""
+DYNAMICS = tuple(MODELS)
+IMPULSE, HYBRID, PYMUNK = (DYNAMICS.index(name) for name in ("impulse", "hybrid", "pymunk"))
+
+ACTION = Fields(
+    Field("launch_speed", 1.0, 3.0, "m/s"),
+    Field("tether_angle", 0.0, math.pi, "rad, the paper's beta"),
+    Field("offset_angle", -math.pi / 2, math.pi / 2, "rad, the paper's alpha"),
+    Field("offset", 0.0, 1.0, "attachment distance from the centre of mass over R"),
+)
+"""The physical set-up that the normalized action [-1, 1]^4 maps onto, linearly."""
+ACTION_LOW, ACTION_HIGH = ACTION.low, ACTION.high
+MAX_LAUNCH = ACTION["launch_speed"].high
+SPEED_SCALE = 1.0 / MAX_LAUNCH
+SPIN_SCALE = PUCK_RADIUS / MAX_LAUNCH
+"""Observed speeds are over the fastest launch; observed spins are rim speeds over it."""
+
+OBSERVATION = Fields(
+    Field("task_heading", 0.0, 1.0, "one-hot task"),
+    Field("task_velocity", 0.0, 1.0, "one-hot task"),
+    Field("task_deadspin", 0.0, 1.0, "one-hot task"),
+    Field("target_heading_cos", -1.0, 1.0, "0 for deadspin"),
+    Field("target_heading_sin", -1.0, 1.0, "heading from +y, counter-clockwise"),
+    Field("target_speed", 0.0, TARGET_SPEED[1] * SPEED_SCALE, "velocity task only", SPEED_SCALE),
+    Field("inertia_ratio", 0.0, MAX_INERTIA_RATIO, "kappa = I / (m R^2)"),
+    Field("restitution", 0.0, 1.0, "e"),
+    Field("log10_rho", math.log10(RHO_RANGE[0]), math.log10(RHO_RANGE[1]), "tether stiffness"),
+    Field(
+        "spin", -MAX_SPIN_DISTURBANCE * SPIN_SCALE, MAX_SPIN_DISTURBANCE * SPIN_SCALE,
+        "pre-bounce spin disturbance", SPIN_SCALE,
+    ),
+    dtype=np.float32,
+)  # fmt: skip
+"""Bounds of every valid configuration, not of one: a policy trained on one configuration can
+be evaluated on another."""
+
+OUTCOME = Fields(
+    Field("reward"),
+    Field("terminated", flag=True),
+    Field("truncated", flag=True),
+    Field("is_success", flag=True),
+    Field("deflection", doc="rad, from the launch direction"),
+    Field("speed_ratio", doc="|v_after| / launch speed"),
+    Field("spin", doc="post-bounce spin, rad/s"),
+    Field("bounced", flag=True),
+    Field("completed", flag=True),
+    Field("heading_error"),
+    Field("speed_error"),
+    Field("residual_speed"),
+    Field("vx"),
+    Field("vy"),
+    *(Field(f.name) for f in ACTION.fields),
+    *(Field(f"term_{name}", group="reward_terms", key=name) for name in task.REWARD_TERMS),
+)
+OBS, OUT, SETUP = OBSERVATION.columns, OUTCOME.columns, OUTCOME.index["launch_speed"]
+
+STATE = np.dtype(
+    [("task", np.int64), ("target_heading", np.float64), ("heading_cos", np.float64),
+     ("heading_sin", np.float64), ("target_speed", np.float64), ("inertia_ratio", np.float64),
+     ("restitution", np.float64), ("stiffness", np.float64), ("log10_rho", np.float64),
+     ("spin", np.float64)]
+)  # fmt: skip
+"""An episode: its task, goal (the heading also as a unit vector, so that observing an
+episode is copying) and physical parameters (the puck's spin before the bounce)."""
+
+PARAMS = np.dtype(
+    [("task", np.int64), ("dynamics", np.int64), ("inertia_ratio_low", np.float64),
+     ("inertia_ratio_high", np.float64), ("restitution_low", np.float64),
+     ("restitution_high", np.float64), ("ln_rho_low", np.float64), ("ln_rho_high", np.float64),
+     ("stiffness", np.float64), ("spin_disturbance", np.float64), ("damping_ratio", np.float64)]
+)  # fmt: skip
+"""The configuration as the kernels read it: `task` -1 for mixed, rho's range as natural
+logs, `stiffness` -1 where it is drawn per episode, the damper of a fixed restitution."""
+
+
+@numba.njit(cache=True)
+def env_stiffness(rho):
+    """The spring constant (N/m) whose rho (eq. 11) is `rho` at the fastest launch, taking
+    v_theta = 3 m/s: with no spin disturbance, the lowest rho any action meets."""
+    return PUCK_MASS * (rho * MAX_LAUNCH / TETHER_LENGTH) ** 2
+
+
+@numba.njit(cache=True)
+def env_rho(stiffness):
+    """The inverse of `env_stiffness`."""
+    return math.sqrt(stiffness / PUCK_MASS) * TETHER_LENGTH / MAX_LAUNCH
+
+
+def _value_or_range(name: str, value, low: float, high: float, low_open: bool = False):
+    """A fixed value or a (low, high) randomization range, validated; returned as a pair."""
+    pair = value if isinstance(value, (tuple, list)) else (value, value)
+    if len(pair) != 2:
+        raise ValueError(f"{name} must be a number or a (low, high) pair, got {value!r}")
+    lo = check_float(name, pair[0], low, high, low_open=low_open)
+    hi = check_float(name, pair[1], low, high, low_open=low_open)
+    if lo > hi:
+        raise ValueError(f"{name} range is empty: low {lo!r} > high {hi!r}")
+    return lo, hi
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """TetherBounce's arguments (see the env's Arguments table), validated on construction:
+    a bad one raises ValueError naming it. A number or a (low, high) range where noted; after
+    construction the ranges are pairs and `rho` is set even if `stiffness` was given."""
+
+    task: str = "mixed"
+    dynamics: str = "hybrid"
+    inertia_ratio: float | tuple[float, float] = 0.5
+    restitution: float | tuple[float, float] = 1.0
+    rho: float | tuple[float, float] | None = None
+    stiffness: float | None = None
+    spin_disturbance: float = 0.0
+
+    def __post_init__(self):
+        set_ = object.__setattr__  # frozen: normalize in place once
+        if self.task not in (*TASKS, "mixed"):
+            raise ValueError(f"task must be one of {(*TASKS, 'mixed')}, got {self.task!r}")
+        if self.dynamics not in DYNAMICS:
+            raise ValueError(f"dynamics must be one of {DYNAMICS}, got {self.dynamics!r}")
+        restitution = _value_or_range("restitution", self.restitution, 0.0, 1.0)
+        if self.dynamics != "impulse" and restitution[0] == 0.0:
+            raise ValueError(
+                f"restitution must be in (0, 1] for dynamics={self.dynamics!r}: "
+                "e = 0 needs an infinite damper"
+            )
+        set_(self, "restitution", restitution)
+        rho = self.rho
+        if self.stiffness is not None:
+            if rho is not None:
+                raise ValueError(
+                    "give the tether's stiffness either as rho or as stiffness, not both"
+                )
+            low, high = (env_stiffness(r) for r in RHO_RANGE)
+            set_(self, "stiffness", check_float("stiffness", self.stiffness, low, high))
+            rho = env_rho(self.stiffness)
+        set_(self, "rho", _value_or_range("rho", DEFAULT_RHO if rho is None else rho, *RHO_RANGE))
+        set_(self, "inertia_ratio", _value_or_range(
+            "inertia_ratio", self.inertia_ratio, 0.0, MAX_INERTIA_RATIO, low_open=True
+        ))  # fmt: skip
+        set_(self, "spin_disturbance", check_float(
+            "spin_disturbance", self.spin_disturbance, 0.0, MAX_SPIN_DISTURBANCE
+        ))  # fmt: skip
+
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        """The arguments, in order."""
+        return tuple(f.name for f in fields(cls))
+
+    def params(self) -> np.ndarray:
+        """The (1,) `PARAMS` record the kernels read."""
+        k = self.stiffness
+        if k is None:  # -1: a rho drawn per episode, its stiffness with it
+            k = env_stiffness(self.rho[0]) if self.rho[0] == self.rho[1] else -1.0
+        return np.array(
+            [(-1 if self.task == "mixed" else TASKS.index(self.task),
+              DYNAMICS.index(self.dynamics), *self.inertia_ratio, *self.restitution,
+              math.log(self.rho[0]), math.log(self.rho[1]), k, self.spin_disturbance,
+              damping_ratio(self.restitution[0]))],
+            dtype=PARAMS,
+        )  # fmt: skip
+
+
+@numba.njit(cache=True, inline="always")
+def _draw(u, k, low, high):
+    """`low`, or a draw in [low, high] from u[k] when the range is not empty: (value, next k)."""
+    if low == high:
+        return low, k
+    return low + u[k] * (high - low), k + 1
+
+
+@numba.njit(cache=True, inline="always")
+def _sample(u, p, s):
+    """Draw one episode into state record `s` from its uniforms `u`, in the order: task (if
+    mixed), the goal's heading and speed (drawn for every task), then one per randomized
+    quantity among kappa, e, log rho and spin."""
+    code, k = p.task, 0
+    if code < 0:  # mixed
+        code, k = min(int(u[0] * 3.0), 2), 1
+    s.task = code
+    heading, s.target_speed = task.sample_goal(u[k], u[k + 1])
+    _aim(s, heading)
+    s.inertia_ratio, k = _draw(u, k + 2, p.inertia_ratio_low, p.inertia_ratio_high)
+    s.restitution, k = _draw(u, k, p.restitution_low, p.restitution_high)
+    ln_rho, k = _draw(u, k, p.ln_rho_low, p.ln_rho_high)
+    s.spin, k = _draw(u, k, -p.spin_disturbance, p.spin_disturbance)
+    fixed = p.stiffness > 0.0  # a fixed rho or stiffness: no exp per episode
+    s.stiffness = p.stiffness if fixed else env_stiffness(math.exp(ln_rho))
+    s.log10_rho = ln_rho / math.log(10.0)
+
+
+@numba.njit(cache=True, inline="always")
+def _aim(s, heading):
+    """Set the goal heading of state record `s`."""
+    s.target_heading, s.heading_cos, s.heading_sin = heading, math.cos(heading), math.sin(heading)
+
+
+@numba.njit(cache=True, inline="always")
+def _observe(s, obs):
+    """One episode's observation (see the env's table): the goal the task uses, the physical
+    parameters."""
+    obs[:] = 0.0
+    obs[s.task] = 1.0  # the one-hot entries come first, in TASKS order
+    if s.task != task.DEADSPIN:
+        obs[OBS.target_heading_cos], obs[OBS.target_heading_sin] = s.heading_cos, s.heading_sin
+    if s.task == task.VELOCITY:
+        obs[OBS.target_speed] = s.target_speed * SPEED_SCALE
+    obs[OBS.inertia_ratio], obs[OBS.restitution] = s.inertia_ratio, s.restitution
+    obs[OBS.log10_rho] = s.log10_rho
+    obs[OBS.spin] = s.spin * SPIN_SCALE
+
+
+@numba.njit(cache=True)
+def _reset(uniforms, params, state, obs):
+    p = params[0]
+    for i in range(state.shape[0]):
+        _sample(uniforms[i], p, state[i])
+        _observe(state[i], obs[i])
+
+
+@numba.njit(cache=True, inline="always")
+def _decode(action, out):
+    """Clip a normalized action to [-1, 1] and map it linearly onto the set-up's ranges;
+    1 if an entry is NaN or infinite, else 0."""
+    bad = 0
+    for j in range(4):
+        bad |= not math.isfinite(action[j])
+        a = min(max(action[j], -1.0), 1.0)
+        out[SETUP + j] = ACTION_LOW[j] + 0.5 * (a + 1.0) * (ACTION_HIGH[j] - ACTION_LOW[j])
+    return bad
+
+
+@numba.njit(cache=True, inline="always")
+def _bounce_impulse(s, out):
+    """Bounce the decoded set-up with the impulse model: velocity, spin and the flags."""
+    vx, vy, w, bounced = impulse_core(
+        out[OUT.tether_angle], out[OUT.offset_angle], out[OUT.offset], s.inertia_ratio,
+        out[OUT.launch_speed], s.spin, s.restitution, PUCK_RADIUS,
+    )  # fmt: skip
+    out[OUT.vx], out[OUT.vy], out[OUT.spin] = vx, vy, w
+    out[OUT.bounced], out[OUT.completed] = bounced, True
+
+
+@numba.njit(cache=True, inline="always")
+def _bounce_hybrid(s, p, out):
+    """The same with the hybrid model (its damper from the episode's restitution)."""
+    fixed = p.restitution_low == p.restitution_high
+    zeta = p.damping_ratio if fixed else damping_ratio(s.restitution)
+    vx, vy, w, bounced, completed, _ = hybrid_core(
+        out[OUT.tether_angle], out[OUT.offset_angle], out[OUT.offset], s.inertia_ratio,
+        out[OUT.launch_speed], s.spin, zeta, PUCK_RADIUS, PUCK_MASS, TETHER_LENGTH, s.stiffness,
+    )  # fmt: skip
+    out[OUT.vx], out[OUT.vy], out[OUT.spin] = vx, vy, w
+    out[OUT.bounced], out[OUT.completed] = bounced, completed
+
+
+@numba.njit(cache=True, inline="always")
+def _score(s, out):
+    """The task's reward terms, their sum and success, from the bounce already in `out`; the
+    episode ends here."""
+    deflection, ratio = task.achieved_goal(out[OUT.vx], out[OUT.vy], out[OUT.launch_speed])
+    (success, heading_error, speed_error, term_heading, term_speed, term_deadspin,
+     term_success, term_slack) = task.score(
+        s.task, s.target_heading, s.target_speed, deflection, ratio, out[OUT.launch_speed],
+        out[OUT.bounced] == 1.0,
+    )  # fmt: skip
+    out[OUT.term_heading], out[OUT.term_speed] = term_heading, term_speed
+    out[OUT.term_deadspin], out[OUT.term_success] = term_deadspin, term_success
+    out[OUT.term_slack] = term_slack
+    out[OUT.reward] = term_heading + term_speed + term_deadspin + term_success + term_slack
+    out[OUT.terminated], out[OUT.truncated] = 1.0, 0.0
+    out[OUT.is_success] = success
+    out[OUT.deflection], out[OUT.speed_ratio] = deflection, ratio
+    out[OUT.heading_error], out[OUT.speed_error] = heading_error, speed_error
+    out[OUT.residual_speed] = ratio
+
+
+# One kernel per dynamics: a call that a loop never takes still slows it (the hybrid integrator
+# in the impulse loop, the damper search in the sampling), so the damper is found in
+# `_bounce_hybrid`. Each returns the number of non-finite actions.
+@numba.njit(cache=True)
+def _step_impulse(actions, params, state, obs, out):
+    bad = 0
+    for i in range(state.shape[0]):
+        bad += _decode(actions[i], out[i])
+        _bounce_impulse(state[i], out[i])
+        _score(state[i], out[i])
+        _observe(state[i], obs[i])
+    return bad
+
+
+@numba.njit(cache=True)
+def _step_hybrid(actions, params, state, obs, out):
+    p = params[0]
+    bad = 0
+    for i in range(state.shape[0]):
+        bad += _decode(actions[i], out[i])
+        _bounce_hybrid(state[i], p, out[i])
+        _score(state[i], out[i])
+        _observe(state[i], obs[i])
+    return bad
+
+
+@numba.njit(cache=True)
+def _decode_all(actions, out):
+    bad = 0
+    for i in range(actions.shape[0]):
+        bad += _decode(actions[i], out[i])
+    return bad
+
+
+@numba.njit(cache=True)
+def _score_all(state, obs, out):
+    for i in range(state.shape[0]):
+        _score(state[i], out[i])
+        _observe(state[i], obs[i])
+
+
+@numba.njit(cache=True, parallel=True)
+def _step_autoreset_parallel(
+    actions, params, state, final_obs, out, uniforms, next_state, obs, chunk
+):
+    """The step kernel of the configured dynamics, then `_reset` (every episode ends at its
+    step), on chunks of `chunk` rows across threads (the serial kernels' loops compile tighter
+    than one prange over rows)."""
+    n = state.shape[0]
+    bad = 0
+    for c in prange((n + chunk - 1) // chunk):
+        rows = slice(c * chunk, min((c + 1) * chunk, n))
+        if params[0].dynamics == IMPULSE:
+            bad += _step_impulse(actions[rows], params, state[rows], final_obs[rows], out[rows])
+        else:
+            bad += _step_hybrid(actions[rows], params, state[rows], final_obs[rows], out[rows])
+        _reset(uniforms[rows], params, next_state[rows], obs[rows])
+    return bad
+
+
+STEP_KERNELS = {HYBRID: _step_hybrid, IMPULSE: _step_impulse}
+PARALLEL_CHUNK = (
+    {HYBRID: 32, IMPULSE: 2048}
+    if choose_threading_layer() == "workqueue"
+    else {HYBRID: 4, IMPULSE: 256}
+)
+"""Rows per parallel task: tens of microseconds of work, enough to pay for handing it to a TBB
+thread. Workqueue, the fallback where TBB does not load, is slow to wake its threads, so its
+chunks hold several times more. A batch of fewer than two chunks runs serially."""
+
+
+def _check_finite(bad: int, actions: np.ndarray) -> None:
+    """The kernels count NaN or infinite actions; any is a ValueError."""
+    if bad:
+        raise ValueError(f"action must be finite (no NaN or infinity), got {actions!r}")
+
+
+class TetherBounceKernel(Kernel):
+    """The kernel of TetherBounce-v0 for one `EnvConfig`."""
+
+    observation, outcome, action = OBSERVATION, OUTCOME, ACTION
+
+    def __init__(self, config: EnvConfig):
+        self.config = config
+        self.params = config.params()
+        p = self.params[0]
+        randomized = sum(
+            p[f"{name}_low"] != p[f"{name}_high"]
+            for name in ("inertia_ratio", "restitution", "ln_rho")
+        ) + (p["spin_disturbance"] != 0.0)
+        self.n_uniforms = int((p["task"] < 0) + 2 + randomized)
+        """Uniforms an episode draws (see `_sample`), counted from the numbers it compares."""
+        self.dynamics = int(p["dynamics"])
+
+    def reset(self, uniforms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        n = uniforms.shape[0]
+        state, obs = np.empty(n, STATE), OBSERVATION.empty(n)
+        _reset(uniforms, self.params, state, obs)
+        return state, obs
+
+    def step(self, state: np.ndarray, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Decode, bounce and score; the state is unchanged (the episode ends)."""
+        n = state.shape[0]
+        actions = self.as_actions(actions, n)
+        obs, out = OBSERVATION.empty(n), OUTCOME.empty(n)
+        if self.dynamics != PYMUNK:
+            _check_finite(
+                STEP_KERNELS[self.dynamics](actions, self.params, state, obs, out), actions
+            )
+            return state, obs, out
+        _check_finite(_decode_all(actions, out), actions)
+        result = bounce(
+            out[:, OUT.tether_angle], out[:, OUT.offset_angle], offset=out[:, OUT.offset],
+            inertia_ratio=state["inertia_ratio"], speed=out[:, OUT.launch_speed],
+            spin=state["spin"], restitution=state["restitution"], model="pymunk",
+            mass=PUCK_MASS, radius=PUCK_RADIUS, tether_length=TETHER_LENGTH,
+            stiffness=state["stiffness"],
+        )  # fmt: skip
+        out[:, OUT.vx], out[:, OUT.vy] = result.velocity[:, 0], result.velocity[:, 1]
+        out[:, OUT.spin] = result.spin
+        out[:, OUT.bounced], out[:, OUT.completed] = result.bounced, result.completed
+        _score_all(state, obs, out)
+        return state, obs, out
+
+    def step_autoreset(self, state, actions, uniforms):
+        """Every episode ends at its step: step, then all start anew, fused into one pass
+        across threads for batches large enough to pay for it."""
+        n = state.shape[0]
+        if self.dynamics == PYMUNK or n < 2 * PARALLEL_CHUNK[self.dynamics]:
+            _, final_obs, out = self.step(state, actions)
+            return (*self.reset(uniforms), final_obs, out)
+        actions = self.as_actions(actions, n)
+        final_obs, out = OBSERVATION.empty(n), OUTCOME.empty(n)
+        next_state, obs = np.empty(n, STATE), OBSERVATION.empty(n)
+        bad = _step_autoreset_parallel(
+            actions, self.params, state, final_obs, out, uniforms, next_state, obs,
+            PARALLEL_CHUNK[self.dynamics],
+        )  # fmt: skip
+        _check_finite(bad, actions)
+        return next_state, obs, final_obs, out
+
+    def reset_options(self, options: dict, state: np.ndarray, obs: np.ndarray) -> None:
+        """Keys: "task" (one of TASKS), "target_heading" (rad, heading and velocity tasks) and
+        "target_speed" (m/s, velocity task); validated with ValueErrors naming them."""
+        unknown = set(options) - {"task", "target_heading", "target_speed"}
+        if unknown:
+            raise ValueError(f"options may hold task, target_heading, target_speed; got {unknown}")
+        if "task" in options:
+            if options["task"] not in TASKS:
+                raise ValueError(f"options['task'] must be one of {TASKS}, got {options['task']!r}")
+            state["task"] = TASKS.index(options["task"])
+        if "target_heading" in options:
+            heading = check_float("target_heading", options["target_heading"], -math.pi, math.pi)
+            if abs(heading) < task.MIN_HEADING:
+                raise ValueError(
+                    f"target_heading must satisfy |target_heading| in [pi/12, pi], got {heading!r}"
+                )
+            _aim_all(state, heading)
+        if "target_speed" in options:
+            state["target_speed"] = check_float(
+                "target_speed", options["target_speed"], *TARGET_SPEED
+            )
+        _observe_all(state, obs)
+
+
+@numba.njit(cache=True)
+def _aim_all(state, heading):
+    for i in range(state.shape[0]):
+        _aim(state[i], heading)
+
+
+@numba.njit(cache=True)
+def _observe_all(state, obs):
+    for i in range(state.shape[0]):
+        _observe(state[i], obs[i])
+
+
+def decode_observation(obs) -> dict[str, np.ndarray]:
+    """TetherBounce observations (..., 10) in physical terms, by name: `task` (index into
+    TASKS), `target_heading` (rad), `target_speed` (m/s), `inertia_ratio`, `restitution`,
+    `rho`, `stiffness` (N/m), `spin` (rad/s). The public decoder agents use."""
+    o = OBSERVATION.decode(obs)
+    rho = 10.0 ** o["log10_rho"]
+    one_hot = np.stack([o[f"task_{name}"] for name in TASKS], axis=-1)
+    return {
+        "task": np.argmax(one_hot, axis=-1),
+        "target_heading": np.arctan2(o["target_heading_sin"], o["target_heading_cos"]),
+        "target_speed": o["target_speed"],
+        "inertia_ratio": o["inertia_ratio"],
+        "restitution": o["restitution"],
+        "rho": rho,
+        "stiffness": env_stiffness(rho),
+        "spin": o["spin"],
+    }
