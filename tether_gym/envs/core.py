@@ -277,11 +277,11 @@ def _hybrid_one(task_row, cfg, out):
     """The same with the hybrid model (its damper from the episode's restitution)."""
     e = task_row[RESTITUTION]
     zeta = cfg[C_ZETA] if cfg[C_E_LOW] == cfg[C_E_HIGH] else damping_ratio(e)
-    vx, vy, w, bounced, completed, _ = hybrid_core(
+    after, bounced, completed, _ = hybrid_core(
         out[O_TETHER_ANGLE], out[O_OFFSET_ANGLE], out[O_OFFSET], task_row[KAPPA],
         out[O_LAUNCH], task_row[SPIN], zeta, RADIUS, MASS, TETHER_LENGTH, task_row[STIFFNESS],
     )  # fmt: skip
-    out[O_VX], out[O_VY], out[O_SPIN] = vx, vy, w
+    out[O_VX], out[O_VY], out[O_SPIN] = after.vx, after.vy, after.spin
     out[O_BOUNCED], out[O_COMPLETED] = bounced, completed
 
 
