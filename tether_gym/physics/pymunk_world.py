@@ -1,9 +1,11 @@
 """A pymunk (Chipmunk2D) world of the tethered puck, in one place for every user to build on.
 
-The world is the launch frame of `tether_gym.physics.geometry` in metres and seconds, with no
-gravity (an air table): the puck is a dynamic body with a circle shape and the moment of
-inertia kappa m R^2; the anchor is a static point; the tether is a one-sided spring-damper of
-stiffness k, damper c and rest length L0 acting at the attachment point,
+The world is a world frame (`tether_gym.physics.state`; with the anchor at the origin, the
+launch frame of `tether_gym.physics.geometry`) in metres and seconds, with no gravity (an air
+table): the puck is a dynamic body with a circle shape and the moment of inertia kappa m R^2,
+its body angle the state's `angle` (`place_state`, `state`); the anchor is a static point; the
+tether is a one-sided spring-damper of stiffness k, damper c and rest length L0 acting at the
+attachment point,
 
     T = max(0, k (L - L0) + c dL/dt)  where L > L0,  else 0.
 
@@ -25,7 +27,7 @@ located inside their steps by linear interpolation of the gauge min(k (L - L0), 
 exactly when taut) between the two samples around its sign change, an error of order h^2 in
 time (1e-4 of the contact time at the default step). The velocity is not interpolated: the
 force of the last taut sample acts over its whole step, an error that the step keeps small
-(measured in `tether_gym.physics.pymunk_backend`).
+(`benchmarks/pymunk_model.py` measures it).
 
 Walls. An optional rectangular `Table` adds four static segments. Chipmunk's restitution of a
 contact is the product of the two shapes' elasticities; the puck's is 1, so a wall's elasticity
