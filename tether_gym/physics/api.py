@@ -63,10 +63,12 @@ def _validated(model: str, stiffness, check, **values) -> dict:
 
 
 def _flat(array: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """A length-1 array for a scalar, else the input broadcast to `shape` and flattened."""
+    """A length-1 array for a scalar, else the input broadcast to `shape` and flattened; both
+    contiguous and writable (a read-only view is another type to numba: another compile)."""
     if array.size == 1:
-        return array.reshape(1)
-    return np.ascontiguousarray(np.broadcast_to(array, shape)).reshape(-1)
+        return np.require(array.reshape(1), requirements="CW")
+    full = array if array.shape == shape else np.broadcast_to(array, shape)
+    return np.require(full.reshape(-1), requirements="CW")
 
 
 def bounce(

@@ -23,7 +23,7 @@ import math
 import numba
 from numba import prange
 
-from tether_gym.physics.geometry import deflection_and_speed_ratio, initial_state
+from tether_gym.physics.geometry import deflection_and_speed_ratio
 from tether_gym.physics.jit import serial_and_parallel
 from tether_gym.physics.state import PuckState, attachment_offset, stretch_rate
 
@@ -36,16 +36,29 @@ def impulse_response(vx, vy, spin, rx, ry, ux, uy, kappa, radius, e):
     v_n = stretch_rate(vx, vy, spin, rx, ry, ux, uy)
     if not v_n > 0.0:
         return vx, vy, spin, False
-    arm = (rx * uy - ry * ux) / radius  # moment arm r x u over R: d sin(alpha)
-    dv = (1.0 + e) * v_n / (1.0 + arm * arm / kappa)
-    return vx - dv * ux, vy - dv * uy, spin - dv * arm / (kappa * radius), True
+    arm = rx * uy - ry * ux  # moment arm r x u: d R sin(alpha)
+    gyration2 = kappa * radius * radius  # I / m
+    dv = (1.0 + e) * v_n / (1.0 + arm * arm / gyration2)
+    return vx - dv * ux, vy - dv * uy, spin - dv * arm / gyration2, True
 
 
 @numba.njit(cache=True)
 def impulse_core(beta, alpha, offset, kappa, speed, spin, e, radius):
-    """One bounce from plain floats, in the launch frame: (vx, vy, spin, bounced) after it."""
-    _, _, vx, vy, rx, ry, w = initial_state(beta, alpha, offset, radius, 1.0, speed, spin)
-    return impulse_response(vx, vy, w, rx, ry, math.cos(beta), math.sin(beta), kappa, radius, e)
+    """One bounce from plain floats, in the launch frame: (vx, vy, spin, bounced) after it.
+
+    `impulse_response` taken in the tether's frame (x along u = (cos beta, sin beta), y across
+    it), where the set-up costs no more trigonometry than its moment arm: the centre of mass
+    moves at speed (sin beta, cos beta) and the attachment point lies at -d R sin(alpha) across
+    the tether from it (its place along the tether has no moment about u and plays no part).
+    """
+    ux, uy = math.cos(beta), math.sin(beta)
+    across = -offset * radius * math.sin(alpha)
+    v_u, v_across, w, bounced = impulse_response(
+        speed * uy, speed * ux, spin, 0.0, across, 1.0, 0.0, kappa, radius, e
+    )
+    if not bounced:
+        return 0.0, speed, spin, False
+    return v_u * ux - v_across * uy, v_u * uy + v_across * ux, w, True
 
 
 @numba.njit(cache=True)

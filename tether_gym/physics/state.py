@@ -105,10 +105,11 @@ def as_states(states, name: str = "states") -> np.ndarray:
 
 
 def broadcast_flat(*arrays: np.ndarray) -> tuple[tuple[int, ...], list[np.ndarray]]:
-    """The broadcast shape of `arrays`, and each broadcast to it, contiguous and flattened."""
+    """The broadcast shape of `arrays`, and each broadcast to it, flattened, contiguous and
+    writable (a read-only view is another type to numba: another compile)."""
     shape = np.broadcast_shapes(*(array.shape for array in arrays))
-    flat = [np.ascontiguousarray(np.broadcast_to(a, shape)).reshape(-1) for a in arrays]
-    return shape, flat
+    full = (a if a.shape == shape else np.broadcast_to(a, shape) for a in arrays)
+    return shape, [np.require(a.reshape(-1), requirements="CW") for a in full]
 
 
 @numba.njit(cache=True)
