@@ -59,14 +59,14 @@ contact)."""
 
 
 @numba.njit(cache=True)
-def effective_mass(mass, kappa, arm):
-    """The puck's mass as the tether feels it: m / (1 + arm^2 / kappa), `arm` the moment arm of
-    the tether about the centre of mass over R (d sin alpha at tautening, at most d).
+def effective_mass(mass, kappa, moment_arm):
+    """The puck's mass as the tether feels it: m / (1 + moment_arm^2 / kappa), `moment_arm` that
+    of the tether about the centre of mass over R (d sin alpha at tautening, at most d).
 
     The damper c = 2 zeta sqrt(k m_eff) of every spring model is set from it at tautening, so
     that the contact's restitution is e in the stiff limit whatever the set-up.
     """
-    return mass / (1.0 + arm * arm / kappa)
+    return mass / (1.0 + moment_arm * moment_arm / kappa)
 
 
 @numba.njit(cache=True)

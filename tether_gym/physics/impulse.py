@@ -36,10 +36,10 @@ def impulse_response(vx, vy, spin, rx, ry, ux, uy, kappa, radius, e):
     v_n = stretch_rate(vx, vy, spin, rx, ry, ux, uy)
     if not v_n > 0.0:
         return vx, vy, spin, False
-    arm = rx * uy - ry * ux  # moment arm r x u: d R sin(alpha)
+    lever = rx * uy - ry * ux  # the tether's moment arm r x u, m: d R sin(alpha)
     gyration2 = kappa * radius * radius  # I / m
-    dv = (1.0 + e) * v_n / (1.0 + arm * arm / gyration2)
-    return vx - dv * ux, vy - dv * uy, spin - dv * arm / gyration2, True
+    dv = (1.0 + e) * v_n / (1.0 + lever * lever / gyration2)
+    return vx - dv * ux, vy - dv * uy, spin - dv * lever / gyration2, True
 
 
 @numba.njit(cache=True)

@@ -29,10 +29,10 @@ from tether_gym.physics.pymunk_world import TetherWorld
 from tether_gym.physics.state import PuckState, attachment_offset, stretch_rate
 
 
-def _world(mass, radius, kappa, offset, rest_length, k, zeta, arm, anchor) -> TetherWorld:
-    """A world with the hybrid model's damper for a tether of moment arm `arm` (over R) at
-    tautening, anchored at `anchor`."""
-    damping = 2.0 * zeta * math.sqrt(k * effective_mass(mass, kappa, arm))
+def _world(mass, radius, kappa, offset, rest_length, k, zeta, moment_arm, anchor) -> TetherWorld:
+    """A world with the hybrid model's damper for a tether of moment arm `moment_arm` (over R)
+    at tautening, anchored at `anchor`."""
+    damping = 2.0 * zeta * math.sqrt(k * effective_mass(mass, kappa, moment_arm))
     return TetherWorld(
         mass=mass,
         radius=radius,
@@ -64,8 +64,9 @@ def pymunk_bounce(beta, alpha, offset, kappa, speed, spin, e, radius, mass, rest
     _, _, vx, vy, rx, ry, w = state
     if stretch_rate(vx, vy, w, rx, ry, math.cos(beta), math.sin(beta)) <= 0.0:
         return vx, vy, w, False, True, 0.0
-    arm = offset * math.sin(alpha)
-    world = _world(mass, radius, kappa, offset, rest_length, k, damping_ratio(e), arm, (0.0, 0.0))
+    moment_arm = offset * math.sin(alpha)
+    zeta = damping_ratio(e)
+    world = _world(mass, radius, kappa, offset, rest_length, k, zeta, moment_arm, (0.0, 0.0))
     world.place(*state)
     completed, contact_time = _until_slack(world)
     v = world.body.velocity
@@ -82,8 +83,9 @@ def pymunk_contact_row(
     ux, uy = px / distance, py / distance
     if not stretch_rate(state.vx, state.vy, state.spin, rx, ry, ux, uy) > 0.0:
         return state, False, True, 0.0
-    arm = (rx * uy - ry * ux) / radius
-    world = _world(mass, radius, kappa, offset, rest_length, k, zeta, arm, (anchor_x, anchor_y))
+    moment_arm = (rx * uy - ry * ux) / radius
+    anchor = (anchor_x, anchor_y)
+    world = _world(mass, radius, kappa, offset, rest_length, k, zeta, moment_arm, anchor)
     world.place_state(state)
     completed, contact_time = _until_slack(world)
     return free_flight_row(world.state, contact_time - world.time), True, completed, contact_time
