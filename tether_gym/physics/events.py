@@ -235,7 +235,8 @@ def time_to_taut(states, anchor, tether_length, arm, horizon=INF) -> np.ndarray:
     """`time_to_taut_row` over broadcastable batches: `states` (`PUCK_STATE`), `anchor` (..., 2)
     points (m), `tether_length` (m, > 0), `arm` (the attachment point's distance from the
     centre of mass, m, >= 0) and `horizon` (s, in [0, inf]). Seconds, inf where not within the
-    horizon."""
+    horizon. The search costs a few steps per near approach and per turn of the puck within
+    the horizon: a finite one (the time to the next wall, say) bounds it."""
     horizon = np.asarray(horizon, dtype=np.float64)
     if np.any(np.isnan(horizon)) or np.any(horizon < 0.0):
         raise ValueError(f"horizon must be in [0, inf], got {horizon!r}")

@@ -83,7 +83,8 @@ class Puck:
 
 def puck_states(x=0.0, y=0.0, vx=0.0, vy=0.0, angle=0.0, spin=0.0) -> np.ndarray:
     """A `PUCK_STATE` array from broadcastable fields, validated (finite)."""
-    values = {name: as_finite(name, value) for name, value in locals().items()}
+    given = zip(PuckState._fields, (x, y, vx, vy, angle, spin), strict=True)
+    values = {name: as_finite(name, value) for name, value in given}
     shape = np.broadcast_shapes(*(value.shape for value in values.values()))
     states = np.empty(shape, dtype=PUCK_STATE)
     for name, value in values.items():
