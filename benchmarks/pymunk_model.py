@@ -4,7 +4,7 @@ Speed: one bounce through `bounce_one` at the default settings (45 degree tether
 disk, the paper's stiffness rho = 850), median over repeats, for model="pymunk" (target: at
 most 5 ms) and model="hybrid", and their ratio.
 Error: the worst disagreement with the hybrid model over the paper's sweeps (e = 1) for a few
-steps per half period, which is how `pymunk_world.STEPS_PER_HALF_PERIOD` was chosen.
+steps per half period, which is how `pymunk_world.EULER_STEPS_PER_HALF_PERIOD` was chosen.
 
     python benchmarks/pymunk_model.py [--quick]
 
@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from tether_gym.physics import bounce, bounce_one, perpendicular_speed, stiffness_from_rho
-from tether_gym.physics.pymunk_world import STEPS_PER_HALF_PERIOD, TetherWorld
+from tether_gym.physics.pymunk_world import EULER_STEPS_PER_HALF_PERIOD, TetherWorld
 
 STIFFNESS = float(
     stiffness_from_rho(850.0, 1.0, 10.0, perpendicular_speed(math.pi / 4, 0.0, offset=0))
@@ -85,9 +85,9 @@ def main() -> None:
     for steps in (16, 32, 64, 128):
         defaults["taut_steps"] = steps
         errors = worst_errors(7 if args.quick else 25)
-        mark = "  <- default" if steps == STEPS_PER_HALF_PERIOD else ""
+        mark = "  <- default" if steps == EULER_STEPS_PER_HALF_PERIOD else ""
         print("  {:>17d}   {:16.4f}   {:11.1e}   {:12.1e}   {:6.1e}".format(steps, *errors) + mark)
-    defaults["taut_steps"] = STEPS_PER_HALF_PERIOD
+    defaults["taut_steps"] = EULER_STEPS_PER_HALF_PERIOD
 
 
 if __name__ == "__main__":

@@ -14,7 +14,7 @@ def real(low: float, high: float) -> st.SearchStrategy[float]:
     return st.floats(low, high, allow_nan=False, allow_infinity=False)
 
 
-# Every parameter of `bounce` over a wide slice of its valid range (see api.RANGES).
+# Every parameter of `bounce` over a wide slice of its valid range (see checks.RANGES).
 PARAMETERS = dict(
     tether_angle=real(-10.0, 10.0),
     offset_angle=real(-10.0, 10.0),

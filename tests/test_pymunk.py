@@ -175,23 +175,3 @@ def test_bad_table_raises() -> None:
 def test_the_physics_package_does_not_import_pymunk() -> None:
     code = "import sys, tether_gym.physics; assert 'pymunk' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
-
-
-def test_rgb_frame_shows_the_puck_where_it_is() -> None:
-    from tether_gym.envs.pymunk_render import PUCK, WorldRenderer, render_rgb
-
-    world = TetherWorld.at_tautening(np.pi / 4, 0.3, stiffness=STIFFNESS)
-    view = (-12.0, 12.0, -12.0, 12.0)
-    frame = render_rgb(world, size=(240, 240), view=view)
-    assert frame.shape == (240, 240, 3) and frame.dtype == np.uint8
-    x, y = world.body.position
-    column, row = round((x + 12.0) * 10.0), round((12.0 - y) * 10.0)  # +y up on screen
-    near = frame[row - 3 : row + 4, column - 3 : column + 4].reshape(-1, 3)
-    assert np.any(np.all(near == PUCK, axis=1))
-    assert np.count_nonzero(np.all(frame == PUCK, axis=-1)) < 0.1 * 240 * 240
-
-    human = WorldRenderer("human", size=(120, 100))
-    assert human.render(world) is None
-    human.close()
-    with pytest.raises(ValueError, match="render_mode"):
-        WorldRenderer("ascii")

@@ -1,4 +1,9 @@
-"""`bounce`: the one entry point that users, tests and the environments share."""
+"""`bounce`: the one entry point that users, tests and the environments share.
+
+The bounce of the paper's launch frame, for any model of the registry `models.MODELS`: the
+launch frame is one particular world frame, and each model's launch-frame bounce runs the same
+contact as its world contact (`tether_gym.physics.contact`).
+"""
 
 from __future__ import annotations
 
@@ -6,11 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tether_gym.physics import hybrid, impulse
-from tether_gym.physics.checks import INF, check_float, check_range
+from tether_gym.physics.checks import check_float, check_parameter, check_range
 from tether_gym.physics.geometry import deflection_and_speed_ratio
-
-MODELS = ("impulse", "hybrid", "pymunk")
+from tether_gym.physics.models import MODELS
 
 
 @dataclass(frozen=True)
@@ -28,58 +31,44 @@ class BounceResult:
     bounced: np.ndarray
     """The tether went taut (the attachment point was moving away from the anchor)."""
     completed: np.ndarray
-    """The tether went slack again within the step budget (always true for `impulse`)."""
+    """The tether went slack again within the contact budget (always true for `impulse`)."""
     contact_time: np.ndarray
     """How long the tether stayed taut, s (0 for the instantaneous impulse model)."""
 
 
-# name -> (low, high, low_open): the allowed range of every parameter of `bounce`.
-RANGES = {
-    "tether_angle": (-INF, INF, False),
-    "offset_angle": (-INF, INF, False),
-    "offset": (0.0, 1.0, False),
-    "inertia_ratio": (0.0, INF, True),
-    "speed": (0.0, INF, True),
-    "spin": (-INF, INF, False),
-    "restitution": (0.0, 1.0, False),
-    "radius": (0.0, INF, True),
-    "mass": (0.0, INF, True),
-    "tether_length": (0.0, INF, True),
-    "stiffness": (0.0, INF, True),
-}
+BOUNCE_PARAMETERS = (
+    "tether_angle", "offset_angle", "offset", "inertia_ratio", "speed", "spin", "restitution",
+    "radius", "mass", "tether_length", "stiffness",
+)  # fmt: skip
+"""The physical parameters of `bounce`, in the order of every model's launch-frame core."""
+UNUSED_STIFFNESS = 1.0
+"""Stands in for the stiffness of the impulse model, which has no spring."""
 
 
 def _validated(model: str, stiffness, check, **values) -> dict:
-    """Check every parameter with `check` (array or scalar flavour) against RANGES."""
+    """Every parameter checked by `check` (array or scalar flavour) against its range, in the
+    order of BOUNCE_PARAMETERS (the impulse model's missing stiffness as UNUSED_STIFFNESS)."""
     if model not in MODELS:
-        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
-    if stiffness is None and model != "impulse":
+        raise ValueError(f"model must be one of {tuple(MODELS)}, got {model!r}")
+    spring = MODELS[model].needs_stiffness
+    if stiffness is None and spring:
         raise ValueError(f"stiffness (N/m, in (0, inf)) is required for model={model!r}")
-    if stiffness is not None:
-        values["stiffness"] = stiffness
-    out = {
-        name: check(name, value, *RANGES[name][:2], low_open=RANGES[name][2])
-        for name, value in values.items()
-    }
-    if model != "impulse" and np.any(np.asarray(out["restitution"]) == 0.0):
+    values["stiffness"] = UNUSED_STIFFNESS if stiffness is None else stiffness
+    out = {name: check_parameter(name, values[name], check) for name in BOUNCE_PARAMETERS}
+    if spring and np.any(np.asarray(out["restitution"]) == 0.0):
         raise ValueError(
             f"restitution must be in (0, 1] for model={model!r}: e = 0 needs an infinite damper"
         )
     return out
 
 
-def _pymunk_backend():
-    """The pymunk model's module, imported on first use: pymunk is a heavy optional engine."""
-    from tether_gym.physics import pymunk_backend
-
-    return pymunk_backend
-
-
 def _flat(array: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """A length-1 array for a scalar, else the input broadcast to `shape` and flattened."""
+    """A length-1 array for a scalar, else the input broadcast to `shape` and flattened; both
+    contiguous and writable (a read-only view is another type to numba: another compile)."""
     if array.size == 1:
-        return array.reshape(1)
-    return np.ascontiguousarray(np.broadcast_to(array, shape)).reshape(-1)
+        return np.require(array.reshape(1), requirements="CW")
+    full = array if array.shape == shape else np.broadcast_to(array, shape)
+    return np.require(full.reshape(-1), requirements="CW")
 
 
 def bounce(
@@ -111,8 +100,9 @@ def bounce(
         speed: pre-bounce speed of the centre of mass, m/s, > 0.
         spin: pre-bounce angular velocity, rad/s, counter-clockwise positive.
         restitution: e in [0, 1] (in (0, 1] for the hybrid and pymunk models).
-        model: "impulse" (closed form), "hybrid" (spring tether, needs `stiffness`) or
-            "pymunk" (the hybrid model's tether in the pymunk engine, needs `stiffness`).
+        model: a name of `MODELS`: "impulse" (closed form), "hybrid" (spring tether, needs
+            `stiffness`) or "pymunk" (the hybrid model's tether in the pymunk engine, needs
+            `stiffness`).
         mass, radius: the puck's, kg and m, > 0.
         tether_length: rest length L0 of the tether, the anchor's distance from the attachment
             point at tautening, m, > 0.
@@ -137,49 +127,20 @@ def bounce(
         tether_length=tether_length,
     )
     shape = np.broadcast_shapes(*(a.shape for a in args.values()))
-    flat = {name: _flat(a, shape) for name, a in args.items()}
     n = int(np.prod(shape))
     velocity = np.empty((n, 2))
-    spin_out, angle, ratio = np.empty(n), np.empty(n), np.empty(n)
-    bounced = np.empty(n, dtype=bool)
-    common = (
-        flat["tether_angle"],
-        flat["offset_angle"],
-        flat["offset"],
-        flat["inertia_ratio"],
-        flat["speed"],
-        flat["spin"],
+    spin_out, angle, ratio, contact_time = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    bounced, completed = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+    MODELS[model].bounce_kernel(
+        *(_flat(a, shape) for a in args.values()),
+        velocity,
+        spin_out,
+        angle,
+        ratio,
+        bounced,
+        completed,
+        contact_time,
     )
-    if model == "impulse":
-        completed, contact_time = np.ones(n, dtype=bool), np.zeros(n)
-        impulse.impulse_kernel(
-            *common,
-            flat["restitution"],
-            flat["radius"],
-            velocity,
-            spin_out,
-            angle,
-            ratio,
-            bounced,
-        )
-    else:
-        completed, contact_time = np.empty(n, dtype=bool), np.empty(n)
-        kernel = hybrid.hybrid_kernel if model == "hybrid" else _pymunk_backend().pymunk_kernel
-        kernel(
-            *common,
-            hybrid.damping_ratios(flat["restitution"]),
-            flat["radius"],
-            flat["mass"],
-            flat["tether_length"],
-            flat["stiffness"],
-            velocity,
-            spin_out,
-            angle,
-            ratio,
-            bounced,
-            completed,
-            contact_time,
-        )
     return BounceResult(
         velocity=velocity.reshape(*shape, 2),
         spin=spin_out.reshape(shape),
@@ -225,26 +186,6 @@ def bounce_one(
         mass=mass,
         tether_length=tether_length,
     )
-    common = (
-        a["tether_angle"],
-        a["offset_angle"],
-        a["offset"],
-        a["inertia_ratio"],
-        a["speed"],
-        a["spin"],
-    )
-    if model == "impulse":
-        vx, vy, w, bounced = impulse.impulse_core(*common, a["restitution"], a["radius"])
-        completed, contact_time = True, 0.0
-    else:
-        core = hybrid.hybrid_core if model == "hybrid" else _pymunk_backend().pymunk_core
-        vx, vy, w, bounced, completed, contact_time = core(
-            *common,
-            hybrid.damping_ratio(a["restitution"]),
-            a["radius"],
-            a["mass"],
-            a["tether_length"],
-            a["stiffness"],
-        )
+    vx, vy, w, bounced, completed, contact_time = MODELS[model].bounce_one(*a.values())
     angle, ratio = deflection_and_speed_ratio(vx, vy, a["speed"])
     return BounceResult(np.array([vx, vy]), w, angle, ratio, bounced, completed, contact_time)

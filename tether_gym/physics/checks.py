@@ -8,6 +8,25 @@ import numpy as np
 
 INF = math.inf
 
+RANGES = {
+    "tether_angle": (-INF, INF, False),
+    "offset_angle": (-INF, INF, False),
+    "offset": (0.0, 1.0, False),
+    "inertia_ratio": (0.0, INF, True),
+    "speed": (0.0, INF, True),
+    "spin": (-INF, INF, False),
+    "restitution": (0.0, 1.0, False),
+    "radius": (0.0, INF, True),
+    "mass": (0.0, INF, True),
+    "tether_length": (0.0, INF, True),
+    "stiffness": (0.0, INF, True),
+    "arm": (0.0, INF, False),
+    "width": (0.0, INF, True),
+    "height": (0.0, INF, True),
+}
+"""name -> (low, high, low_open): the allowed range of every physical parameter, one range per
+name across the package. `arm` is the attachment point's distance from the centre of mass (m)."""
+
 
 def _interval(low: float, high: float, low_open: bool) -> str:
     right = ")" if math.isinf(high) else "]"
@@ -52,3 +71,18 @@ def check_float(
     if (number <= low if low_open else number < low) or number > high:
         raise ValueError(f"{name} must be in {_interval(low, high, low_open)}, got {number!r}")
     return number
+
+
+def check_parameter(name: str, value, check=check_range):
+    """`value` checked against the range of the parameter `name` in RANGES, by `check`
+    (`check_range` for arrays, `check_float` for one number)."""
+    low, high, low_open = RANGES[name]
+    return check(name, value, low, high, low_open=low_open)
+
+
+def check_points(name: str, value) -> np.ndarray:
+    """`value` as a finite float64 array of points, shape (..., 2), or ValueError."""
+    array = as_finite(name, value)
+    if array.ndim == 0 or array.shape[-1] != 2:
+        raise ValueError(f"{name} must be a point (x, y) or an array of them, shape (..., 2)")
+    return array

@@ -12,7 +12,8 @@ Conventions shared by every model:
   arm r x u = d R sin(alpha) is positive and the bounce spins the puck clockwise.
 - `offset` is the attachment point's distance from the centre of mass over the radius R.
 
-The functions here are numba-compiled so that the kernels share them; they also take plain
+The launch frame is one particular world frame: `tether_gym.physics.frames` maps between the
+two. The functions here are numba-compiled so that the kernels share them; they also take plain
 floats from Python.
 """
 
@@ -27,7 +28,10 @@ import numpy as np
 @numba.njit(cache=True)
 def initial_state(tether_angle, offset_angle, offset, radius, tether_length, speed, spin):
     """State at tautening: centre of mass (cx, cy), its velocity (vx, vy), the vector (rx, ry)
-    from the centre of mass to the attachment point, and the spin w."""
+    from the centre of mass to the attachment point, and the spin w.
+
+    The vector form the contact integrators start from; `frames.launch_state` is the same
+    set-up as a world state (an orientation angle instead of (rx, ry))."""
     ux, uy = math.cos(tether_angle), math.sin(tether_angle)
     arm = offset * radius
     rx = -arm * math.cos(tether_angle + offset_angle)
@@ -77,8 +81,17 @@ def rho(stiffness, mass, tether_length, v_theta) -> np.ndarray:
         return np.sqrt(np.divide(stiffness, mass)) * np.divide(tether_length, v_theta)
 
 
+@numba.njit(cache=True)
+def stiffness_for_rho(rho_value, mass, tether_length, v_theta):
+    """The spring constant k (N/m) whose rho (eq. 11) is `rho_value`: k = m (rho v_theta / L)^2.
+
+    The one formula, compiled for the kernels; `stiffness_from_rho` validates and broadcasts it.
+    """
+    return mass * (rho_value * v_theta / tether_length) ** 2
+
+
 def stiffness_from_rho(rho_value, mass, tether_length, v_theta) -> np.ndarray:
-    """The spring constant k (N/m) that gives `rho_value` (eq. 11 solved for k)."""
+    """`stiffness_for_rho` over broadcastable arrays, validated."""
     value = np.asarray(rho_value, dtype=np.float64)
     if np.any(~np.isfinite(value)) or np.any(value <= 0):
         raise ValueError(f"rho must be finite and in (0, inf), got {rho_value!r}")
@@ -87,4 +100,4 @@ def stiffness_from_rho(rho_value, mass, tether_length, v_theta) -> np.ndarray:
             "v_theta must be in (0, inf): rho is infinite for a tether whose attachment point "
             "moves along it (the inline tether); give the stiffness instead"
         )
-    return mass * (value * np.asarray(v_theta, dtype=np.float64) / tether_length) ** 2
+    return stiffness_for_rho.py_func(value, mass, tether_length, np.asarray(v_theta, np.float64))

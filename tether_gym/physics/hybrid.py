@@ -1,23 +1,30 @@
 """The hybrid model: free flight, then a one-sided spring tether (the paper's eqs. 1-6).
 
-The puck flies freely until the tether goes taut (the set-up of `geometry.initial_state`); from
-then on the tether pulls the attachment point towards the anchor with the tension
+The puck flies freely until the tether goes taut (`events.time_to_taut`; in the launch frame the
+set-up of `geometry.initial_state`); from then on the tether pulls the attachment point towards
+the anchor with the tension
 
     T = k (L - L0) + c dL/dt,
 
 and the bounce ends at the first instant T falls to zero: the tether never pushes. Free flight
-before and after is exact, so only the contact phase is integrated.
+before and after is exact, so only the contact phase is integrated, in coordinates relative to
+the anchor: the launch-frame bounce (`hybrid_core`, `hybrid_bounce`, `hybrid_kernel`) and the
+world contact (`hybrid_contact_row`) run the same integration, and a contact anywhere in the
+world is the launch-frame bounce turned and shifted. The contact lasts a finite time, so it
+returns the whole state after it: position and orientation too.
 
-Integration. Classic fourth-order Runge-Kutta with a fixed step, `STEPS_PER_HALF_PERIOD` steps
-per half period of the fastest time scale: the spring along the tether (with the least effective
-mass any orientation gives, since the puck turns during the contact), or the puck's spin when
-that can be faster (bounded by energy, w^2 <= w0^2 + v0^2 / (kappa R^2)). The slack instant is
-located inside the last step: the step is re-taken from its start with a length found by the
-Illinois (regula falsi) method on T, so the kink at L = L0 never falls inside a step and the
-method keeps its order. The attachment point is carried as a vector (rx, ry) that turns with the
-spin, which spares the trigonometry of an angle state. A bounce still taut after
-`MAX_HALF_PERIODS` half periods of the slowest time scale (or `MAX_STEPS` steps) is reported with
-`completed = False` instead of hanging.
+Integration. Classic fourth-order Runge-Kutta with a fixed step, `RK4_STEPS_PER_HALF_PERIOD`
+steps per half period of the fastest time scale: the spring along the tether (with the least
+effective mass any orientation gives, since the puck turns during the contact: `fastest_rate`),
+or the puck's spin when that can be faster (bounded by energy, w^2 <= w0^2 + v0^2 / (kappa R^2)).
+The slack instant is located inside the last step: the step is re-taken from its start with a
+length found by the Illinois (regula falsi) method on T, so the kink at L = L0 never falls inside
+a step and the method keeps its order. The attachment point is carried as a vector (rx, ry) that
+turns with the spin, which spares the trigonometry of an angle state; the orientation angle is
+integrated beside it by the same RK4 (dangle/dt = spin), so that it keeps count of whole turns.
+A bounce still taut after `MAX_HALF_PERIODS` half periods of the slowest time scale
+(`contact_budget`, the budget the pymunk model shares), or after `MAX_STEPS` steps, is reported
+with `completed = False` instead of hanging.
 
 Dissipation. The damper's coefficient is c = 2 zeta sqrt(k m_eff), m_eff the puck's effective
 mass along the tether at tautening, m / (1 + (d sin alpha)^2 / kappa). For a linear
@@ -37,24 +44,56 @@ import numba
 import numpy as np
 from numba import prange
 
+from tether_gym.physics.frames import launch_angle
 from tether_gym.physics.geometry import deflection_and_speed_ratio, initial_state
 from tether_gym.physics.jit import serial_and_parallel
+from tether_gym.physics.state import PuckState, attachment_offset, puck_state, stretch_rate
 
-STEPS_PER_HALF_PERIOD = 48
+RK4_STEPS_PER_HALF_PERIOD = 48
+"""RK4 steps per half period of the fastest time scale of a contact."""
 MAX_HALF_PERIODS = 400
+"""A contact still taut after this many half periods of its slowest time scale is given up."""
 MAX_STEPS = 1 << 22
-"""At most about half a second of work for one bounce (a stiff, heavily damped contact)."""
+"""At most this many steps for one bounce, whatever the time scales (a stiff, heavily damped
+contact)."""
 
 
 @numba.njit(cache=True)
-def effective_mass(mass, kappa, offset, alpha):
-    """The puck's mass as the tether feels it at tautening: m / (1 + (d sin alpha)^2 / kappa).
+def effective_mass(mass, kappa, moment_arm):
+    """The puck's mass as the tether feels it: m / (1 + moment_arm^2 / kappa), `moment_arm` that
+    of the tether about the centre of mass over R (d sin alpha at tautening, at most d).
 
-    The damper c = 2 zeta sqrt(k m_eff) of every spring model is set from it, so that the
-    contact's restitution is e in the stiff limit whatever the set-up.
+    The damper c = 2 zeta sqrt(k m_eff) of every spring model is set from it at tautening, so
+    that the contact's restitution is e in the stiff limit whatever the set-up.
     """
-    arm = offset * math.sin(alpha)
-    return mass / (1.0 + arm * arm / kappa)
+    return mass / (1.0 + moment_arm * moment_arm / kappa)
+
+
+@numba.njit(cache=True)
+def fastest_rate(k, c, mass, kappa, offset):
+    """The fastest rate (rad/s) of the spring-damper along the tether, over every orientation
+    the puck may turn to during a contact: that of the least effective mass (the moment arm at
+    its largest, d), raised by the fast decay of an overdamped damper. Both step sizes, the
+    hybrid model's and the pymunk world's, are fractions of its half period."""
+    m_least = effective_mass(mass, kappa, offset)
+    natural = math.sqrt(k / m_least)
+    z = c / (2.0 * math.sqrt(k * m_least))
+    return natural * (z + math.sqrt(z * z - 1.0) if z > 1.0 else 1.0)
+
+
+@numba.njit(cache=True)
+def slowest_rate(k, c, mass):
+    """The slowest rate (rad/s) of a contact: the spring with the whole mass, or the stretch of
+    an overdamped spring relaxing at k / c."""
+    return min(math.sqrt(k / mass), k / c) if c > 0.0 else math.sqrt(k / mass)
+
+
+@numba.njit(cache=True)
+def contact_budget(k, c, mass):
+    """How long (s) a contact may last before it is given up (`completed = False`):
+    MAX_HALF_PERIODS half periods of its slowest time scale. The one budget of the spring
+    models (the hybrid model counts it in steps)."""
+    return MAX_HALF_PERIODS * math.pi / slowest_rate(k, c, mass)
 
 
 @numba.njit(cache=True)
@@ -115,15 +154,15 @@ def _accel(cx, cy, vx, vy, rx, ry, w, k, c, rest_length, inv_m, inv_i):
     px, py = cx + rx, cy + ry
     length = math.sqrt(px * px + py * py)
     ux, uy = px / length, py / length
-    length_rate = (vx - w * ry) * ux + (vy + w * rx) * uy
-    tension = k * (length - rest_length) + c * length_rate
+    tension = k * (length - rest_length) + c * stretch_rate(vx, vy, w, rx, ry, ux, uy)
     fx, fy = -tension * ux, -tension * uy
     return fx * inv_m, fy * inv_m, (rx * fy - ry * fx) * inv_i, tension
 
 
 @numba.njit(cache=True)
 def _rk4(cx, cy, vx, vy, rx, ry, w, ax1, ay1, al1, h, k, c, rest_length, inv_m, inv_i):
-    """One RK4 step of length h; (ax1, ay1, al1) is the acceleration at the step's start."""
+    """One RK4 step of length h; (ax1, ay1, al1) is the acceleration at the step's start.
+    Returns the new (cx, cy, vx, vy, rx, ry, w) and the angle turned over the step."""
     p = (k, c, rest_length, inv_m, inv_i)
     h2 = 0.5 * h
     cx2, cy2, vx2, vy2 = cx + h2 * vx, cy + h2 * vy, vx + h2 * ax1, vy + h2 * ay1
@@ -144,43 +183,38 @@ def _rk4(cx, cy, vx, vy, rx, ry, w, ax1, ay1, al1, h, k, c, rest_length, inv_m, 
         rx - h6 * (w * ry + 2.0 * w2 * ry2 + 2.0 * w3 * ry3 + w4 * ry4),
         ry + h6 * (w * rx + 2.0 * w2 * rx2 + 2.0 * w3 * rx3 + w4 * rx4),
         w + h6 * (al1 + 2.0 * al2 + 2.0 * al3 + al4),
+        h6 * (w + 2.0 * w2 + 2.0 * w3 + w4),
     )
 
 
 @numba.njit(cache=True)
-def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, rest_length, k):
-    """One bounce from plain floats: (vx, vy, spin, bounced, completed, contact_time)."""
-    cx, cy, vx, vy, rx, ry, w = initial_state(beta, alpha, offset, radius, rest_length, speed, spin)
-    ux, uy = math.cos(beta), math.sin(beta)
-    if (vx - w * ry) * ux + (vy + w * rx) * uy <= 0.0:
-        return vx, vy, w, False, True, 0.0
+def _contact(
+    cx, cy, vx, vy, rx, ry, w, angle, c, offset, kappa, speed, radius, mass, rest_length, k
+):
+    """Integrate a contact from tautening, in coordinates relative to the anchor: the centre of
+    mass (cx, cy) moving at (vx, vy) and `speed`, the attachment point at (rx, ry) from it, the
+    spin w and the orientation `angle`, the damper c. Returns (the anchor-relative `PuckState`
+    at the slack instant, completed, contact_time)."""
     inertia = kappa * mass * radius * radius
     inv_m, inv_i = 1.0 / mass, 1.0 / inertia
-    c = 2.0 * zeta * math.sqrt(k * effective_mass(mass, kappa, offset, alpha))
-    # The step resolves the stiffest spring and the strongest damper the puck can present as it
-    # turns during the contact: the least effective mass, at alpha = pi/2. Sized for the mass at
-    # tautening, a heavily damped bounce of a light-inertia puck was unstable (NaN).
-    m_least = effective_mass(mass, kappa, offset, 0.5 * math.pi)
-    natural = math.sqrt(k / m_least)
-    z = c / (2.0 * math.sqrt(k * m_least))
-    fastest = natural * (z + math.sqrt(z * z - 1.0) if z > 1.0 else 1.0)
+    fastest = fastest_rate(k, c, mass, kappa, offset)
     if offset > 0.0:  # the attachment point whirls: resolve the fastest spin energy allows
-        fastest = max(fastest, math.sqrt(spin * spin + speed * speed / (kappa * radius * radius)))
-    h = math.pi / (fastest * STEPS_PER_HALF_PERIOD)
-    # It gives up after MAX_HALF_PERIODS of the slowest scale: the spring with the whole mass,
-    # or the stretch of an overdamped one relaxing at k / c.
-    slowest = min(math.sqrt(k / mass), k / c) if c > 0.0 else math.sqrt(k / mass)
-    steps = min(int(MAX_HALF_PERIODS * STEPS_PER_HALF_PERIOD * fastest / slowest), MAX_STEPS)
+        fastest = max(fastest, math.sqrt(w * w + speed * speed / (kappa * radius * radius)))
+    h = math.pi / (fastest * RK4_STEPS_PER_HALF_PERIOD)
+    # `contact_budget` in steps of h
+    budget = MAX_HALF_PERIODS * RK4_STEPS_PER_HALF_PERIOD * fastest / slowest_rate(k, c, mass)
+    steps = min(int(budget), MAX_STEPS)
     p = (k, c, rest_length, inv_m, inv_i)
 
     ax, ay, al, tension = _accel(cx, cy, vx, vy, rx, ry, w, *p)
     peak = 0.0
     t = 0.0
     for _ in range(steps):
-        new = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, h, *p)
-        nax, nay, nal, new_tension = _accel(*new, *p)
+        ncx, ncy, nvx, nvy, nrx, nry, nw, turn = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, h, *p)
+        nax, nay, nal, new_tension = _accel(ncx, ncy, nvx, nvy, nrx, nry, nw, *p)
         if new_tension > 0.0:
-            cx, cy, vx, vy, rx, ry, w = new
+            cx, cy, vx, vy, rx, ry, w = ncx, ncy, nvx, nvy, nrx, nry, nw
+            angle += turn
             ax, ay, al, tension = nax, nay, nal, new_tension
             peak = max(peak, tension)
             t += h
@@ -191,8 +225,10 @@ def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, res
             tau = (low * g_high - high * g_low) / (g_high - g_low)
             if not low < tau < high:  # a flat bracket (T = 0 at tautening when c = 0): bisect
                 tau = 0.5 * (low + high)
-            new = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, tau, *p)
-            g = _accel(*new, *p)[3]
+            ncx, ncy, nvx, nvy, nrx, nry, nw, turn = _rk4(
+                cx, cy, vx, vy, rx, ry, w, ax, ay, al, tau, *p
+            )
+            g = _accel(ncx, ncy, nvx, nvy, nrx, nry, nw, *p)[3]
             if g > 0.0:
                 low, g_low = tau, g
                 if side == 1:
@@ -205,8 +241,61 @@ def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, res
                 side = -1
             if abs(g) <= 1e-13 * peak or high - low <= 1e-15 * h:
                 break
-        return new[2], new[3], new[6], True, True, t + tau
-    return vx, vy, w, True, False, t
+        return PuckState(ncx, ncy, nvx, nvy, angle + turn, nw), True, t + tau
+    return PuckState(cx, cy, vx, vy, angle, w), False, t
+
+
+@numba.njit(cache=True)
+def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, rest_length, k):
+    """One bounce from plain floats, in the launch frame: (state, bounced, completed,
+    contact_time), the state the `PuckState` at the slack instant (or at tautening if the
+    tether does not go taut)."""
+    cx, cy, vx, vy, rx, ry, w = initial_state(beta, alpha, offset, radius, rest_length, speed, spin)
+    angle = launch_angle(beta, alpha)
+    if stretch_rate(vx, vy, w, rx, ry, math.cos(beta), math.sin(beta)) <= 0.0:
+        return PuckState(cx, cy, vx, vy, angle, w), False, True, 0.0
+    c = 2.0 * zeta * math.sqrt(k * effective_mass(mass, kappa, offset * math.sin(alpha)))
+    after, completed, t = _contact(
+        cx, cy, vx, vy, rx, ry, w, angle, c, offset, kappa, speed, radius, mass, rest_length, k
+    )
+    return after, True, completed, t
+
+
+@numba.njit(cache=True)
+def hybrid_bounce(beta, alpha, offset, kappa, speed, spin, e, radius, mass, rest_length, k):
+    """`hybrid_core` with the arguments and results of every model's launch-frame core: the
+    restitution e instead of the damping ratio; (vx, vy, spin, bounced, completed,
+    contact_time)."""
+    after, bounced, completed, t = hybrid_core(
+        beta, alpha, offset, kappa, speed, spin, damping_ratio(e), radius, mass, rest_length, k
+    )
+    return after.vx, after.vy, after.spin, bounced, completed, t
+
+
+@numba.njit(cache=True)
+def hybrid_contact_row(
+    state, anchor_x, anchor_y, mass, radius, kappa, offset, rest_length, k, zeta
+):
+    """The hybrid contact of a world state at tautening with the tether anchored at
+    (anchor_x, anchor_y): (state, bounced, completed, contact_time), the state the `PuckState`
+    at the slack instant. `zeta` is the damper's ratio (`damping_ratio` of the restitution)."""
+    rx, ry = attachment_offset(state, offset * radius)
+    cx, cy = state.x - anchor_x, state.y - anchor_y
+    px, py = cx + rx, cy + ry
+    distance = math.hypot(px, py)
+    ux, uy = px / distance, py / distance
+    vx, vy, w = state.vx, state.vy, state.spin
+    if not stretch_rate(vx, vy, w, rx, ry, ux, uy) > 0.0:
+        return puck_state(state), False, True, 0.0
+    c = 2.0 * zeta * math.sqrt(k * effective_mass(mass, kappa, (rx * uy - ry * ux) / radius))
+    after, completed, t = _contact(
+        cx, cy, vx, vy, rx, ry, w, state.angle, c, offset, kappa, math.hypot(vx, vy), radius,
+        mass, rest_length, k,
+    )  # fmt: skip
+    shifted = PuckState(
+        after.x + anchor_x, after.y + anchor_y, after.vx, after.vy, after.angle, after.spin
+    )
+    return shifted, True, completed, t
 
 
 def _hybrid_kernel(
@@ -245,7 +334,7 @@ def _hybrid_kernel(
     k_step = 1 if k.size > 1 else 0
     for i in prange(n):
         s = speed[i * speed_step]
-        vx, vy, w, bounced, completed, t = hybrid_core(
+        after, bounced, completed, t = hybrid_core(
             beta[i * beta_step],
             alpha[i * alpha_step],
             offset[i * offset_step],
@@ -258,10 +347,10 @@ def _hybrid_kernel(
             rest_length[i * rest_length_step],
             k[i * k_step],
         )
-        out_v[i, 0] = vx
-        out_v[i, 1] = vy
-        out_w[i] = w
-        out_angle[i], out_ratio[i] = deflection_and_speed_ratio(vx, vy, s)
+        out_v[i, 0] = after.vx
+        out_v[i, 1] = after.vy
+        out_w[i] = after.spin
+        out_angle[i], out_ratio[i] = deflection_and_speed_ratio(after.vx, after.vy, s)
         out_bounced[i] = bounced
         out_completed[i] = completed
         out_time[i] = t
@@ -274,9 +363,11 @@ PARALLEL_MIN_BATCH = 64
 
 
 def hybrid_kernel(*args) -> None:
-    """Run the kernel over a batch, in parallel when the batch is large enough to pay for it."""
+    """The kernel over a batch, with the arguments of every model's kernel (the restitution,
+    the seventh, turned into the damper's ratio here), in parallel when the batch is large
+    enough to pay for it."""
     kernel = _parallel if args[-1].shape[0] >= PARALLEL_MIN_BATCH else _serial
-    kernel(*args)
+    kernel(*args[:6], damping_ratios(args[6]), *args[7:])
 
 
 def _damping_ratios(restitution, out):
@@ -288,7 +379,8 @@ _ratios_serial, _ratios_parallel = serial_and_parallel(_damping_ratios)
 
 
 def damping_ratios(restitution):
-    """`damping_ratio` over a flat float64 array (about 1 us each, threaded for large ones)."""
+    """`damping_ratio` over a flat float64 array, threaded for large ones (each is an
+    iteration)."""
     out = np.empty_like(restitution)
     kernel = _ratios_parallel if restitution.size >= PARALLEL_MIN_BATCH else _ratios_serial
     kernel(restitution, out)

@@ -38,12 +38,11 @@ def choose_threading_layer() -> str:
     """The layer numba's parallel kernels use: TBB where it loads, else workqueue, never OpenMP;
     a layer the user chose (NUMBA_THREADING_LAYER, numba's config) is kept.
 
-    Measured on 2 cores, for one vector-env step of 1024 impulse bounces: serial 111 us, TBB
-    74 us, OpenMP 65 us, workqueue 144 us (waking its threads costs more than it saves); with
-    another process holding a core, TBB and serial both about 113 us. OpenMP is left out: its
-    threads spin at barriers, and it shares its runtime with torch's, so that numba's first
-    parallel call resets torch's thread count. numba makes the choice at the first parallel
-    call, falling back along the priority set here if TBB does not load after all.
+    TBB's pool is cheap to wake for the short kernels of a vector-env step, where workqueue's
+    wake-up can cost more than the threads save (the README's benchmarks measure it). OpenMP is
+    left out: its threads spin at barriers, and it shares its runtime with torch's, so that
+    numba's first parallel call resets torch's thread count. numba makes the choice at the first
+    parallel call, falling back along the priority set here if TBB does not load after all.
     """
     tbb = tbb_loads()
     if numba.config.THREADING_LAYER != "default":

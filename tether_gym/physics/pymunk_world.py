@@ -1,9 +1,11 @@
 """A pymunk (Chipmunk2D) world of the tethered puck, in one place for every user to build on.
 
-The world is the launch frame of `tether_gym.physics.geometry` in metres and seconds, with no
-gravity (an air table): the puck is a dynamic body with a circle shape and the moment of
-inertia kappa m R^2; the anchor is a static point; the tether is a one-sided spring-damper of
-stiffness k, damper c and rest length L0 acting at the attachment point,
+The world is a world frame (`tether_gym.physics.state`; with the anchor at the origin, the
+launch frame of `tether_gym.physics.geometry`) in metres and seconds, with no gravity (an air
+table): the puck is a dynamic body with a circle shape and the moment of inertia kappa m R^2,
+its body angle the state's `angle` (`place_state`, `state`); the anchor is a static point; the
+tether is a one-sided spring-damper of stiffness k, damper c and rest length L0 acting at the
+attachment point,
 
     T = max(0, k (L - L0) + c dL/dt)  where L > L0,  else 0.
 
@@ -16,7 +18,8 @@ Euler and gain about 2.6% of the energy per bounce at dt = 1e-5 s.
 Steps. While the tether is taut, or could go taut within a free-flight step, the step is
 `1 / taut_steps` of the half period of the fastest spring the puck can present: pi / (N w_max),
 with w_max^2 = k / m_eff_min and m_eff_min = m / (1 + d^2 / kappa) (the moment arm at its
-largest), raised by the damper's fast decay when it is overdamped. In free flight the step is
+largest), raised by the damper's fast decay when it is overdamped (`hybrid.fastest_rate`, which
+sizes the hybrid model's step too). In free flight the step is
 `free_step`, shortened so the puck moves at most a quarter radius per step (wall contacts).
 
 Events. Chipmunk steps at fixed instants, so the instants the tether goes taut and slack are
@@ -24,7 +27,7 @@ located inside their steps by linear interpolation of the gauge min(k (L - L0), 
 exactly when taut) between the two samples around its sign change, an error of order h^2 in
 time (1e-4 of the contact time at the default step). The velocity is not interpolated: the
 force of the last taut sample acts over its whole step, an error that the step keeps small
-(measured in `tether_gym.physics.pymunk_backend`).
+(`benchmarks/pymunk_model.py` measures it).
 
 Walls. An optional rectangular `Table` adds four static segments. Chipmunk's restitution of a
 contact is the product of the two shapes' elasticities; the puck's is 1, so a wall's elasticity
@@ -42,8 +45,12 @@ from dataclasses import dataclass
 import pymunk
 
 from tether_gym.physics.checks import INF, check_float
+from tether_gym.physics.geometry import initial_state
+from tether_gym.physics.hybrid import damping_ratio, effective_mass, fastest_rate
+from tether_gym.physics.state import PuckState
 
-STEPS_PER_HALF_PERIOD = 64
+EULER_STEPS_PER_HALF_PERIOD = 64
+"""Symplectic Euler steps per half period of the fastest spring, while the tether may be taut."""
 FREE_STEP = 1.0 / 240.0
 
 
@@ -104,7 +111,7 @@ class TetherWorld:
         anchor: tuple[float, float] = (0.0, 0.0),
         table: Table | None = None,
         release: bool = False,
-        taut_steps: int = STEPS_PER_HALF_PERIOD,
+        taut_steps: int = EULER_STEPS_PER_HALF_PERIOD,
         free_step: float = FREE_STEP,
     ) -> None:
         self.mass = check_float("mass", mass, 0.0, INF, low_open=True)
@@ -123,10 +130,9 @@ class TetherWorld:
         self.arm = self.offset * self.radius
         self.inertia = self.inertia_ratio * self.mass * self.radius**2
 
-        m_eff_min = self.mass / (1.0 + self.offset**2 / self.inertia_ratio)
-        natural = math.sqrt(self.stiffness / m_eff_min)
-        zeta = self.damping / (2.0 * math.sqrt(self.stiffness * m_eff_min))
-        fastest = natural * (zeta + math.sqrt(zeta * zeta - 1.0) if zeta > 1.0 else 1.0)
+        fastest = fastest_rate(
+            self.stiffness, self.damping, self.mass, self.inertia_ratio, self.offset
+        )
         self.taut_step = math.pi / (fastest * int(taut_steps))
 
         self.space = pymunk.Space()
@@ -170,12 +176,9 @@ class TetherWorld:
         and m_eff = m / (1 + (d sin alpha)^2 / kappa) at tautening, so the two models agree.
         `world` passes the table, release and step options on to the constructor.
         """
-        from tether_gym.physics.geometry import initial_state
-        from tether_gym.physics.hybrid import damping_ratio, effective_mass
-
         e = check_float("restitution", restitution, 0.0, 1.0, low_open=True)
         kappa = check_float("inertia_ratio", inertia_ratio, 0.0, INF, low_open=True)
-        m_eff = effective_mass(mass, kappa, offset, offset_angle)
+        m_eff = effective_mass(mass, kappa, offset * math.sin(offset_angle))
         damping = 2.0 * damping_ratio(e) * math.sqrt(stiffness * m_eff)
         made = cls(
             mass=mass,
@@ -193,13 +196,18 @@ class TetherWorld:
         return made
 
     def place(self, cx: float, cy: float, vx: float, vy: float, rx: float, ry: float, w: float):
-        """Set the puck's state: centre of mass, its velocity, the vector from the centre of
-        mass to the attachment point (its length is ignored: only its direction counts) and
-        the spin. The clock and the count of bounces restart at 0, the tether is re-attached."""
+        """Set the puck's state from the centre of mass, its velocity, the vector from the
+        centre of mass to the attachment point (its length is ignored: only its direction
+        counts) and the spin, as `place_state` does."""
+        self.place_state(PuckState(cx, cy, vx, vy, math.atan2(ry, rx) if rx or ry else 0.0, w))
+
+    def place_state(self, state: PuckState) -> None:
+        """Set the puck's state (world frame, `tether_gym.physics.state`). The clock and the
+        count of bounces restart at 0, the tether is re-attached."""
         body = self.body
-        body.position, body.velocity = (cx, cy), (vx, vy)
-        body.angle = math.atan2(ry, rx) if rx or ry else 0.0
-        body.angular_velocity = w
+        body.position, body.velocity = (state.x, state.y), (state.vx, state.vy)
+        body.angle = state.angle
+        body.angular_velocity = state.spin
         self.space.reindex_shapes_for_body(body)
         if not self.attached:
             self.body.velocity_func = self._tether_velocity
@@ -212,6 +220,12 @@ class TetherWorld:
         self.gauge = min(self._tether(body)[0], 0.0)
         self.tension = 0.0
         self.taut = False
+
+    @property
+    def state(self) -> PuckState:
+        """The puck's state now (world frame)."""
+        (x, y), (vx, vy) = self.body.position, self.body.velocity
+        return PuckState(x, y, vx, vy, self.body.angle, self.body.angular_velocity)
 
     @property
     def attachment(self) -> tuple[float, float]:

@@ -3,7 +3,8 @@
 It integrates the paper's coordinates (x, y, phi) with `solve_ivp(DOP853)` and locates the slack
 instant with scipy's event finder, so the tests and benchmarks can judge the fast integrator
 against a different formulation (an angle state with trigonometry, not a turning vector).
-About a few milliseconds per bounce: right as a reference, far too slow for training.
+Python right-hand sides under an adaptive high-order integrator: right as a reference, far too
+slow for training.
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ def reference_bounce(
     phi0 = beta + offset_angle + math.pi
     x0 = tether_length * math.cos(beta) - arm * math.cos(phi0)
     y0 = tether_length * math.sin(beta) - arm * math.sin(phi0)
-    m_eff = effective_mass(mass, inertia_ratio, offset, offset_angle)
+    m_eff = effective_mass(mass, inertia_ratio, offset * math.sin(offset_angle))
     c = 2.0 * damping_ratio(restitution) * math.sqrt(stiffness * m_eff)
 
     def attachment(state):

@@ -12,25 +12,26 @@ not uniform; an animation that wants real time should interpolate on it.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from tether_gym.physics.api import _validated, bounce_one
 from tether_gym.physics.checks import check_float
-from tether_gym.physics.geometry import initial_state
+from tether_gym.physics.frames import launch_state
+from tether_gym.physics.geometry import stiffness_for_rho
 from tether_gym.physics.reference import reference_bounce
 
-MODELS = ("impulse", "hybrid")
+TRAJECTORY_MODELS = ("impulse", "hybrid")
 """The models `trajectory` samples (the pymunk world records its own motion)."""
 
 CONTACT_FRAMES = 25
 """Instants sampled inside a hybrid contact, its two ends included."""
 
-DEFAULT_RHO = 100.0
-"""rho (eq. 11, with the launch speed for v_theta) of the default hybrid tether: the paper's
-threshold of convergence, stiff enough to bounce like the impulse model, soft enough to see."""
+TRAJECTORY_RHO = 100.0
+"""rho (eq. 11, with the launch speed for v_theta) of the default hybrid tether of a trajectory:
+the paper's threshold of convergence, stiff enough to bounce like the impulse model, soft enough
+to see."""
 
 
 @dataclass(frozen=True)
@@ -51,8 +52,8 @@ class Trajectory:
 
 
 def default_stiffness(mass: float, tether_length: float, speed: float) -> float:
-    """The spring constant whose rho, taken with the launch speed, is `DEFAULT_RHO` (N/m)."""
-    return mass * (DEFAULT_RHO * speed / tether_length) ** 2
+    """The spring constant whose rho, taken with the launch speed, is `TRAJECTORY_RHO` (N/m)."""
+    return stiffness_for_rho(TRAJECTORY_RHO, mass, tether_length, speed)
 
 
 def trajectory(
@@ -81,8 +82,8 @@ def trajectory(
     Raises:
         ValueError: naming the parameter and its allowed range.
     """
-    if model not in MODELS:
-        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    if model not in TRAJECTORY_MODELS:
+        raise ValueError(f"model must be one of {TRAJECTORY_MODELS}, got {model!r}")
     a = _validated(
         model,
         1.0 if stiffness is None else stiffness,
@@ -105,8 +106,7 @@ def trajectory(
     if stiffness is None:
         a["stiffness"] = default_stiffness(a["mass"], a["tether_length"], a["speed"])
 
-    phi0 = a["tether_angle"] + a["offset_angle"] + math.pi
-    cx, cy, vx, vy, _, _, w = initial_state(
+    s = launch_state(
         a["tether_angle"],
         a["offset_angle"],
         a["offset"],
@@ -115,7 +115,7 @@ def trajectory(
         a["speed"],
         a["spin"],
     )
-    start = np.array([cx, cy, phi0, vx, vy, w])
+    start = np.array([s.x, s.y, s.angle, s.vx, s.vy, s.spin])
     if model == "hybrid":
         reference = reference_bounce(**a)
         solution, contact = reference.solution, reference.contact_time
@@ -124,7 +124,7 @@ def trajectory(
     else:
         result = bounce_one(**a, model="impulse")
         contact, bounced = 0.0, bool(result.bounced)
-        end = np.array([cx, cy, phi0, *result.velocity, result.spin])
+        end = np.array([s.x, s.y, s.angle, *result.velocity, result.spin])
 
     inside = np.linspace(0.0, contact, CONTACT_FRAMES) if contact > 0.0 else np.zeros(1)
     grid = np.linspace(-before, contact + after, frames)
@@ -132,7 +132,7 @@ def trajectory(
     t = np.sort(np.concatenate([grid[apart], inside]))
     state = np.empty((t.size, 6))
     first, last = t < 0.0, t >= contact
-    state[first] = start + np.outer(t[first], [vx, vy, w, 0.0, 0.0, 0.0])
+    state[first] = start + np.outer(t[first], [s.vx, s.vy, s.spin, 0.0, 0.0, 0.0])
     state[last] = end + np.outer(t[last] - contact, [*end[3:], 0.0, 0.0, 0.0])
     during = ~first & ~last
     if np.any(during):

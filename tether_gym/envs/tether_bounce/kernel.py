@@ -23,6 +23,7 @@ from tether_gym.envs.base import Kernel
 from tether_gym.envs.fields import Field, Fields
 from tether_gym.physics import MODELS, bounce
 from tether_gym.physics.checks import check_float
+from tether_gym.physics.geometry import stiffness_for_rho
 from tether_gym.physics.hybrid import damping_ratio, hybrid_core
 from tether_gym.physics.impulse import impulse_core
 from tether_gym.physics.jit import choose_threading_layer
@@ -115,7 +116,7 @@ logs, `stiffness` -1 where it is drawn per episode, the damper of a fixed restit
 def env_stiffness(rho):
     """The spring constant (N/m) whose rho (eq. 11) is `rho` at the fastest launch, taking
     v_theta = 3 m/s: with no spin disturbance, the lowest rho any action meets."""
-    return PUCK_MASS * (rho * MAX_LAUNCH / TETHER_LENGTH) ** 2
+    return stiffness_for_rho(rho, PUCK_MASS, TETHER_LENGTH, MAX_LAUNCH)
 
 
 @numba.njit(cache=True)
@@ -284,11 +285,11 @@ def _bounce_hybrid(s, p, out):
     """The same with the hybrid model (its damper from the episode's restitution)."""
     fixed = p.restitution_low == p.restitution_high
     zeta = p.damping_ratio if fixed else damping_ratio(s.restitution)
-    vx, vy, w, bounced, completed, _ = hybrid_core(
+    after, bounced, completed, _ = hybrid_core(
         out[OUT.tether_angle], out[OUT.offset_angle], out[OUT.offset], s.inertia_ratio,
         out[OUT.launch_speed], s.spin, zeta, PUCK_RADIUS, PUCK_MASS, TETHER_LENGTH, s.stiffness,
     )  # fmt: skip
-    out[OUT.vx], out[OUT.vy], out[OUT.spin] = vx, vy, w
+    out[OUT.vx], out[OUT.vy], out[OUT.spin] = after.vx, after.vy, after.spin
     out[OUT.bounced], out[OUT.completed] = bounced, completed
 
 
