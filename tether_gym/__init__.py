@@ -1,6 +1,8 @@
 """tether_gym: a Gymnasium workbench for bouncing a tethered planar puck.
 
-Importing the package registers `TetherBounce-v0` (with a native vector env).
+Importing the package registers `TetherBounce-v0` (one bounce per episode) and
+`TetherNavigate-v0` / `TetherNavigateSparse-v0` (maneuvering to a goal), each with a native
+vector env.
 """
 
 from gymnasium.envs.registration import register
@@ -12,3 +14,10 @@ register(
     entry_point="tether_gym.envs:TetherBounceEnv",
     vector_entry_point="tether_gym.envs:TetherBounceVectorEnv",
 )
+for suffix, reward_type in (("", "dense"), ("Sparse", "sparse")):
+    register(
+        id=f"TetherNavigate{suffix}-v0",
+        entry_point="tether_gym.envs.tether_navigate:TetherNavigateEnv",
+        vector_entry_point="tether_gym.envs.tether_navigate:TetherNavigateVectorEnv",
+        kwargs={"reward_type": reward_type},
+    )

@@ -53,6 +53,25 @@ class Kernel:
     outcome: Fields
     action: Fields
     n_uniforms: int
+    goal_keys: dict[str, slice] | None = None
+    """For a goal-conditioned env: the observation's columns of Gymnasium-Robotics' dict keys
+    ("observation", "achieved_goal", "desired_goal"); the envs return the dict."""
+
+    def observation_space(self) -> spaces.Space:
+        """A Box over the observation's fields, or a Dict of them under `goal_keys`."""
+        box = self.observation.box()
+        if self.goal_keys is None:
+            return box
+        return spaces.Dict(
+            {key: spaces.Box(box.low[part], box.high[part], dtype=box.dtype)
+             for key, part in self.goal_keys.items()}
+        )  # fmt: skip
+
+    def view(self, obs: np.ndarray):
+        """Observation rows as the env returns them: as they are, or split under `goal_keys`."""
+        if self.goal_keys is None:
+            return obs
+        return {key: obs[..., part] for key, part in self.goal_keys.items()}
 
     def reset(self, uniforms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         raise NotImplementedError
@@ -113,7 +132,7 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
         self.kernel = kernel
         self.render_mode = render_mode
         self.action_space = kernel.action_space()
-        self.observation_space = kernel.observation.box()
+        self.observation_space = kernel.observation_space()
         self._info = InfoLayout(kernel.outcome, skip=EPISODE_END)
         self._end = tuple(kernel.outcome.index[name] for name in EPISODE_END)
         self._renderer = None
@@ -135,7 +154,7 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
         self._state, self.outcome, self._ended = state, None, False
         if self.render_mode == "human":
             self.render()
-        return obs[0], {}
+        return self.kernel.view(obs[0]), {}
 
     def step(self, action):
         if self._ended:
@@ -151,7 +170,8 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
         self._ended = terminated or truncated
         if self.render_mode == "human":
             self.render()
-        return obs[0], reward, bool(terminated), bool(truncated), self._info.one(values)
+        info = self._info.one(values)
+        return self.kernel.view(obs[0]), reward, bool(terminated), bool(truncated), info
 
     def render(self):
         if self.render_mode is None:
@@ -208,7 +228,7 @@ class KernelVectorEnv(VectorEnv):
         self.num_envs = int(num_envs)
         self.render_mode = None
         self.single_action_space = kernel.action_space()
-        self.single_observation_space = kernel.observation.box()
+        self.single_observation_space = kernel.observation_space()
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._info = InfoLayout(kernel.outcome, skip=EPISODE_END)
@@ -266,7 +286,7 @@ class KernelVectorEnv(VectorEnv):
         if options:
             self.kernel.reset_options(options, state, obs)
         self.state = state
-        return obs, {}
+        return self.kernel.view(obs), {}
 
     def step(self, actions):
         if self.state is None:
@@ -286,9 +306,9 @@ class KernelVectorEnv(VectorEnv):
             info = _as_arrays(self._info.one(outcome[0].tolist()))
         info["final_info"] = dict(info)
         info["_final_info"] = ended
-        info["final_obs"] = final_obs
+        info["final_obs"] = self.kernel.view(final_obs)
         info["_final_obs"] = ended.copy()
-        return obs, reward, terminated, truncated, info
+        return self.kernel.view(obs), reward, terminated, truncated, info
 
 
 def _as_arrays(info: dict) -> dict:

@@ -35,6 +35,12 @@ class Field:
     """Reported in `info` inside the dict of this name (e.g. "reward_terms")."""
     key: str | None = None
     """Its key inside `group`, if not its name."""
+    shape: tuple[int, ...] = ()
+    """An entry of several columns (a position (2,), a path (k, 2)), reported as an array."""
+
+    @property
+    def size(self) -> int:
+        return math.prod(self.shape)
 
 
 class Fields:
@@ -48,23 +54,30 @@ class Fields:
         self.fields = fields
         self.names = tuple(names)
         self.base = np.dtype(dtype)
-        self.index = {name: i for i, name in enumerate(names)}
-        self.columns = namedtuple("Columns", names)(*range(len(names)))
-        """Each field's column index by name: `out[i, OUT.reward]` inside a kernel."""
+        starts = np.cumsum([0] + [field.size for field in fields])
+        self.index = dict(zip(names, starts[:-1].tolist(), strict=True))
+        """Each field's (first) column."""
+        self.width = int(starts[-1])
+        self.columns = namedtuple("Columns", names)(*self.index.values())
+        """Each field's (first) column by name: `out[i, OUT.reward]` inside a kernel."""
+        self._by_name = dict(zip(names, fields, strict=True))
 
     def __len__(self) -> int:
-        return len(self.fields)
+        return self.width
 
     def __getitem__(self, name: str) -> Field:
-        return self.fields[self.index[name]]
+        return self._by_name[name]
+
+    def _per_column(self, values) -> np.ndarray:
+        return np.repeat(np.array(values, dtype=self.base), [f.size for f in self.fields])
 
     @property
     def low(self) -> np.ndarray:
-        return np.array([field.low for field in self.fields], dtype=self.base)
+        return self._per_column([field.low for field in self.fields])
 
     @property
     def high(self) -> np.ndarray:
-        return np.array([field.high for field in self.fields], dtype=self.base)
+        return self._per_column([field.high for field in self.fields])
 
     def box(self) -> spaces.Box:
         """The Box whose bounds are the fields'."""
@@ -91,16 +104,24 @@ class Fields:
         if values.shape[-1:] != (len(self),):
             raise ValueError(f"expected (..., {len(self)}) values, got shape {values.shape}")
         return {
-            field.name: values[..., i].astype(np.float64) / field.scale
-            for i, field in enumerate(self.fields)
+            f.name: _entry(values, self.index[f.name], f).astype(np.float64) / f.scale
+            for f in self.fields
         }
 
     def encode(self, **values) -> np.ndarray:
         """The inverse of `decode`: physical values by name (all of them) to (..., len)."""
-        if set(values) != set(self.names):
-            raise ValueError(f"give every field {self.names}, got {tuple(values)}")
+        if set(values) != set(self.names) or any(f.shape for f in self.fields):
+            raise ValueError(f"give every (scalar) field {self.names}, got {tuple(values)}")
         columns = [np.asarray(values[f.name], dtype=np.float64) * f.scale for f in self.fields]
         return np.stack(np.broadcast_arrays(*columns), axis=-1).astype(self.base)
+
+
+def _entry(values: np.ndarray, start: int, field: Field) -> np.ndarray:
+    """One field of (..., width) values: (...) for a scalar one, (..., *shape) else."""
+    if not field.shape:
+        return values[..., start]
+    block = values[..., start : start + field.size]
+    return block.reshape(*values.shape[:-1], *field.shape)
 
 
 def _getter(columns: list[int]) -> itemgetter:
@@ -115,7 +136,9 @@ class InfoLayout:
     groups as nested dicts. `skip` names the entries returned apart (reward, episode ends)."""
 
     def __init__(self, outcome: Fields, skip: tuple[str, ...] = ()):
-        reported = [(i, f) for i, f in enumerate(outcome.fields) if f.name not in skip]
+        reported = [(outcome.index[f.name], f) for f in outcome.fields if f.name not in skip]
+        self.arrays = [(f.name, i, f) for i, f in reported if f.shape]
+        reported = [(i, f) for i, f in reported if not f.shape]
         plain = [(i, f) for i, f in reported if f.group is None]
         self.names = tuple(f.name for _, f in plain)
         self.flags = tuple(f.name for _, f in plain if f.flag)
@@ -140,6 +163,8 @@ class InfoLayout:
             info[flag] = bool(info[flag])
         for group, keys, get in self._group_get:
             info[group] = dict(zip(keys, get(values)))  # noqa: B905
+        for name, i, f in self.arrays:
+            info[name] = np.array(values[i : i + f.size]).reshape(f.shape)
         return info
 
     def many(self, plain: np.ndarray) -> dict:
@@ -150,4 +175,6 @@ class InfoLayout:
         info.update(zip(self.flags, columns[self._flag_columns].astype(bool)))  # noqa: B905
         for group, (keys, column_list) in self.groups.items():
             info[group] = {key: columns[i] for key, i in zip(keys, column_list)}  # noqa: B905
+        for name, i, f in self.arrays:
+            info[name] = _entry(plain, i, f)
         return info

@@ -1,0 +1,243 @@
+"""TetherNavigate-v0: API checks, goal-conditioned rewards, single against vector envs, bad
+input, and the physics of whole episodes."""
+
+from __future__ import annotations
+
+import math
+import pickle
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+import tether_gym  # noqa: F401
+from tether_gym.envs.tether_navigate import TetherNavigateEnv, TetherNavigateVectorEnv
+from tether_gym.envs.tether_navigate.kernel import (
+    INERTIA_RATIO,
+    PUCK_MASS,
+    PUCK_RADIUS,
+)
+
+LAYOUT = """
+A..A..
+..G.O.
+S..A..
+"""
+
+
+@pytest.mark.parametrize("kwargs", [{}, {"task": "stop", "dynamics": "impulse"},
+                                    {"n_obstacles": 3, "reward_type": "sparse"}])  # fmt: skip
+def test_checkers_pass_without_warnings(kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gym.make("TetherNavigate-v0", **kwargs).unwrapped, skip_render_check=True)
+        sb3_check_env(gym.make("TetherNavigate-v0", **kwargs).unwrapped)
+
+
+def rollout(env, seed: int, steps: int) -> list:
+    env.action_space.seed(seed)
+    obs, _ = env.reset(seed=seed)
+    record = [obs["observation"]]
+    for _ in range(steps):
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        record += [obs["observation"], reward, info["path"]]
+        if terminated or truncated:
+            obs, _ = env.reset()
+            record.append(obs["observation"])
+    return record
+
+
+def test_same_seed_same_episodes_and_pickling():
+    make = lambda: gym.make("TetherNavigate-v0", n_obstacles=2)  # noqa: E731
+    a, b, c = rollout(make(), 3, 30), rollout(make(), 3, 30), rollout(make(), 4, 30)
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    assert not all(np.array_equal(x, y) for x, y in zip(a, c, strict=False))
+    env = make()
+    env.reset(seed=1)
+    copy = pickle.loads(pickle.dumps(env))
+    action = np.array([0.2, 0.1, -0.3, 0.5], dtype=np.float32)
+    first, second = env.step(action), copy.step(action)
+    assert first[1] == second[1]
+    np.testing.assert_array_equal(first[4]["path"], second[4]["path"])
+
+
+@pytest.mark.parametrize("dynamics", ["impulse", "hybrid"])
+def test_vector_matches_single_envs_step_for_step(dynamics):
+    """Episodes of different lengths: the vector env's autoreset masks and per-copy uniform
+    streams give copy i exactly the episodes of a single env seeded s + i."""
+    n, seed, steps = 10, 7, 25
+    kwargs = dict(dynamics=dynamics, n_obstacles=2, max_maneuvers=3)
+    vector = gym.make_vec(
+        "TetherNavigate-v0", num_envs=n, vectorization_mode="vector_entry_point", block=8, **kwargs
+    )
+    singles = [gym.make("TetherNavigate-v0", **kwargs) for _ in range(n)]
+    obs, _ = vector.reset(seed=seed)
+    single = [env.reset(seed=seed + i)[0] for i, env in enumerate(singles)]
+    rng = np.random.default_rng(0)
+    lengths = set()
+    for _ in range(steps):
+        for key in obs:
+            np.testing.assert_array_equal(obs[key], np.stack([o[key] for o in single]))
+        actions = rng.uniform(-1, 1, (n, 4)).astype(np.float32)
+        obs, reward, terminated, truncated, info = vector.step(actions)
+        for i, env in enumerate(singles):
+            o, r, te, tr, inf = env.step(actions[i])
+            assert (r, te, tr) == (reward[i], terminated[i], truncated[i])
+            np.testing.assert_array_equal(inf["path"], info["path"][i])
+            if te or tr:
+                lengths.add(int(3 - inf["maneuvers_left"]))
+                o, _ = env.reset()
+            single[i] = o
+    assert len(lengths) > 1, "every episode had the same length: the masks went untested"
+
+
+@pytest.mark.parametrize("task", ["reach", "stop"])
+@pytest.mark.parametrize("reward_type", ["dense", "sparse"])
+def test_compute_reward_equals_the_step_reward_and_relabels(task, reward_type):
+    """GoalEnv contract (Gymnasium-Robotics, SB3's HER): compute_reward on the step's goals
+    equals the reward step returned, for one info and for a sequence of infos; relabeled with
+    the achieved goal, a reach maneuver succeeds by construction."""
+    env = gym.make("TetherNavigate-v0", task=task, reward_type=reward_type, dynamics="impulse")
+    obs, _ = env.reset(seed=0)
+    env.action_space.seed(0)
+    achieved, desired, infos, rewards, ends = [], [], [], [], []
+    for _ in range(40):
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        value = env.unwrapped.compute_reward(obs["achieved_goal"], obs["desired_goal"], info)
+        assert value == pytest.approx(reward, abs=1e-12)
+        assert (
+            env.unwrapped.compute_terminated(obs["achieved_goal"], obs["desired_goal"], info)
+            == terminated
+        )
+        assert (
+            env.unwrapped.compute_truncated(obs["achieved_goal"], obs["desired_goal"], info)
+            == truncated
+        )
+        achieved.append(obs["achieved_goal"])
+        desired.append(obs["desired_goal"])
+        infos.append(info)
+        rewards.append(reward)
+        ends.append(terminated or truncated)
+        if terminated or truncated:
+            obs, _ = env.reset()
+    batch = env.unwrapped.compute_reward(np.stack(achieved), np.stack(desired), np.array(infos))
+    np.testing.assert_allclose(batch, rewards, atol=1e-12)
+    if task == "reach":
+        relabeled = env.unwrapped.compute_reward(np.stack(achieved), np.stack(achieved),
+                                                 np.array(infos))  # fmt: skip
+        hit = [not i["hit_post"] for i in infos]
+        success = 0.0 if reward_type == "sparse" else 1.0
+        assert np.all((relabeled >= success - 1.0)[hit])
+
+
+def energy(velocity, spin) -> float:
+    return 0.5 * PUCK_MASS * float(np.dot(velocity, velocity)) + 0.5 * INERTIA_RATIO * (
+        PUCK_MASS * PUCK_RADIUS**2 * spin**2
+    )
+
+
+@pytest.mark.parametrize(("dynamics", "tolerance"), [("impulse", 1e-9), ("hybrid", 1e-6)])
+def test_energy_is_conserved_with_the_brake_off_and_elastic_walls(dynamics, tolerance):
+    """With e = 1 for every bounce and walls of restitution 1 nothing dissipates: the wheel
+    turns the body but returns to rest, so kinetic energy is conserved over whole episodes."""
+    env = gym.make("TetherNavigate-v0", dynamics=dynamics, wall_restitution=1.0, max_maneuvers=8)
+    rng = np.random.default_rng(1)
+    checked = 0
+    for episode in range(6):
+        env.reset(seed=episode)
+        state = env.unwrapped.state
+        start = energy([state["vx"], state["vy"]], state["spin"])
+        done = False
+        while not done:
+            action = rng.uniform(-1, 1, 4).astype(np.float32)
+            action[3] = 1.0  # the brake off: e = 1
+            _, _, terminated, truncated, info = env.step(action)
+            if not info["hit_post"]:
+                after = energy(info["velocity"], info["spin"])
+                assert abs(after - start) <= tolerance * start, info
+                checked += info["bounced"]
+            done = terminated or truncated
+    assert checked >= 10
+
+
+def test_a_fixed_layout_places_pegs_posts_goal_and_start():
+    env = gym.make("TetherNavigate-v0", layout=LAYOUT)
+    obs, _ = env.reset(seed=0)
+    state = env.unwrapped.state
+    assert state["n_anchors"] == 3 and state["n_posts"] == 1
+    np.testing.assert_allclose(obs["desired_goal"], [2.5 / 3, 0.5], atol=1e-6)
+    np.testing.assert_allclose(obs["achieved_goal"], [1 / 6, 1 / 6], atol=1e-6)
+    with pytest.raises(ValueError, match="layout"):
+        gym.make("TetherNavigate-v0", layout="A.X\n...")
+
+
+def test_reset_options_fix_goal_start_and_pegs():
+    env = gym.make("TetherNavigate-v0", dynamics="impulse")
+    options = {"goal": (1.5, 0.5), "start": (0.3, 0.5), "start_velocity": (1.0, 0.0),
+               "anchors": [[1.0, 0.8]]}  # fmt: skip
+    obs, _ = env.reset(seed=0, options=options)
+    np.testing.assert_allclose(obs["desired_goal"], [1.5, 0.5])
+    np.testing.assert_allclose(obs["achieved_goal"], [0.3, 0.5])
+    assert obs["observation"][7] == 1.0 and obs["observation"][10] == 0.0  # one peg, padded
+    with pytest.raises(ValueError, match="goal"):
+        env.reset(options={"goal": (5.0, 0.5)})
+    with pytest.raises(ValueError, match="options"):
+        env.reset(options={"wind": 1.0})
+
+
+def test_the_wheel_meets_the_commanded_offset_angle_when_it_can():
+    """A puck flying straight past a peg, with time to turn: the tether goes taut with the
+    commanded alpha (reaction wheel), and with the free orientation without the wheel."""
+    options = {"goal": (1.9, 0.9), "start": (0.3, 0.5), "start_velocity": (1.0, 0.0),
+               "start_angle": 0.0, "anchors": [[0.5, 0.5]]}  # fmt: skip
+    alpha = 0.6
+    action = np.array([math.pi, -1.0, alpha / (math.pi / 2), 1.0], dtype=np.float32)
+    env = gym.make("TetherNavigate-v0", dynamics="impulse")
+    env.reset(seed=0, options=options)
+    info = env.step(action)[4]
+    assert info["bounced"] and info["offset_angle_met"]
+    assert info["offset_angle"] == pytest.approx(alpha, abs=1e-6)
+    free = gym.make("TetherNavigate-v0", dynamics="impulse", reaction_wheel=False)
+    free.reset(seed=0, options=options)
+    info = free.step(action)[4]
+    assert info["bounced"] and not info["offset_angle_met"]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"task": "juggle"}, "task"),
+        ({"reward_type": "shaped"}, "reward_type"),
+        ({"dynamics": "mujoco"}, "dynamics"),
+        ({"n_anchors": 0}, "n_anchors"),
+        ({"n_anchors": 13}, "n_anchors"),
+        ({"n_obstacles": 5}, "n_obstacles"),
+        ({"wall_restitution": 1.5}, "wall_restitution"),
+        ({"wheel_rate": -1.0}, "wheel_rate"),
+        ({"max_maneuvers": 0}, "max_maneuvers"),
+        ({"rho": 1.0}, "rho"),
+        ({"rho": 100.0, "stiffness": 1000.0}, "stiffness"),
+        ({"reaction_wheel": "yes"}, "reaction_wheel"),
+    ],
+)
+def test_bad_arguments_name_themselves(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        gym.make("TetherNavigate-v0", **kwargs)
+    with pytest.raises(ValueError, match=name):
+        TetherNavigateVectorEnv(2, **kwargs)
+
+
+def test_nan_actions_raise_and_change_nothing():
+    env = TetherNavigateEnv(dynamics="impulse")
+    env.reset(seed=0)
+    before = env.state.copy()
+    with pytest.raises(ValueError, match="action"):
+        env.step(np.array([np.nan, 0, 0, 0], dtype=np.float32))
+    assert env.state == before
+    vector = TetherNavigateVectorEnv(3, dynamics="impulse")
+    vector.reset(seed=0)
+    with pytest.raises(ValueError, match="action"):
+        vector.step(np.full((3, 4), np.inf, dtype=np.float32))

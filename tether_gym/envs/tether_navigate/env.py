@@ -1,0 +1,209 @@
+"""TetherNavigate-v0: maneuver a puck to a goal through a sequence of tether bounces."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tether_gym.envs.base import KernelEnv, KernelVectorEnv
+from tether_gym.envs.tether_navigate.kernel import NavigateConfig, NavigateKernel
+from tether_gym.tasks import navigate as task
+
+
+class GoalMixin:
+    """Gymnasium-Robotics' `GoalEnv` interface, vectorized: the reward, the termination and
+    the truncation of maneuvers for any desired goals (hindsight relabeling), equal to what
+    `step` returned for the true goal."""
+
+    kernel: NavigateKernel
+
+    def _task(self) -> tuple[int, int]:
+        p = self.kernel.params[0]
+        return int(p["task"]), int(p["reward_type"])
+
+    def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray:
+        """The reward of maneuvers whose paths (in `info`) end at `achieved_goal`, for the
+        goals `desired_goal`; `info` is a step's info or a sequence of them (SB3's HER)."""
+        reward, _ = task.compute(*self._task(), desired_goal, info)
+        return reward
+
+    def compute_terminated(self, achieved_goal, desired_goal, info) -> np.ndarray:
+        """Success, at rest, or a post."""
+        _, success = task.compute(*self._task(), desired_goal, info)
+        at_rest, hit_post = _flags(info, "at_rest"), _flags(info, "hit_post")
+        return success | at_rest.reshape(success.shape) | hit_post.reshape(success.shape)
+
+    def compute_truncated(self, achieved_goal, desired_goal, info) -> np.ndarray:
+        """No maneuver left, without the episode having terminated."""
+        left = _flags(info, "maneuvers_left", dtype=np.float64) <= 0
+        terminated = self.compute_terminated(achieved_goal, desired_goal, info)
+        return left.reshape(terminated.shape) & ~terminated
+
+
+def _flags(info, key: str, dtype=bool) -> np.ndarray:
+    if isinstance(info, dict):
+        return np.asarray(info[key], dtype=dtype)
+    return np.array([i[key] for i in np.ravel(info)], dtype=dtype)
+
+
+class TetherNavigateEnv(GoalMixin, KernelEnv):
+    """
+    ## Description
+
+    A puck (mass 0.03 kg, radius 0.04 m, inertia ratio 0.5, TetherBounce's) glides on a
+    frictionless air table (2 m x 1 m, walls of restitution `wall_restitution`) among pegs in
+    the floor. Its tether, attached on the rim and wound on a reel, can hook any peg; a brake
+    lets it pay out under tension, and a reaction wheel turns the puck during flight. One step
+    is one maneuver: hook a peg, set the tether's length, the offset angle to meet at
+    tautening and the brake; the puck flies (bouncing off walls), the tether goes taut and
+    bounces it off the peg's "virtual wall", and the tether is released at its slack instant.
+    The goal is a disc (radius 0.1 m): reach it (`task="reach"`), or stop on it
+    (`task="stop"`: come to rest, a deadspin or a braked stop, with the centre in the disc).
+    This is the paper's future work (active orientation control with a flywheel, braking
+    modulation) made into a control problem.
+
+    ## Action Space
+
+    `Box(-1, 1, (4,), float32)`, mapped linearly; values outside [-1, 1] are clipped, NaN or
+    infinite values raise `ValueError`.
+
+    | Num | Action        | -1 maps to | +1 maps to | Unit | Meaning                           |
+    |-----|---------------|------------|------------|------|-----------------------------------|
+    | 0   | bearing       | -pi        | pi         | rad  | the peg whose bearing from the    |
+    |     |               |            |            |      | puck's velocity is nearest hooks  |
+    | 1   | tether length | 0.1        | 0.8        | m    | raised to the peg's distance      |
+    | 2   | offset angle  | -pi/2      | pi/2       | rad  | the paper's alpha at tautening    |
+    | 3   | brake         | 0.2        | 1.0        |      | this bounce's restitution e       |
+
+    The reaction wheel turns the body relative to its free spin at most at `wheel_rate` and
+    returns to rest before tautening, so the spin at tautening is the free spin and only the
+    orientation changes; the centre of mass then meets the taut tether on a circle about the
+    peg (radius sqrt(L^2 + R^2 + 2 L R cos(alpha))). A commanded angle the wheel cannot reach
+    in time is replaced by the nearest one it can (`info["offset_angle_met"]` is False). With
+    `reaction_wheel=False` the orientation turns freely and the offset angle is what it is.
+    A tether not taut within 5 s of flight (or 8 wall bounces) leaves the maneuver unbounced.
+
+    ## Observation Space
+
+    `Dict` (Gymnasium-Robotics' goal convention), float32:
+
+    | Key             | Shape | Content                                                     |
+    |-----------------|-------|-------------------------------------------------------------|
+    | `observation`   | (56,) | velocity / 3 m/s (2); cos, sin of the orientation (2);      |
+    |                 |       | spin x R / 3 m/s; the goal relative to the puck, m (2);     |
+    |                 |       | 12 pegs relative to the puck, nearest first, as (present,   |
+    |                 |       | dx, dy), padded (HighwayEnv's convention) (36); 4 posts     |
+    |                 |       | likewise (12); maneuvers left / `max_maneuvers`             |
+    | `achieved_goal` | (2,)  | the puck's position, m                                      |
+    | `desired_goal`  | (2,)  | the goal's centre, m                                        |
+
+    The configuration is fixed per env, so no physical parameter varies between episodes.
+
+    ## Rewards
+
+    `reward_type="dense"` (default): named terms summed, in `info["reward_terms"]`: `progress`
+    (metres won towards the goal by the maneuver), `success` (1), `maneuver` (-0.05 each) and
+    `post` (-1 for touching a post). `"sparse"`: 0 on success, else -1.
+    `compute_reward(achieved_goal, desired_goal, info)` gives the same for any goals, from the
+    maneuver's path in `info` (so hindsight relabeling is exact), as do `compute_terminated`
+    and `compute_truncated`.
+
+    ## Starting State
+
+    Pegs, posts, goal and start are drawn in distinct cells of a 6 x 3 grid over the table,
+    jittered (pegs and posts at least 0.16 m apart and off the walls), or fixed by a `layout`.
+    The puck starts in free flight: heading uniform, speed in [0.5, 1.5] m/s, orientation
+    uniform, no spin. `reset(options=...)` fixes any of `goal` (x, y), `start` (x, y),
+    `start_velocity` (vx, vy), `start_angle`, `anchors` (k, 2), `posts` (k, 2).
+
+    ## Episode End
+
+    Terminated on success, when the puck comes to rest (speed under 2% of its starting
+    speed) elsewhere, or touches a post; truncated after `max_maneuvers` maneuvers.
+
+    `info` after each step: `is_success`, `position` (2,), `velocity` (2,), `angle`, `spin`
+    (the puck after the maneuver), `anchor` (2,) (the hooked peg), `bounced`, `completed`,
+    `tether_length`, `tether_angle` and `offset_angle` met at tautening (the paper's beta
+    from the incoming velocity, and alpha), `offset_angle_met`, `restitution`, `flight_time`
+    (s), `wall_hits`, `at_rest`, `hit_post`, `maneuvers_left`, `path` (11, 2) (start, wall
+    hits, tautening, slack instant, padded with the last point) and `reward_terms`.
+
+    ## Arguments
+
+    | Argument           | Default    | Meaning                                                  |
+    |--------------------|------------|----------------------------------------------------------|
+    | `task`             | `"reach"`  | `"reach"` or `"stop"`                                    |
+    | `reward_type`      | `"dense"`  | `"dense"` or `"sparse"`                                  |
+    | `dynamics`         | `"hybrid"` | `"hybrid"` (spring tether) or `"impulse"`                |
+    | `rho`              | `850.0`    | stiffness as the paper's rho for the longest tether at   |
+    |                    |            | the fastest start (0.8 m, 1.5 m/s), in [10, 1e6]         |
+    | `stiffness`        | `None`     | a spring constant in N/m instead of `rho` (not both)     |
+    | `n_anchors`        | `6`        | pegs drawn per episode, in [1, 12]                       |
+    | `n_obstacles`      | `0`        | posts (radius 0.05 m) drawn per episode, in [0, 4]       |
+    | `layout`           | `None`     | a text map: `A` peg, `O` post, `G` goal cell, `S` start  |
+    |                    |            | cell, `C` either, `.` empty; rows from the top           |
+    | `wall_restitution` | `0.9`      | in [0, 1]                                                |
+    | `reaction_wheel`   | `True`     | the wheel sets the orientation at tautening              |
+    | `wheel_rate`       | `20.0`     | rad/s, the wheel's turn rate relative to the free spin   |
+    | `max_maneuvers`    | `6`        | maneuvers per episode                                    |
+    | `render_mode`      | `None`     | `"rgb_array"` or `"human"`                               |
+
+    Bad arguments raise `ValueError` naming the argument.
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    metadata = {"render_modes": [], "render_fps": 30}
+
+    def __init__(
+        self,
+        task: str = "reach",
+        reward_type: str = "dense",
+        dynamics: str = "hybrid",
+        rho: float | None = None,
+        stiffness: float | None = None,
+        n_anchors: int = 6,
+        n_obstacles: int = 0,
+        layout: str | None = None,
+        wall_restitution: float = 0.9,
+        reaction_wheel: bool = True,
+        wheel_rate: float = 20.0,
+        max_maneuvers: int = 6,
+        render_mode: str | None = None,
+    ):
+        self.config = NavigateConfig(
+            task, reward_type, dynamics, rho, stiffness, n_anchors, n_obstacles, layout,
+            wall_restitution, reaction_wheel, wheel_rate, max_maneuvers,
+        )  # fmt: skip
+        super().__init__(NavigateKernel(self.config), render_mode)
+
+
+class TetherNavigateVectorEnv(GoalMixin, KernelVectorEnv):
+    """`num_envs` copies of `TetherNavigateEnv` (see `KernelVectorEnv`): same-step autoreset,
+    each copy's episodes those of a single env seeded s + i. Arguments after `num_envs` are
+    `TetherNavigateEnv`'s; `block` is the number of episodes' uniforms drawn at once."""
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        task: str = "reach",
+        reward_type: str = "dense",
+        dynamics: str = "hybrid",
+        rho: float | None = None,
+        stiffness: float | None = None,
+        n_anchors: int = 6,
+        n_obstacles: int = 0,
+        layout: str | None = None,
+        wall_restitution: float = 0.9,
+        reaction_wheel: bool = True,
+        wheel_rate: float = 20.0,
+        max_maneuvers: int = 6,
+        render_mode: str | None = None,
+        block: int = 64,
+    ):
+        self.config = NavigateConfig(
+            task, reward_type, dynamics, rho, stiffness, n_anchors, n_obstacles, layout,
+            wall_restitution, reaction_wheel, wheel_rate, max_maneuvers,
+        )  # fmt: skip
+        super().__init__(NavigateKernel(self.config), num_envs, render_mode, block)
