@@ -1,5 +1,5 @@
-"""Rendering: the drawing layer, TetherBounce-v0's bounce drawn over time in every render
-mode."""
+"""Rendering: the drawing layer, TetherBounce-v0's bounce drawn over time in every render mode,
+video capture and the GIF command."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
+from tether_gym.agents import record
 from tether_gym.envs import drawing
 from tether_gym.envs.tether_bounce import kernel
 from tether_gym.envs.tether_bounce.rendering import CONTACT_FRAMES, SIZE
@@ -48,7 +49,7 @@ def centroid(frame: np.ndarray, colour) -> np.ndarray:
 def test_pygame_is_imported_only_to_draw():
     code = (
         "import sys, tether_gym.envs.drawing, tether_gym.envs.tether_bounce.rendering\n"
-        "assert 'pygame' not in sys.modules"
+        "import tether_gym.agents.record\nassert 'pygame' not in sys.modules"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
 
@@ -119,3 +120,39 @@ def test_human_mode_plays_the_bounce_in_real_time():
     assert elapsed > 0.8 * (len(frames) - 2) / env.metadata["render_fps"]
     assert env.render() is None and env.unwrapped._renderer.window.screen is not None
     env.close()
+
+
+def test_record_video_keeps_every_frame_of_a_step(tmp_path):
+    pytest.importorskip("moviepy")
+    env = record.RecordVideo(
+        gym.make("TetherBounce-v0", render_mode="rgb_array_list"),
+        str(tmp_path / "videos"),
+        episode_trigger=lambda _: True,
+        disable_logger=True,
+    )
+    for episode in range(2):
+        env.reset(seed=episode)
+        env.step(BANK_SHOT)
+        assert len(env.recorded_frames) > 40
+    env.close()
+    assert sorted(p.name for p in (tmp_path / "videos").iterdir()) == [
+        "rl-video-episode-0.mp4",
+        "rl-video-episode-1.mp4",
+    ]
+
+
+def test_gif_command_writes_an_animation_and_keeps_existing_files(tmp_path, capsys):
+    from PIL import Image
+
+    gif = tmp_path / "bounce.gif"
+    args = ["--episodes", "2", "--out", str(gif), "--size", "96", "--fps", "10"]
+    record.main([*args, "--dynamics", "impulse"])
+    assert "frames" in capsys.readouterr().out
+    with Image.open(gif) as image:
+        assert image.size == (96, 96) and image.n_frames > 20 and image.is_animated
+    written = gif.read_bytes()
+    with pytest.raises(SystemExit):
+        record.main(args)
+    assert "--overwrite" in capsys.readouterr().err and gif.read_bytes() == written
+    record.main([*args, "--overwrite", "--agent", "random"])
+    assert gif.read_bytes() != written

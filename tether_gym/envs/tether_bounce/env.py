@@ -94,7 +94,8 @@ class TetherBounceEnv(KernelEnv):
     the slack tether, the contact (taut, slowed down), the flight out, the outcome held (see
     `tether_bounce.rendering`). `"rgb_array"` returns the latest frame, `"rgb_array_list"`
     the frames since the last `render()` (a reset's one, a step's about 56), `"human"` plays
-    them in a window in real time.
+    them in a window in real time. Gymnasium's `RecordVideo` keeps only the last frame of each
+    step; `tether_gym.agents.record.RecordVideo` keeps them all.
 
     ## Arguments
 
