@@ -123,9 +123,15 @@ def check_render_mode(render_mode: str | None, allowed: Sequence[str]) -> None:
 
 class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
     """One episode at a time over a kernel (a batch of one). Stepping an episode that has
-    ended raises: call `reset` first."""
+    ended raises: call `reset` first.
 
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+    Rendering (`envs.drawing`): each `reset` and `step` is a scene of frames, a step lasting
+    the physical time it simulates; "rgb_array" returns the latest frame, "rgb_array_list"
+    the frames since the last `render` call (those of the current episode at most), "human"
+    plays them at `render_fps`.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array", "rgb_array_list"], "render_fps": 30}
 
     def __init__(self, kernel: Kernel, render_mode: str | None = None):
         check_render_mode(render_mode, self.metadata["render_modes"])
@@ -140,6 +146,8 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
         self.outcome: np.ndarray | None = None
         """The last step's outcome row (columns `kernel.outcome`), None right after a reset."""
         self._ended = True
+        self._scenes: list[tuple] = []
+        """(state, outcome) of each reset and step since the last render, in this episode."""
 
     @property
     def state(self) -> np.void | None:
@@ -152,6 +160,7 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
         if options:
             self.kernel.reset_options(options, state, obs)
         self._state, self.outcome, self._ended = state, None, False
+        self._scenes = [(self.state, None)]
         if self.render_mode == "human":
             self.render()
         return self.kernel.view(obs[0]), {}
@@ -168,6 +177,7 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
             values[self._end[2]],
         )
         self._ended = terminated or truncated
+        self._scenes.append((self.state, self.outcome))
         if self.render_mode == "human":
             self.render()
         info = self._info.one(values)
@@ -182,10 +192,12 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
             return None
         if self._renderer is None:
             self._renderer = self.make_renderer()
-        return self._renderer.render(self.state, self.outcome)
+        scenes, self._scenes = self._scenes, []
+        return self._renderer.render(scenes, (self.state, self.outcome))
 
     def make_renderer(self):
-        """The object whose `render(state, outcome)` draws a frame (pygame, lazily)."""
+        """A `drawing.SceneRenderer` whose `scene(state, outcome)` draws the episode (a state
+        record, or None before the first reset; the step's outcome row, None after a reset)."""
         raise NotImplementedError
 
     def close(self):

@@ -88,6 +88,15 @@ class TetherBounceEnv(KernelEnv):
     Every episode terminates after its one step (never truncated); a second `step` without a
     `reset` raises, so that an agent cannot try several actions on one context.
 
+    ## Rendering
+
+    A step is drawn as the bounce over time, about 2 s at `render_fps` (30): the flight in on
+    the slack tether, the contact (taut, slowed down), the flight out, the outcome held (see
+    `tether_bounce.rendering`). `"rgb_array"` returns the latest frame, `"rgb_array_list"`
+    the frames since the last `render()` (a reset's one, a step's about 56), `"human"` plays
+    them in a window in real time. Gymnasium's `RecordVideo` keeps only the last frame of each
+    step; `tether_gym.agents.record.RecordVideo` keeps them all.
+
     ## Arguments
 
     | Argument           | Default    | Meaning                                                    |
@@ -100,7 +109,7 @@ class TetherBounceEnv(KernelEnv):
     |                    |            | [1, 1e6], or a range drawn log-uniformly                   |
     | `stiffness`        | `None`     | a spring constant in N/m instead of `rho` (not both)       |
     | `spin_disturbance` | `0.0`      | pre-bounce spin drawn uniformly in +-this, in [0, 50] rad/s|
-    | `render_mode`      | `None`     | `"rgb_array"` or `"human"`                                 |
+    | `render_mode`      | `None`     | `"rgb_array"`, `"rgb_array_list"` or `"human"`             |
 
     `rho` is eq. (11) with the fastest launch (3 m/s) as v_theta: without a spin disturbance,
     every episode's actual rho is at least this (spin can add to v_theta). Bad arguments raise
@@ -111,7 +120,7 @@ class TetherBounceEnv(KernelEnv):
     * v0: initial version.
     """
 
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+    metadata = {"render_modes": ["human", "rgb_array", "rgb_array_list"], "render_fps": 30}
     decode_observation = staticmethod(decode_observation)
 
     def __init__(
@@ -133,7 +142,7 @@ class TetherBounceEnv(KernelEnv):
     def make_renderer(self):
         from tether_gym.envs.tether_bounce.rendering import Renderer
 
-        return Renderer(self.render_mode, self.metadata["render_fps"])
+        return Renderer(self.render_mode, self.metadata["render_fps"], self.config.dynamics)
 
 
 class TetherBounceVectorEnv(KernelVectorEnv):

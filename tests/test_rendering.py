@@ -1,0 +1,158 @@
+"""Rendering: the drawing layer, TetherBounce-v0's bounce drawn over time in every render mode,
+video capture and the GIF command."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import time
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import tether_gym  # noqa: F401
+from tether_gym.agents import record
+from tether_gym.envs import drawing
+from tether_gym.envs.tether_bounce import kernel
+from tether_gym.envs.tether_bounce.rendering import CONTACT_FRAMES, SIZE
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+
+BANK_SHOT = kernel.ACTION.normalize([2.0, math.pi / 4, 0.0, 0.0]).astype(np.float32)
+"""A 45 degree tether on the centre of mass: a 90 degree turn to the left (heading +pi/2)."""
+SLACK = kernel.ACTION.normalize([2.0, 0.0, 0.0, 0.0]).astype(np.float32)
+"""The anchor level with the puck: the attachment never moves away, the tether stays slack."""
+
+
+def bounce_frames(action, render_mode="rgb_array_list", **kwargs):
+    env = gym.make("TetherBounce-v0", render_mode=render_mode, **kwargs)
+    env.reset(seed=0, options={"task": "heading", "target_heading": math.pi / 2})
+    env.step(action)
+    frames = env.render()
+    return env, frames
+
+
+def has(frame: np.ndarray, colour) -> np.ndarray:
+    return np.all(frame == colour, axis=-1)
+
+
+def centroid(frame: np.ndarray, colour) -> np.ndarray:
+    """(column, row) of the pixels of exactly `colour`."""
+    rows, columns = np.nonzero(has(frame, colour))
+    return np.array([columns.mean(), rows.mean()])
+
+
+def test_pygame_is_imported_only_to_draw():
+    code = (
+        "import sys, tether_gym.envs.drawing, tether_gym.envs.tether_bounce.rendering\n"
+        "import tether_gym.agents.record\nassert 'pygame' not in sys.modules"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_canvas_maps_metres_to_pixels_with_y_up():
+    canvas = drawing.Canvas((200, 100), extent=2.0)  # 50 pixels per metre
+    canvas.look_at((1.0, 1.0))
+    assert canvas.px((1.0, 1.0)) == (100, 50)
+    assert canvas.px((2.0, 1.5)) == (150, 25)
+    canvas.clear()
+    canvas.puck((1.0, 1.0), 0.2, 0.0, (1.1, 1.0))
+    frame = canvas.rgb()
+    assert frame.shape == (100, 200, 3) and frame.dtype == np.uint8
+    np.testing.assert_allclose(centroid(frame, drawing.PUCK), (100, 50), atol=1.5)
+    assert has(frame, drawing.ATTACHMENT).any()
+    canvas.goal((2.5, 1.5), 0.2)  # what TetherNavigate adds
+    canvas.post((0.0, 1.5), 0.1)
+    canvas.wall((-1.0, 0.5), (3.0, 0.5))
+    frame = canvas.rgb()
+    assert has(frame, drawing.GOAL_FILL).any() and has(frame, drawing.POST)[25, 50]
+    assert has(frame, drawing.POST)[75].all()  # the wall, across the picture
+
+
+@pytest.mark.parametrize("dynamics", ["impulse", "hybrid"])
+def test_a_step_is_drawn_over_time(dynamics):
+    """The puck flies up on a slack tether, the tether goes taut for a few frames, the puck
+    leaves to the left (the bank shot); `render()` then has no new frames."""
+    env, frames = bounce_frames(BANK_SHOT, dynamics=dynamics)
+    assert len(frames) > 40
+    assert all(f.shape == (SIZE, SIZE, 3) and f.dtype == np.uint8 for f in frames)
+    bounce = frames[1:]  # frames[0] is the reset's
+    taut = np.array([has(f, drawing.TAUT).sum() > 50 for f in bounce])
+    first, last = np.flatnonzero(taut)[[0, -1]]
+    assert taut.sum() >= CONTACT_FRAMES and taut[first : last + 1].all()
+    puck = np.array([centroid(f, drawing.PUCK) for f in bounce])
+    assert np.all(np.diff(puck[:first, 1]) < 0)  # up the screen
+    assert np.all(np.diff(puck[last + 1 :, 0]) <= 0) and puck[-1, 0] < puck[last, 0] - 50
+    assert env.render() == []
+    env.close()
+
+
+def test_a_slack_tether_is_never_drawn_taut():
+    env, frames = bounce_frames(SLACK, dynamics="impulse")
+    assert len(frames) > 40 and not any(has(f, drawing.TAUT).any() for f in frames)
+    env.close()
+
+
+def test_rgb_array_is_the_latest_frame():
+    """One frame per call: the reset's, then the end of the bounce (check_env's contract)."""
+    env = gym.make("TetherBounce-v0", render_mode="rgb_array")
+    env.reset(seed=0, options={"task": "heading", "target_heading": math.pi / 2})
+    reset_frame = env.render()
+    env.step(BANK_SHOT)
+    frame = env.render()
+    _, frames = bounce_frames(BANK_SHOT)
+    assert np.array_equal(reset_frame, frames[0]) and np.array_equal(frame, frames[-1])
+    assert np.array_equal(env.render(), frame)
+    env.close()
+
+
+def test_human_mode_plays_the_bounce_in_real_time():
+    env = gym.make("TetherBounce-v0", render_mode="human")
+    env.reset(seed=0)
+    start = time.perf_counter()
+    env.step(BANK_SHOT)
+    elapsed = time.perf_counter() - start
+    _, frames = bounce_frames(BANK_SHOT)
+    assert elapsed > 0.8 * (len(frames) - 2) / env.metadata["render_fps"]
+    assert env.render() is None and env.unwrapped._renderer.window.screen is not None
+    env.close()
+
+
+def test_record_video_keeps_every_frame_of_a_step(tmp_path):
+    pytest.importorskip("moviepy")
+    env = record.RecordVideo(
+        gym.make("TetherBounce-v0", render_mode="rgb_array_list"),
+        str(tmp_path / "videos"),
+        episode_trigger=lambda _: True,
+        disable_logger=True,
+    )
+    for episode in range(2):
+        env.reset(seed=episode)
+        env.step(BANK_SHOT)
+        assert len(env.recorded_frames) > 40
+    env.close()
+    assert sorted(p.name for p in (tmp_path / "videos").iterdir()) == [
+        "rl-video-episode-0.mp4",
+        "rl-video-episode-1.mp4",
+    ]
+
+
+def test_gif_command_writes_an_animation_and_keeps_existing_files(tmp_path, capsys):
+    from PIL import Image
+
+    gif = tmp_path / "bounce.gif"
+    args = ["--episodes", "2", "--out", str(gif), "--size", "96", "--fps", "10"]
+    record.main([*args, "--dynamics", "impulse"])
+    assert "frames" in capsys.readouterr().out
+    with Image.open(gif) as image:
+        assert image.size == (96, 96) and image.n_frames > 20 and image.is_animated
+    written = gif.read_bytes()
+    with pytest.raises(SystemExit):
+        record.main(args)
+    assert "--overwrite" in capsys.readouterr().err and gif.read_bytes() == written
+    record.main([*args, "--overwrite", "--agent", "random"])
+    assert gif.read_bytes() != written
