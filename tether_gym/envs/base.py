@@ -160,7 +160,8 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
         if options:
             self.kernel.reset_options(options, state, obs)
         self._state, self.outcome, self._ended = state, None, False
-        self._scenes = [(self.state, None)]
+        if self.render_mode is not None:  # kept only to be drawn
+            self._scenes = [(self.state, None)]
         if self.render_mode == "human":
             self.render()
         return self.kernel.view(obs[0]), {}
@@ -177,7 +178,8 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
             values[self._end[2]],
         )
         self._ended = terminated or truncated
-        self._scenes.append((self.state, self.outcome))
+        if self.render_mode is not None:
+            self._scenes.append((self.state, self.outcome))
         if self.render_mode == "human":
             self.render()
         info = self._info.one(values)
