@@ -27,6 +27,12 @@ import gymnasium as gym
 
 import tether_gym  # noqa: F401  (registers TetherBounce-v0)
 
+NAVIGATE_TARGETS = {
+    "TetherNavigate-v0 hybrid (gym.make)": 20_000,
+    "TetherNavigate vector impulse": 300_000,
+    "TetherNavigate vector hybrid": 100_000,
+}
+"""TetherNavigate's targets (a step is a maneuver)."""
 HARNESSES = ("actions drawn beforehand", "actions sampled in the loop")
 
 
@@ -86,6 +92,18 @@ def main() -> None:
             lambda: make_vec("TetherBounce-v0"),
         ),
     }
+    if "TetherNavigate-v0" in gym.registry:  # absent from revisions before it
+        cases.update({
+            "TetherNavigate-v0 hybrid (gym.make)": (
+                single_steps_per_second, lambda: gym.make("TetherNavigate-v0")
+            ),
+            f"TetherNavigate vector impulse N={n}": (
+                vector_steps_per_second, lambda: make_vec("TetherNavigate-v0", dynamics="impulse")
+            ),
+            f"TetherNavigate vector hybrid N={n}": (
+                vector_steps_per_second, lambda: make_vec("TetherNavigate-v0")
+            ),
+        })  # fmt: skip
     for measure, make in cases.values():  # warm-up: numba compiles or loads its cache
         measure(make(), 5, predrawn=True)
     rates = {}
@@ -102,12 +120,16 @@ def main() -> None:
         print(harness)
         for name, value in rate.items():
             print(f"  {name:38s} {value:>14,.0f} steps/s (median of {repeats})")
-        cart, imp, hyb, cart_vec, vec_imp, vec_hyb = rate.values()
+        cart, imp, hyb, cart_vec, vec_imp, vec_hyb = list(rate.values())[:6]
         print(f"  single impulse / CartPole-v1        {imp / cart:6.2f}x  (target >= 0.3)")
         print(f"  single hybrid / CartPole-v1         {hyb / cart:6.2f}x")
         print(f"  vector impulse / CartPoleVectorEnv  {vec_imp / cart_vec:6.2f}x  (target >= 0.5)")
         print(f"  vector hybrid / CartPoleVectorEnv   {vec_hyb / cart_vec:6.2f}x  "
               f"({vec_hyb:,.0f} env-steps/s, target >= 200,000)")  # fmt: skip
+        for name, target in NAVIGATE_TARGETS.items():
+            if any(case.startswith(name) for case in rate):
+                value = next(v for case, v in rate.items() if case.startswith(name))
+                print(f"  {name:36s} {value:>10,.0f} steps/s  (target >= {target:,})")
 
 
 if __name__ == "__main__":

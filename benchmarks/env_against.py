@@ -56,6 +56,8 @@ def main() -> None:
     for harness, cases in runs[ROOT][0].items():
         print(harness)
         for case in cases:
+            if case not in runs[base][0][harness]:
+                continue
             new = statistics.median(run[harness][case] for run in runs[ROOT])
             old = statistics.median(run[harness][case] for run in runs[base])
             print(f"  {case:38s} {new:>14,.0f} vs {old:>14,.0f} steps/s  {new / old:5.2f}x")

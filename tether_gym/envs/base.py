@@ -182,7 +182,7 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
             self._scenes.append((self.state, self.outcome))
         if self.render_mode == "human":
             self.render()
-        info = self._info.one(values)
+        info = self._info.one(values, outcome[0])
         return self.kernel.view(obs[0]), reward, bool(terminated), bool(truncated), info
 
     def render(self):
@@ -317,7 +317,7 @@ class KernelVectorEnv(VectorEnv):
         if self.num_envs > 1:
             info = self._info.many(outcome)
         else:
-            info = _as_arrays(self._info.one(outcome[0].tolist()))
+            info = _as_arrays(self._info.one(outcome[0].tolist(), outcome[0]))
         info["final_info"] = dict(info)
         info["_final_info"] = ended
         info["final_obs"] = self.kernel.view(final_obs)

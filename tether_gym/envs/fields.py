@@ -156,15 +156,16 @@ class InfoLayout:
 
     # zip() here pairs sequences built together in __init__, equal by construction; its strict
     # keyword (even strict=False) costs a sixth of a single env's step, hence the noqa.
-    def one(self, values: list) -> dict:
-        """The info of one outcome row given as a list (`row.tolist()`): Python scalars."""
+    def one(self, values: list, row: np.ndarray) -> dict:
+        """The info of one outcome row, given as a list (`row.tolist()`) and as the array:
+        Python scalars, and views of `row` for the entries of several columns."""
         info = dict(zip(self.names, self._get(values)))  # noqa: B905
         for flag in self.flags:
             info[flag] = bool(info[flag])
         for group, keys, get in self._group_get:
             info[group] = dict(zip(keys, get(values)))  # noqa: B905
         for name, i, f in self.arrays:
-            info[name] = np.array(values[i : i + f.size]).reshape(f.shape)
+            info[name] = row[i : i + f.size].reshape(f.shape)
         return info
 
     def many(self, plain: np.ndarray) -> dict:

@@ -64,8 +64,10 @@ MAX_WALL_HITS = 8
 """Wall bounces in one flight at most (then the maneuver ends unbounced)."""
 PATH_POINTS = MAX_WALL_HITS + 3
 """A maneuver's path: its start, the wall hits, the tautening, the slack instant."""
-WHEEL_GRID = 65
-"""Offset angles tried when the commanded one is out of the wheel's reach."""
+WHEEL_GRID = 33
+"""Offset angles tried when the commanded one is out of the wheel's reach (then bisection
+towards the command, `WHEEL_BISECTIONS` times)."""
+WHEEL_BISECTIONS = 24
 DEFAULT_RHO = 850.0
 RHO_LENGTH, RHO_SPEED = 0.8, START_SPEED[1]
 """The stiffness is the one whose rho (eq. 11) is `rho` for the longest tether at the fastest
@@ -477,7 +479,7 @@ def _wheel_tautening(puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate):
     if best_gap == math.inf:
         return math.inf, 0.0, alpha
     reachable, out = best, alpha  # bisect between the reachable angle and the command
-    for _ in range(30):
+    for _ in range(WHEEL_BISECTIONS):
         mid = 0.5 * (reachable + out)
         t, _ = _wheel_crossing(puck, ax, ay, length, mid, elapsed, t_end, wheel_rate)
         if t < math.inf:
@@ -625,23 +627,25 @@ def _maneuver(action, s, p, out):
 
 
 @numba.njit(cache=True)
-def _step(actions, params, state, obs, out):
-    """Every row's maneuver, in place on `state` (a copy the caller made); the number of rows
-    whose action was not finite."""
+def _step(actions, params, state, new_state, obs, out):
+    """Every row's maneuver from `state` into `new_state` (numpy's copy of records with array
+    fields is slow: they are copied here); the number of rows whose action was not finite."""
     p = params[0]
     bad = 0
     for i in range(state.shape[0]):
-        bad += _maneuver(actions[i], state[i], p, out[i])
-        _observe(state[i], p.max_maneuvers, obs[i])
+        new_state[i] = state[i]
+        bad += _maneuver(actions[i], new_state[i], p, out[i])
+        _observe(new_state[i], p.max_maneuvers, obs[i])
     return bad
 
 
 @numba.njit(cache=True)
-def _step_autoreset(actions, params, state, final_obs, out, uniforms, obs):
+def _step_autoreset(actions, params, old_state, state, final_obs, out, uniforms, obs):
     """`_step`, then the rows whose episode ended start anew from their uniforms."""
     p = params[0]
     bad = 0
     for i in range(state.shape[0]):
+        state[i] = old_state[i]
         bad += _maneuver(actions[i], state[i], p, out[i])
         _observe(state[i], p.max_maneuvers, final_obs[i])
         if out[i, OUT.terminated] != 0.0 or out[i, OUT.truncated] != 0.0:
@@ -653,15 +657,17 @@ def _step_autoreset(actions, params, state, final_obs, out, uniforms, obs):
 
 
 @numba.njit(cache=True, parallel=True)
-def _step_autoreset_parallel(actions, params, state, final_obs, out, uniforms, obs, chunk):
+def _step_autoreset_parallel(
+    actions, params, old_state, state, final_obs, out, uniforms, obs, chunk
+):
     """`_step_autoreset` on chunks of `chunk` rows across threads."""
     n = state.shape[0]
     bad = 0
     for c in prange((n + chunk - 1) // chunk):
         rows = slice(c * chunk, min((c + 1) * chunk, n))
         bad += _step_autoreset(
-            actions[rows], params, state[rows], final_obs[rows], out[rows], uniforms[rows],
-            obs[rows],
+            actions[rows], params, old_state[rows], state[rows], final_obs[rows], out[rows],
+            uniforms[rows], obs[rows],
         )  # fmt: skip
     return bad
 
@@ -694,25 +700,23 @@ class NavigateKernel(Kernel):
     def step(self, state, actions):
         n = state.shape[0]
         actions = self.as_actions(actions, n)
-        state = state.copy()
-        obs, out = OBSERVATION.empty(n), OUTCOME.empty(n)
-        _check_finite(_step(actions, self.params, state, obs, out), actions)
-        return state, obs, out
+        new_state, obs, out = np.empty(n, STATE), OBSERVATION.empty(n), OUTCOME.empty(n)
+        _check_finite(_step(actions, self.params, state, new_state, obs, out), actions)
+        return new_state, obs, out
 
     def step_autoreset(self, state, actions, uniforms):
         """Fused into one pass, across threads for batches large enough to pay for it."""
         n = state.shape[0]
         actions = self.as_actions(actions, n)
-        state = state.copy()
+        new_state = np.empty(n, STATE)
         final_obs, obs, out = OBSERVATION.empty(n), OBSERVATION.empty(n), OUTCOME.empty(n)
+        args = (actions, self.params, state, new_state, final_obs, out, uniforms, obs)
         if n < 2 * PARALLEL_CHUNK:
-            bad = _step_autoreset(actions, self.params, state, final_obs, out, uniforms, obs)
+            bad = _step_autoreset(*args)
         else:
-            bad = _step_autoreset_parallel(
-                actions, self.params, state, final_obs, out, uniforms, obs, PARALLEL_CHUNK
-            )
+            bad = _step_autoreset_parallel(*args, PARALLEL_CHUNK)
         _check_finite(bad, actions)
-        return state, obs, final_obs, out
+        return new_state, obs, final_obs, out
 
     def reset_options(self, options: dict, state: np.ndarray, obs: np.ndarray) -> None:
         """Keys: "goal" (x, y), "start" (x, y), "start_velocity" (vx, vy), "start_angle",
