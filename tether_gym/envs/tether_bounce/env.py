@@ -163,17 +163,10 @@ class TetherBounceVectorEnv(KernelVectorEnv):
     def __init__(
         self,
         num_envs: int = 1,
-        task: str = "mixed",
-        dynamics: str = "hybrid",
-        inertia_ratio: float | tuple[float, float] = 0.5,
-        restitution: float | tuple[float, float] = 1.0,
-        rho: float | tuple[float, float] | None = None,
-        stiffness: float | None = None,
-        spin_disturbance: float = 0.0,
         render_mode: str | None = None,
         block: int = 256,
+        **kwargs,
     ):
-        self.config = EnvConfig(
-            task, dynamics, inertia_ratio, restitution, rho, stiffness, spin_disturbance
-        )
+        """`kwargs`: the arguments of `TetherBounceEnv` (its Arguments table)."""
+        self.config = EnvConfig(**kwargs)
         super().__init__(TetherBounceKernel(self.config), num_envs, render_mode, block)

@@ -187,23 +187,10 @@ class TetherNavigateVectorEnv(GoalMixin, KernelVectorEnv):
     def __init__(
         self,
         num_envs: int = 1,
-        task: str = "reach",
-        reward_type: str = "dense",
-        dynamics: str = "hybrid",
-        rho: float | None = None,
-        stiffness: float | None = None,
-        n_anchors: int = 6,
-        n_obstacles: int = 0,
-        layout: str | None = None,
-        wall_restitution: float = 0.9,
-        reaction_wheel: bool = True,
-        wheel_rate: float = 20.0,
-        max_maneuvers: int = 6,
         render_mode: str | None = None,
         block: int = 64,
+        **kwargs,
     ):
-        self.config = NavigateConfig(
-            task, reward_type, dynamics, rho, stiffness, n_anchors, n_obstacles, layout,
-            wall_restitution, reaction_wheel, wheel_rate, max_maneuvers,
-        )  # fmt: skip
+        """`kwargs`: the arguments of `TetherNavigateEnv` (its Arguments table)."""
+        self.config = NavigateConfig(**kwargs)
         super().__init__(NavigateKernel(self.config), num_envs, render_mode, block)
