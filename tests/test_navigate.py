@@ -133,6 +133,10 @@ def test_compute_reward_equals_the_step_reward_and_relabels(task, reward_type):
         assert np.all((relabeled >= success - 1.0)[hit])
 
 
+def cross(a, b) -> float:
+    return float(a[0] * b[1] - a[1] * b[0])
+
+
 def energy(velocity, spin) -> float:
     return 0.5 * PUCK_MASS * float(np.dot(velocity, velocity)) + 0.5 * INERTIA_RATIO * (
         PUCK_MASS * PUCK_RADIUS**2 * spin**2
@@ -161,6 +165,38 @@ def test_energy_is_conserved_with_the_brake_off_and_elastic_walls(dynamics, tole
                 checked += info["bounced"]
             done = terminated or truncated
     assert checked >= 10
+
+
+@pytest.mark.parametrize(("dynamics", "tolerance"), [("impulse", 1e-12), ("hybrid", 1e-7)])
+def test_angular_momentum_about_the_hooked_peg_is_kept_through_each_contact(dynamics, tolerance):
+    """The tether's force passes through the peg: m (r x v) + I w about the peg is the same
+    at tautening (the path's tautening point, `taut_*`) and at the slack instant."""
+    env = gym.make("TetherNavigate-v0", dynamics=dynamics)
+    rng = np.random.default_rng(2)
+    inertia = INERTIA_RATIO * PUCK_MASS * PUCK_RADIUS**2
+    contacts = 0
+    for episode in range(8):
+        env.reset(seed=episode)
+        done = False
+        while not done:
+            _, _, terminated, truncated, info = env.step(rng.uniform(-1, 1, 4).astype(np.float32))
+            done = terminated or truncated
+            if not info["bounced"]:
+                continue
+            points = info["path"]
+            end = len(points) - 1
+            while end > 0 and np.array_equal(points[end - 1], points[end]):
+                end -= 1
+            before = points[end - 1] - info["anchor"]  # the tautening point
+            after = info["position"] - info["anchor"]
+            h_before = (
+                PUCK_MASS * np.cross(before, info["taut_velocity"]) + inertia * info["taut_spin"]
+            )
+            h_after = PUCK_MASS * np.cross(after, info["velocity"]) + inertia * info["spin"]
+            scale = PUCK_MASS * np.linalg.norm(before) * np.linalg.norm(info["taut_velocity"])
+            assert abs(h_after - h_before) <= tolerance * scale
+            contacts += 1
+    assert contacts >= 10
 
 
 def test_a_fixed_layout_places_pegs_posts_goal_and_start():

@@ -121,7 +121,9 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     speed) elsewhere, or touches a post; truncated after `max_maneuvers` maneuvers.
 
     `info` after each step: `is_success`, `position` (2,), `velocity` (2,), `angle`, `spin`
-    (the puck after the maneuver), `anchor` (2,) (the hooked peg), `bounced`, `completed`,
+    (the puck after the maneuver), `anchor` (2,) (the hooked peg), `taut_velocity` (2,),
+    `taut_angle`, `taut_spin` (the puck at tautening, or where the flight ended), `bounced`,
+    `completed`,
     `tether_length`, `tether_angle` and `offset_angle` met at tautening (the paper's beta
     from the incoming velocity, and alpha), `offset_angle_met`, `restitution`, `flight_time`
     (s), `wall_hits`, `at_rest`, `hit_post`, `maneuvers_left`, `path` (11, 2) (start, wall

@@ -139,6 +139,9 @@ OUTCOME = Fields(
     Field("angle", doc="rad"),
     Field("spin", doc="rad/s"),
     Field("anchor", doc="m, the hooked peg", shape=(2,)),
+    Field("taut_velocity", doc="m/s, at tautening (before the contact)", shape=(2,)),
+    Field("taut_angle", doc="rad, the orientation at tautening"),
+    Field("taut_spin", doc="rad/s, at tautening"),
     Field("bounced", flag=True),
     Field("completed", flag=True),
     Field("tether_length", doc="m, as used"),
@@ -584,6 +587,8 @@ def _maneuver(action, s, p, out):
     puck, taut, met, flight_time, hits, hit_post, n = _fly(s, p, ax, ay, length, alpha, out)
     bounced, completed = False, True
     beta = 0.0
+    out[OUT.taut_velocity], out[OUT.taut_velocity + 1] = puck.vx, puck.vy
+    out[OUT.taut_angle], out[OUT.taut_spin] = puck.angle, puck.spin
     if taut:
         heading = math.atan2(puck.vy, puck.vx)
         rx, ry = ARM * math.cos(puck.angle), ARM * math.sin(puck.angle)
