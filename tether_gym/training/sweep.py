@@ -624,11 +624,12 @@ def save_sweep(sweep: Sweep, out: Path) -> None:
 
 @dataclass(frozen=True)
 class Outcome:
-    """What a sweep left: the summary (None if no trial finished) and the trial counts."""
+    """What a sweep left: the summary (None if no trial finished), the finished trials and
+    the counts of the others."""
 
     summary: pd.DataFrame | None
     table: str
-    finished: int
+    trials: list[Trial]
     failed: int
     unfinished: int
 
@@ -639,22 +640,23 @@ def write_results(results: tune.ResultGrid, sweep: Sweep, out: Path) -> Outcome:
     failed = len(results.errors)
     unfinished = sweep.num_trials() - len(trials) - failed
     if not trials:
-        return Outcome(None, "", 0, failed, unfinished)
+        return Outcome(None, "", trials, failed, unfinished)
     groups = group(trials)
     summary = summarize(groups).sort_values("success_mean", ascending=False, ignore_index=True)
     summary.to_csv(out / "summary.csv", index=False)
     table = format_summary(summary)
     (out / "summary.md").write_text(table + "\n")
     plot_success(groups, out / "success.png")
-    return Outcome(summary, table, len(trials), failed, unfinished)
+    return Outcome(summary, table, trials, failed, unfinished)
 
 
 def run(sweep: Sweep, out: Path, address: str | None = None, resume: bool = False) -> Outcome:
-    """Run (or, with `resume`, continue) the sweep into `out`, which the caller prepared,
-    and write its results. Ray starts locally unless `address` names a cluster to join, and
-    is shut down at the end."""
+    """Run (or, with `resume`, continue) the sweep into `out` and write its results (the
+    command refuses a non-empty `out` first: `prepare_out`). Ray starts locally unless
+    `address` names a cluster to join, and is shut down at the end."""
     out = out.resolve()
     if not resume:
+        out.mkdir(parents=True, exist_ok=True)
         save_sweep(sweep, out)
     runtime_env = {"env_vars": thread_env(sweep.cpus)}
     ray.init(address=address or "local", include_dashboard=False, runtime_env=runtime_env)
@@ -712,7 +714,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(str(error))
     outcome = run(sweep, out, args.address, resume=args.resume is not None)
     if outcome.summary is not None:
-        print(f"\n{outcome.finished} trials finished; {out}/summary.csv:\n{outcome.table}")
+        print(f"\n{len(outcome.trials)} trials finished; {out}/summary.csv:\n{outcome.table}")
         print(f"plot: {out}/success.png; TensorBoard: tensorboard --logdir {out}")
     if outcome.failed:
         print(f"{outcome.failed} trials failed: see error.txt in {out}/tune/", file=sys.stderr)
