@@ -1,8 +1,8 @@
 """Sweep `tether-train` runs over seeds, hyperparameters and env arguments on Ray Tune.
 
-    tether-sweep sweeps/seeds.yml --out sweeps-out/seeds    # the default run over 5 seeds
+    tether-sweep sweeps/seeds.yml --out runs/sweep-seeds      # the default run, 5 seeds
     tether-sweep sweeps/tune_ppo.yml --out DIR --address auto  # on a running Ray cluster
-    tether-sweep --resume DIR                                # continue an interrupted sweep
+    tether-sweep --resume DIR                                  # continue an interrupted sweep
 
 (`python -m tether_gym.training.sweep ...` is the same command.) Every trial is
 `train(config, run_dir)`, the run behind `tether-train`: the same config (`make_config`'s
@@ -569,7 +569,7 @@ def format_summary(table: pd.DataFrame) -> str:
         lines.append(
             f"| {describe({key: row[key] for key in keys})} | {row.n_seeds} "
             f"| {100 * row.success_mean:.1f}%{interval} | {100 * row.success_worst:.1f}% "
-            f"| {100 * row.oracle_success:.1f}% | {row.train_seconds_mean:.0f} |"
+            f"| {100 * row.oracle_success:.1f}% | {row.train_seconds_mean:.1f} |"
         )
     return "\n".join(lines)
 
