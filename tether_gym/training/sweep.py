@@ -23,7 +23,8 @@ The sweep file (YAML; every key optional, unknown keys refused):
     seeds:           a list of seeds, or a count n for 0..n-1 (default [0]): every
                      configuration runs once per seed
     grid:            {dotted key: [values, ...]}: every combination
-    random:          {dotted key: {distribution: [arguments]}}: `samples` random draws
+    random:          {dotted key: {distribution: [arguments]}}: `samples` random draws,
+                     each crossed with the grid
     optuna:          {dotted key: {distribution: [arguments]}}: `samples` configurations
                      suggested by Optuna's TPE sampler, each scored by the metric averaged
                      over the seeds (not with grid)
@@ -309,8 +310,8 @@ def parse_space(data: dict[str, Any], base: dict[str, Any]) -> tuple[str, dict[s
                 raise _fail(where, "set the seeds with the top-level key seeds")
             prefix = next((p for p in SPACE_PREFIXES if key.startswith(p)), key)
             if key not in SPACE_OPTIONS and len(key) == len(prefix):
-                allowed = ", ".join(f"{p}<name>" for p in SPACE_PREFIXES)
-                raise _fail(where, f"cannot vary {key!r}; allowed: {allowed}, n_envs, timesteps")
+                allowed = ", ".join([*(f"{p}<name>" for p in SPACE_PREFIXES), *SPACE_OPTIONS])
+                raise _fail(where, f"cannot vary {key!r}; allowed: {allowed}")
             if key in space:
                 raise _fail(where, "varied twice")
             if search == "grid":
