@@ -22,7 +22,7 @@ import numpy as np
 from stable_baselines3 import PPO
 
 from tether_gym.training.sb3 import make_sb3_vec_env
-from tether_gym.training.train import DEFAULT_CONF, load_hyperparams, ppo_kwargs, use_one_thread
+from tether_gym.training.train import DEFAULT_CONF, algo_kwargs, load_hyperparams, use_one_thread
 
 
 def env_steps_per_second(n_envs: int, steps: int) -> float:
@@ -37,7 +37,7 @@ def env_steps_per_second(n_envs: int, steps: int) -> float:
 
 def make_model(params: dict) -> PPO:
     env = make_sb3_vec_env(params["n_envs"], seed=0)
-    return PPO(params.get("policy", "MlpPolicy"), env, seed=0, device="cpu", **ppo_kwargs(params))
+    return PPO(params.get("policy", "MlpPolicy"), env, seed=0, device="cpu", **algo_kwargs(params))
 
 
 def training_timesteps_per_second(params: dict, timesteps: int) -> float:
@@ -74,7 +74,7 @@ def main() -> None:
     timesteps = 16_384 if args.quick else args.timesteps
     repeats = 1 if args.quick else args.repeats
     use_one_thread()
-    params = load_hyperparams(DEFAULT_CONF, [])
+    params = load_hyperparams(DEFAULT_CONF)
     n_envs = params["n_envs"]
     steps = max(timesteps // n_envs, 1)
     env_rate = statistics.median(env_steps_per_second(n_envs, steps) for _ in range(repeats))

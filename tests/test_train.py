@@ -78,7 +78,7 @@ def test_interruption_leaves_a_checkpoint_that_resume_continues(tmp_path, monkey
 def test_train_runs_a_config_as_the_cli_does(tmp_path):
     """The seam for sweeps: `make_config` + `train()` give the CLI's run folder, periodic
     evaluations (handed to `report`), summary and resume."""
-    params = train.load_hyperparams(train.DEFAULT_CONF, FAST_PARAMS)
+    params = train.load_hyperparams(train.DEFAULT_CONF, train.parse_overrides(FAST_PARAMS))
     config = train.make_config(
         "TetherBounce-v0", {"rho": [20.0, 200.0]}, params,
         n_envs=8, timesteps=1024, eval_episodes=40, eval_freq=512,
@@ -97,6 +97,24 @@ def test_train_runs_a_config_as_the_cli_does(tmp_path):
     assert summary["timesteps"] == saved_timesteps(folder / "last") == 1536
     with pytest.raises(ValueError, match="has 1536 timesteps"):
         train.train({**config, "timesteps": 1536}, folder, resume=True)
+
+
+def test_sac_trains_and_resumes_with_its_replay_buffer(tmp_path):
+    """`--algo sac`: the same run folder and table; `last/` keeps the replay buffer."""
+    tiny = [
+        "learning_starts:128", "batch_size:64", "buffer_size:4096",
+        "policy_kwargs:dict(net_arch=[16])",
+    ]  # fmt: skip
+    folder = tmp_path / "sac"
+    argv = ["--algo", "sac", "--timesteps", "512", "--eval-freq", "256", "--n-envs", "8"]
+    options = ["--eval-episodes", "40", "--no-progress-bar"]
+    assert train.main([*argv, *options, "--name", "sac", "--runs-dir", str(tmp_path),
+                       "--hyperparams", *tiny]) == 0  # fmt: skip
+    assert yaml.safe_load((folder / "config.yaml").read_text())["algo"] == "sac"
+    assert (folder / "last" / "replay_buffer.pkl").is_file()
+    assert "| SAC (best) |" in (folder / "results.md").read_text()
+    assert train.main(["--resume", str(folder), "--timesteps", "768", *options]) == 0
+    assert saved_timesteps(folder / "last") == 768
 
 
 def test_env_kwargs_and_named_flags_make_one_config(tmp_path):
@@ -164,6 +182,7 @@ def test_a_bad_hyperparameter_file_fails_up_front(tmp_path, capsys, text, messag
         (["--env", "TetherBonce-v0"], "doesn't exist"),
         (["--hyperparams", "n_steps=32"], "key:value"),
         (["--n-envs", "0"], "n_envs must be at least 1"),
+        (["--algo", "a2c"], "invalid choice: 'a2c'"),
     ],
 )
 def test_bad_options_name_the_parameter_before_any_work(tmp_path, capsys, args, message):
@@ -178,6 +197,7 @@ def test_default_names_differ_by_config_and_seed():
     low = train.default_name("TetherBounce-v0", {"rho": [5.0, 100.0], "task": "heading"}, 1)
     assert low == "ppo_heading_hybrid_rho5-100_seed1"
     assert train.default_name("Other-v1", {}, 2) == "ppo_Other-v1_mixed_hybrid_seed2"
+    assert train.default_name("TetherBounce-v0", {}, 0, "sac") == "sac_mixed_hybrid_seed0"
 
 
 def test_rl_zoo_trains_from_the_hyperparameter_file(tmp_path):

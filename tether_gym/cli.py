@@ -25,17 +25,21 @@ ENV_DEFAULTS: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(En
 """TetherBounce-v0's arguments (`EnvConfig`'s fields) and their defaults."""
 TRAIN_EXTRA = ("stable_baselines3", "torch", "tensorboard", "yaml", "rich")
 """Import names of the optional extra "train" (pyproject.toml)."""
+SWEEP_EXTRA = (*TRAIN_EXTRA, "ray", "optuna", "pandas")
+"""Import names of the optional extra "sweep", which includes "train"."""
 
 
-def require_extra(feature: str, modules: tuple[str, ...] = TRAIN_EXTRA) -> None:
-    """ModuleNotFoundError with the install command if a module of the extra "train" is
+def require_extra(
+    feature: str, modules: tuple[str, ...] = TRAIN_EXTRA, extra: str = "train"
+) -> None:
+    """ModuleNotFoundError with the install command if a module of the optional `extra` is
     missing: checked before importing any of them, so the message is the first thing a user
     sees instead of a traceback from deep inside an import."""
     missing = [name for name in modules if importlib.util.find_spec(name) is None]
     if missing:
         raise ModuleNotFoundError(
-            f'{feature} needs the optional extra "train" ({", ".join(missing)} not installed): '
-            'pip install "tether-gym[train]"',
+            f'{feature} needs the optional extra "{extra}" ({", ".join(missing)} not '
+            f'installed): pip install "tether-gym[{extra}]"',
             name=missing[0],
         )
 

@@ -1,20 +1,23 @@
-"""Train PPO (stable-baselines3) on TetherBounce-v0 and compare it with the oracles.
+"""Train PPO or SAC (stable-baselines3) on TetherBounce-v0 and compare it with the oracles.
 
     tether-train                                     # the default run (`make train`)
     tether-train --rho 5 100                         # the low-stiffness configuration
+    tether-train --algo sac                          # SAC instead of PPO
     tether-train --resume runs/<name>                # continue an interrupted run
 
-(`python train.py ...` from a clone's root is the same command.) Hyperparameters come from the
-packaged `hyperparams/ppo.yml` (`DEFAULT_CONF`) in rl-baselines3-zoo's format (keyed by env id,
-`lin_<x>` for a linear schedule, `policy_kwargs` as a Python expression), or `--conf-file`, and
-`--hyperparams key:value ...` overrides them. The native vector env feeds SB3 through
-`tether_gym.training.sb3`. Every `--eval-freq` timesteps the deterministic policy plays the same
-fixed, seeded episodes as the impulse oracle; the best policy so far and the last one are kept in
-`runs/<name>/best/` and `runs/<name>/last/` (model.zip, config.yaml, vecnormalize.pkl if used),
-TensorBoard logs in `runs/<name>/tb/`. At the end PPO, the impulse oracle, the shooting oracle and
-a random agent play the same fresh test episodes and the table is printed and saved to
-`runs/<name>/results.md`. Ctrl-C saves the last model before exiting; an existing run is never
-overwritten without `--overwrite`.
+(`python train.py ...` from a clone's root is the same command.) `--algo` picks the algorithm
+(`ALGOS`); its hyperparameters come from the packaged `hyperparams/<algo>.yml` in
+rl-baselines3-zoo's format (keyed by env id, `lin_<x>` for a linear schedule, `policy_kwargs` as a
+Python expression), or `--conf-file`, and `--hyperparams key:value ...` overrides them. The native
+vector env feeds SB3 through `tether_gym.training.sb3`. Every `--eval-freq` timesteps the
+deterministic policy plays the same fixed, seeded episodes as the impulse oracle; the best policy
+so far and the last one are kept in `runs/<name>/best/` and `runs/<name>/last/` (model.zip,
+config.yaml, vecnormalize.pkl if used, replay_buffer.pkl for SAC), TensorBoard logs in
+`runs/<name>/tb/`. At the end the policy, the impulse oracle, the shooting oracle and a random
+agent play the same fresh test episodes and the table is printed and saved to
+`runs/<name>/results.md`. Ctrl-C saves the last model before exiting, and so does every periodic
+evaluation (a killed run resumes from its last evaluation); an existing run is never overwritten
+without `--overwrite`.
 
 `train(config, run_dir)` is that whole run for callers that make their own configs (a sweep's
 trials): `make_config` gives the schema, saved as `config.yaml`, and `check_run` the checks.
@@ -34,12 +37,14 @@ from typing import TYPE_CHECKING, Any
 
 import torch
 import yaml
-from stable_baselines3 import PPO
+from stable_baselines3 import PPO, SAC
+from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.utils import LinearSchedule
-from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
-from tether_gym.agents.evaluate import EvalResult, SB3Agent, evaluate, format_table, load_agent
+from tether_gym.agents.evaluate import EvalResult, SB3Agent, evaluate, format_table
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 from tether_gym.agents.random_agent import RandomAgent
 from tether_gym.cli import (
@@ -55,29 +60,54 @@ from tether_gym.training.sb3 import make_sb3_vec_env
 if TYPE_CHECKING:
     from importlib.resources.abc import Traversable
 
-DEFAULT_CONF = files("tether_gym.training") / "hyperparams" / "ppo.yml"
-"""The packaged hyperparameter file (a `Path` in an installed or editable package)."""
+ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
+"""`--algo` names and their SB3 classes; each has its zoo file `hyperparams/<name>.yml`."""
+
+
+def default_conf(algo: str) -> Traversable:
+    """The packaged hyperparameter file of `algo` (a `Path` in an installed or editable package)."""
+    return files("tether_gym.training") / "hyperparams" / f"{algo}.yml"
+
+
+DEFAULT_CONF = default_conf("ppo")
+"""The packaged PPO hyperparameters, those of `make train`."""
 EVAL_SEED = 1_000_000
 """Seed of the periodic evaluation episodes (which pick the best model)."""
 TEST_SEED = 2_000_000
 """Seed of the final table's episodes, apart from those that picked the best model."""
 ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize")
-"""Keys of a zoo entry that are not PPO arguments."""
+"""Keys of a zoo entry that are not arguments of the algorithm."""
 Report = Callable[[dict[str, float]], None]
 """Receives each periodic evaluation's numbers (e.g. a sweep's `tune.report`)."""
-RUN_OPTIONS = ("seed", "n_envs", "timesteps", "eval_episodes", "eval_freq")
+RUN_OPTIONS = ("algo", "seed", "n_envs", "timesteps", "eval_episodes", "eval_freq")
 """`make_config`'s options that the command line sets (None: not given)."""
 RESUME_OPTIONS = ("timesteps", "eval_episodes", "eval_freq")
 """The options a resumed run may change."""
+REPLAY_BUFFER = "replay_buffer.pkl"
+"""An off-policy algorithm's replay buffer in `last/`."""
+
+
+def parse_overrides(items: list[str]) -> dict[str, Any]:
+    """`--hyperparams key:value ...` as a mapping (values are YAML scalars); ValueError if
+    malformed."""
+    overrides = {}
+    for item in items:
+        key, sep, value = item.partition(":")
+        if not sep or not key:
+            raise ValueError(f"--hyperparams takes key:value pairs, got {item!r}")
+        overrides[key] = yaml.safe_load(value)
+    return overrides
 
 
 def load_hyperparams(
-    path: Path | Traversable, overrides: list[str], env_id: str = DEFAULT_ENV_ID
+    path: Path | Traversable,
+    overrides: dict[str, Any] | None = None,
+    env_id: str = DEFAULT_ENV_ID,
 ) -> dict[str, Any]:
-    """The zoo entry for `env_id` in `path`, with `key:value` overrides (YAML scalars) applied.
+    """The zoo entry for `env_id` in `path`, with `overrides` applied.
 
-    Raises ValueError for an unreadable file, a missing entry or a malformed override; the
-    values themselves are checked by `check_config`.
+    Raises ValueError for an unreadable file or a missing entry; the values themselves are
+    checked by `check_config`.
     """
     try:
         conf = yaml.safe_load(path.read_text())
@@ -85,13 +115,7 @@ def load_hyperparams(
         raise ValueError(f"cannot parse the hyperparameter file {str(path)!r}: {error}") from None
     if not isinstance(conf, dict) or not isinstance(conf.get(env_id), dict):
         raise ValueError(f"hyperparameter file {str(path)!r} has no mapping for {env_id!r}")
-    params = dict(conf[env_id])
-    for item in overrides:
-        key, sep, value = item.partition(":")
-        if not sep or not key:
-            raise ValueError(f"--hyperparams takes key:value pairs, got {item!r}")
-        params[key] = yaml.safe_load(value)
-    return params
+    return {**conf[env_id], **(overrides or {})}
 
 
 def schedule(value: Any) -> Any:
@@ -106,8 +130,9 @@ def expression(text: str) -> Any:
     return eval(text, {"__builtins__": {}, "dict": dict, "nn": torch.nn})
 
 
-def ppo_kwargs(params: dict[str, Any]) -> dict[str, Any]:
-    """The PPO keyword arguments of a zoo entry (schedules and policy_kwargs evaluated)."""
+def algo_kwargs(params: dict[str, Any]) -> dict[str, Any]:
+    """The algorithm's keyword arguments in a zoo entry (schedules and policy_kwargs
+    evaluated)."""
     kwargs = {k: v for k, v in params.items() if k not in ZOO_KEYS}
     try:
         for key in ("learning_rate", "clip_range", "clip_range_vf"):
@@ -131,13 +156,15 @@ def make_config(
     timesteps: float | None = None,
     eval_episodes: int = 1000,
     eval_freq: float = 250_000,
+    algo: str = "ppo",
 ) -> dict[str, Any]:
     """A run's config as plain data (its `config.yaml`): what `train` reads, nothing else.
 
-    `n_envs` and `timesteps` default to the zoo entry's `n_envs` and `n_timesteps`;
-    `eval_freq` 0 turns the periodic evaluation off.
+    `hyperparams` is the zoo entry for `algo` (`ALGOS`); `n_envs` and `timesteps` default to
+    its `n_envs` and `n_timesteps`; `eval_freq` 0 turns the periodic evaluation off.
     """
     return {
+        "algo": algo,
         "env_id": env_id,
         "env_kwargs": env_kwargs,
         "seed": seed,
@@ -150,15 +177,18 @@ def make_config(
 
 
 def check_config(config: dict[str, Any]) -> None:
-    """ValueError naming the first bad entry: the env's own check of its arguments, unknown
-    or malformed hyperparameters, sizes below 1."""
+    """ValueError naming the first bad entry: an unknown algorithm, the env's own check of its
+    arguments, unknown or malformed hyperparameters, sizes below 1."""
+    if config["algo"] not in ALGOS:
+        raise ValueError(f"algo must be one of {sorted(ALGOS)}, got {config['algo']!r}")
     check_env(config["env_id"], config["env_kwargs"])
     params = config["hyperparams"]
-    allowed = set(inspect.signature(PPO.__init__).parameters) - {"self", "env", "_init_setup_model"}
+    signature = inspect.signature(ALGOS[config["algo"]].__init__)
+    allowed = set(signature.parameters) - {"self", "env", "_init_setup_model"}
     unknown = set(params) - allowed - set(ZOO_KEYS)
     if unknown:
-        raise ValueError(f"unknown PPO hyperparameters {sorted(unknown)}")
-    ppo_kwargs(params)
+        raise ValueError(f"unknown {label(config)} hyperparameters {sorted(unknown)}")
+    algo_kwargs(params)
     for key in ("n_envs", "timesteps", "eval_episodes"):
         if config[key] < 1:
             raise ValueError(f"{key} must be at least 1, got {config[key]}")
@@ -191,10 +221,15 @@ def check_run(config: dict[str, Any], run_dir: Path, resume: bool = False) -> No
             )
 
 
-def default_name(env_id: str, env_kwargs: dict[str, Any], seed: int) -> str:
-    """runs/<name>: `ppo_<task>_<dynamics>` (after the env id if not the default), the other
+def label(config: dict[str, Any]) -> str:
+    """The algorithm's name in tables and logs, e.g. "PPO"."""
+    return config["algo"].upper()
+
+
+def default_name(env_id: str, env_kwargs: dict[str, Any], seed: int, algo: str = "ppo") -> str:
+    """runs/<name>: `<algo>_<task>_<dynamics>` (after the env id if not the default), the other
     env arguments given, and the seed."""
-    parts = ["ppo"] if env_id == DEFAULT_ENV_ID else ["ppo", env_id]
+    parts = [algo] if env_id == DEFAULT_ENV_ID else [algo, env_id]
     parts += [str(env_kwargs.get(key, ENV_DEFAULTS[key])) for key in ("task", "dynamics")]
     for key, value in env_kwargs.items():
         if key not in ("task", "dynamics"):
@@ -223,33 +258,38 @@ def prepare_run_dir(path: Path, overwrite: bool) -> None:
 
 
 class Checkpoints:
-    """Saving a model with its config (and VecNormalize stats) in runs/<name>/<best|last>/."""
+    """Saving a model with its config (and VecNormalize stats, and an off-policy algorithm's
+    replay buffer, so that a resumed run learns from where it stopped) in
+    runs/<name>/<best|last>/."""
 
     def __init__(self, run_dir: Path, config: dict[str, Any]):
         self.run_dir, self.config = run_dir, config
 
-    def save(self, model: PPO, which: str, **extra: Any) -> Path:
+    def save(self, model: BaseAlgorithm, which: str, **extra: Any) -> Path:
         folder = self.run_dir / which
         folder.mkdir(exist_ok=True)
         model.save(folder / "model.zip")
         normalizer = model.get_vec_normalize_env()
         if normalizer is not None:
             normalizer.save(str(folder / "vecnormalize.pkl"))
+        if which == "last" and isinstance(model, OffPolicyAlgorithm):
+            model.save_replay_buffer(folder / REPLAY_BUFFER)
         config = {**self.config, "num_timesteps": int(model.num_timesteps), **extra}
         (folder / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
         return folder / "model.zip"
 
 
-def as_agent(model: PPO) -> SB3Agent:
+def as_agent(model: BaseAlgorithm) -> SB3Agent:
     """The model as an evaluation agent (normalizing observations never updates the stats)."""
     return SB3Agent(model, model.get_vec_normalize_env())
 
 
 class OracleEvalCallback(BaseCallback):
-    """Every `eval_freq` timesteps: PPO vs the impulse oracle on the same seeded episodes.
+    """Every `eval_freq` timesteps: the policy vs the impulse oracle on the same seeded episodes.
 
-    Logs both success rates to TensorBoard, prints a line, hands the numbers to `report`, and
-    saves the best model.
+    Logs both success rates to TensorBoard, prints a line, saves the last model and the best
+    one, and hands the numbers to `report` (after saving: a sweep reports `last/` as the
+    trial's checkpoint).
     """
 
     def __init__(
@@ -261,6 +301,7 @@ class OracleEvalCallback(BaseCallback):
         super().__init__()
         config = checkpoints.config
         self.checkpoints, self.best, self.report = checkpoints, best, report
+        self.label = label(config)
         self.env_id, self.env_kwargs = config["env_id"], config["env_kwargs"]
         self.episodes = config["eval_episodes"]
         self.freq = config["eval_freq"] or 2 * config["timesteps"]  # 0: never
@@ -285,23 +326,25 @@ class OracleEvalCallback(BaseCallback):
 
     def run_eval(self) -> None:
         self.last_eval = self.num_timesteps
-        ppo = self._evaluate("ppo", as_agent(self.model))
+        policy = self._evaluate(self.label, as_agent(self.model))
         numbers = {
             "timesteps": self.num_timesteps,
-            "success_rate": ppo.success_rate,
+            "success_rate": policy.success_rate,
             "oracle_success_rate": self.oracle_rate,
-            "heading_error_mean_deg": ppo.heading_error_mean_deg,
-            "reward_mean": ppo.reward_mean,
+            "heading_error_mean_deg": policy.heading_error_mean_deg,
+            "reward_mean": policy.reward_mean,
         }
         for key, value in numbers.items():
             if key != "timesteps":
                 self.logger.record(f"eval/{key}", value)
-        improved = ppo.success_rate > self.best
+        self.checkpoints.save(self.model, "last")
+        improved = policy.success_rate > self.best
         if improved:
-            self.best = ppo.success_rate
+            self.best = policy.success_rate
             self.checkpoints.save(self.model, "best", eval_success_rate=self.best)
         print(
-            f"[eval] {self.num_timesteps:,} timesteps: PPO {100 * ppo.success_rate:.1f}% "
+            f"[eval] {self.num_timesteps:,} timesteps: {self.label} "
+            f"{100 * policy.success_rate:.1f}% "
             f"vs impulse oracle {100 * self.oracle_rate:.1f}% success"
             + (" (new best)" if improved else ""),
             flush=True,
@@ -310,12 +353,13 @@ class OracleEvalCallback(BaseCallback):
             self.report(numbers)
 
 
-def final_results(run_dir: Path, model: PPO, config: dict[str, Any]) -> list[EvalResult]:
-    """PPO (best and last), the oracles and random on the same fresh test episodes."""
+def final_results(run_dir: Path, model: BaseAlgorithm, config: dict[str, Any]) -> list[EvalResult]:
+    """The policy (best and last), the oracles and random on the same fresh test episodes."""
     agents: dict[str, object] = {}
+    name = label(config)
     if (run_dir / "best" / "model.zip").is_file():
-        agents["PPO (best)"] = load_agent(run_dir / "best" / "model.zip")
-    agents["PPO (last)"] = as_agent(model)
+        agents[f"{name} (best)"] = as_agent(load_model(run_dir / "best", config, make_venv(config)))
+    agents[f"{name} (last)"] = as_agent(model)
     agents["impulse oracle"] = ImpulseOracle()
     agents["shooting oracle"] = ShootingOracle(config["env_kwargs"])
     agents["random"] = RandomAgent(config["seed"])
@@ -324,32 +368,45 @@ def final_results(run_dir: Path, model: PPO, config: dict[str, Any]) -> list[Eva
     )
 
 
-def make_model(config: dict[str, Any], run_dir: Path, resume: bool) -> PPO:
-    """A new PPO for `config`, or the run's last model with its VecNormalize statistics."""
+def make_venv(config: dict[str, Any]) -> VecMonitor:
+    """The run's SB3 vector env; VecMonitor gives the episode rewards to the logs
+    (rollout/ep_rew_mean)."""
+    env_id, env_kwargs = config["env_id"], config["env_kwargs"]
+    return VecMonitor(make_sb3_vec_env(config["n_envs"], config["seed"], env_id, **env_kwargs))
+
+
+def load_model(folder: Path, config: dict[str, Any], venv: VecEnv) -> BaseAlgorithm:
+    """The model saved in `folder` (a run's `best/` or `last/`) on `venv`, wrapped in its
+    VecNormalize statistics if saved beside it."""
+    if (folder / "vecnormalize.pkl").is_file():
+        venv = VecNormalize.load(str(folder / "vecnormalize.pkl"), venv)
+    return ALGOS[config["algo"]].load(folder / "model.zip", env=venv, device="cpu")
+
+
+def make_model(config: dict[str, Any], run_dir: Path, resume: bool) -> BaseAlgorithm:
+    """A new model for `config`, or the run's last one with its VecNormalize statistics and
+    replay buffer."""
     params, seed = config["hyperparams"], config["seed"]
-    # VecMonitor: episode rewards for the logs (rollout/ep_rew_mean)
-    venv = VecMonitor(
-        make_sb3_vec_env(config["n_envs"], seed, config["env_id"], **config["env_kwargs"])
-    )
-    last = run_dir / "last"
-    normalize = params.get("normalize", False)
+    venv = make_venv(config)
     if resume:
-        if normalize:
-            venv = VecNormalize.load(str(last / "vecnormalize.pkl"), venv)
-        model = PPO.load(last / "model.zip", env=venv, device="cpu")
+        last = run_dir / "last"
+        model = load_model(last, config, venv)
+        if isinstance(model, OffPolicyAlgorithm):
+            model.load_replay_buffer(last / REPLAY_BUFFER)
         venv.seed(seed + model.num_timesteps)  # fresh episodes, not a replay of the first ones
         return model
+    normalize = params.get("normalize", False)
     if normalize:  # as in the zoo: true, or a dict of VecNormalize arguments
         options = expression(normalize) if isinstance(normalize, str) else {}
         venv = VecNormalize(venv, gamma=params.get("gamma", 0.99), **options)
-    return PPO(
+    return ALGOS[config["algo"]](
         params.get("policy", "MlpPolicy"),
         venv,
         seed=seed,
         device="cpu",
         verbose=0,
         tensorboard_log=str(run_dir / "tb"),
-        **ppo_kwargs(params),
+        **algo_kwargs(params),
     )
 
 
@@ -365,14 +422,15 @@ def train(
     progress_bar: bool = False,
     report: Report | None = None,
 ) -> dict[str, Any]:
-    """Train PPO as `config` (`make_config`'s schema) says into `run_dir`, then evaluate.
+    """Train as `config` (`make_config`'s schema) says into `run_dir`, then evaluate.
 
     A new run writes `run_dir/config.yaml` (into an existing folder too: the caller decides
     what may be overwritten); `resume` continues from `run_dir/last/` up to
-    `config["timesteps"]` in total. Periodic evaluations keep the best model in `best/` and
-    hand their numbers to `report`; at the end `last/` is saved and the final table of PPO,
-    the oracles and random is written to `results.md`. On KeyboardInterrupt `last/` is saved
-    and the interrupt propagates. Runs on one torch thread, so that a seed gives one result.
+    `config["timesteps"]` in total. Periodic evaluations save `last/`, keep the best model in
+    `best/` and hand their numbers to `report`; at the end `last/` is saved and the final table
+    of the policy, the oracles and random is written to `results.md`. On KeyboardInterrupt
+    `last/` is saved and the interrupt propagates. Runs on one torch thread, so that a seed
+    gives one result.
 
     Returns:
         The summary: `run_dir`, `timesteps`, `train_seconds`, `best_eval_success_rate`,
@@ -396,7 +454,7 @@ def train(
     checkpoints = Checkpoints(run_dir, config)
     callback = OracleEvalCallback(checkpoints, best, report)
     remaining = config["timesteps"] - start_timesteps
-    print(f"training PPO for {remaining:,} timesteps into {run_dir}", flush=True)
+    print(f"training {label(config)} for {remaining:,} timesteps into {run_dir}", flush=True)
     start = time.perf_counter()
     try:
         model.learn(
@@ -404,7 +462,7 @@ def train(
             callback=callback,
             reset_num_timesteps=not resume,
             progress_bar=progress_bar,
-            tb_log_name="PPO",
+            tb_log_name=label(config),
         )
     except KeyboardInterrupt:
         path = checkpoints.save(model, "last")
@@ -436,6 +494,7 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     run = parser.add_argument_group("training")
+    run.add_argument("--algo", choices=sorted(ALGOS), help="the algorithm (default ppo)")
     run.add_argument("--n-envs", type=int, help="parallel envs (default: the conf file's)")
     run.add_argument(
         "--timesteps", type=float, help="total timesteps (default: the conf file's n_timesteps)"
@@ -444,8 +503,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument(
         "--conf-file",
         type=Path,
-        default=DEFAULT_CONF,
-        help="rl-zoo style hyperparameter file (default: the packaged hyperparams/ppo.yml)",
+        help="rl-zoo style hyperparameter file (default: the packaged hyperparams/<algo>.yml)",
     )
     run.add_argument(
         "-params",
@@ -484,15 +542,17 @@ def setup(args: argparse.Namespace) -> tuple[dict[str, Any], Path]:
         fixed += [f"--{key}" for key in ("name", "hyperparams") if getattr(args, key)]
         if fixed:
             raise ValueError(f"--resume takes the config of {args.resume}: drop {', '.join(fixed)}")
-        config = read_yaml(args.resume / "config.yaml")
+        config = {"algo": "ppo", **read_yaml(args.resume / "config.yaml")}  # runs before --algo
         config.update({key: int(value) for key, value in given.items()})
         check_run(config, args.resume, resume=True)
         return config, args.resume
     env_id, env_kwargs = env_from_args(args)
-    params = load_hyperparams(args.conf_file, args.hyperparams, env_id)
+    conf_file = args.conf_file or default_conf(args.algo or "ppo")
+    params = load_hyperparams(conf_file, parse_overrides(args.hyperparams), env_id)
     config = make_config(env_id, env_kwargs, params, **given)
     check_config(config)
-    run_dir = args.runs_dir / (args.name or default_name(env_id, env_kwargs, config["seed"]))
+    name = args.name or default_name(env_id, env_kwargs, config["seed"], config["algo"])
+    run_dir = args.runs_dir / name
     prepare_run_dir(run_dir, args.overwrite)
     return config, run_dir
 

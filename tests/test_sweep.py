@@ -1,0 +1,188 @@
+"""tether-sweep: the smoke sweep end to end, the up-front checks of a sweep file, and --resume
+of an interrupted sweep without redoing its finished trials."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import os
+import signal
+import threading
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+pytest.importorskip("ray.tune")
+
+from tether_gym.training import sweep, sweep_main
+
+SWEEPS = Path(__file__).resolve().parents[1] / "sweeps"
+SMOKE = SWEEPS / "smoke.yml"
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory) -> tuple[int, str, Path]:
+    """sweeps/smoke.yml run once through the command: (exit status, stdout, DIR)."""
+    out = tmp_path_factory.mktemp("sweep") / "smoke"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        status = sweep.main([str(SMOKE), "--out", str(out)])
+    return status, printed.getvalue(), out
+
+
+def final_results(out: Path) -> list[dict]:
+    """Each trial's last report (Ray Tune's result.json)."""
+    files = sorted((out / "tune").glob("*/result.json"))
+    return [json.loads(path.read_text().splitlines()[-1]) for path in files]
+
+
+def test_smoke_sweep_writes_the_summary_and_prints_its_table(smoke):
+    status, printed, out = smoke
+    assert status == 0
+    lines = (out / "summary.csv").read_text().splitlines()
+    assert lines[0].split(",") == list(sweep.SUMMARY_COLUMNS)  # nothing varies but the seed
+    assert len(lines) == 2
+    (row,) = sweep.pd.read_csv(out / "summary.csv").to_dict("records")
+    assert row["n_seeds"] == 2 and row["seeds"] == "0 1"
+    assert 0 <= row["success_ci_low"] <= row["success_mean"] <= row["success_ci_high"] <= 1
+    assert 0 <= row["success_worst"] <= row["success_mean"]
+    assert row["oracle_success"] > 0.9 and row["trained_timesteps"] == 2048
+    assert row["train_seconds_mean"] > 0
+    table = (out / "summary.md").read_text().strip()
+    assert table.startswith("| configuration | seeds | success mean [95% CI] |")
+    assert "| base | 2 |" in table and table in printed
+    assert (out / "success.png").stat().st_size > 10_000
+
+
+def test_each_trial_is_a_tether_train_run_folder_on_one_thread(smoke):
+    _, _, out = smoke
+    runs = sorted((out / "runs").iterdir())
+    seeds = {yaml.safe_load((run / "config.yaml").read_text())["seed"] for run in runs}
+    assert seeds == {0, 1}
+    for run in runs:
+        names = {path.name for path in run.iterdir()}
+        assert {"best", "last", "tb", "config.yaml", "results.md"} <= names
+        assert any((run / "tb").rglob("events.out.tfevents*"))
+    for result in final_results(out):
+        assert result["numba_threads"] == result["torch_threads"] == 1
+        assert result["timesteps"] == 2048 and 0 <= result["test_success"] <= 1
+    assert yaml.safe_load((out / "sweep.yml").read_text())["base"]["conf_file"] == "hyperparams.yml"
+
+
+def test_an_existing_output_folder_is_kept_unless_asked(smoke, capsys):
+    _, _, out = smoke
+    with pytest.raises(SystemExit):
+        sweep.main([str(SMOKE), "--out", str(out)])
+    assert "--overwrite" in capsys.readouterr().err
+    assert (out / "summary.csv").is_file()
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("bse: {}", "bse: unknown key; allowed: base, seeds"),
+        ("base: {timesteps: many}", "base.timesteps: must be a number, got 'many'"),
+        ("base: {eval_freq: 0}", "base.eval_freq: must be at least 1"),
+        ("base: {algo: a2c}", "base.algo: must be one of ['ppo', 'sac']"),
+        ("base: {hyperparams: {n_stepz: 3}}", "base: unknown PPO hyperparameters ['n_stepz']"),
+        ("grid: {hyperparams.learning_rate: [lin_fast]}",
+         "grid.hyperparams.learning_rate = 'lin_fast': bad hyperparameter value"),
+        ("grid: {env_kwargs.task: [heading, juggle]}",
+         "grid.env_kwargs.task = 'juggle': task must be one of"),
+        ("grid: {seed: [1, 2]}", "grid.seed: set the seeds with the top-level key seeds"),
+        ("grid: {gamma: [0.1]}", "grid.gamma: cannot vary 'gamma'; allowed: hyperparams.<name>"),
+        ("random: {hyperparams.batch_size: {normal: [1, 2]}}",
+         "random.hyperparams.batch_size: must be {distribution: [arguments]}"),
+        ("random: {hyperparams.learning_rate: {loguniform: [0, 1]}}",
+         "random.hyperparams.learning_rate: loguniform(0, 1): LogUniform requires a lower bound"),
+        ("optuna: {hyperparams.ent_coef: {randn: [0.0, 0.01]}}", "optuna: Optuna search does not"),
+        ("grid: {hyperparams.n_epochs: [1]}\noptuna: {hyperparams.batch_size: {choice: [64]}}",
+         "grid: cannot be combined with optuna"),
+        ("samples: 5", "samples: only a random or optuna search draws samples"),
+        ("seeds: [0, 0]", "seeds: must be distinct"),
+        ("metric: accuracy", "metric: must be one of"),
+        ("resources: {gpu: 1}", "resources.gpu: unknown key; allowed: cpu"),
+    ],
+)  # fmt: skip
+def test_an_invalid_sweep_file_is_refused_naming_the_key(tmp_path, capsys, text, message):
+    path = tmp_path / "sweep.yml"
+    path.write_text(text)
+    with pytest.raises(SystemExit):
+        sweep_main([str(path), "--out", str(tmp_path / "out")])
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "out").exists(), "nothing is written before the checks pass"
+
+
+def test_the_example_sweeps_are_valid():
+    for path in sorted(SWEEPS.glob("*.yml")):
+        sweep.load_sweep(path)
+    tune_ppo = sweep.load_sweep(SWEEPS / "tune_ppo.yml")
+    assert tune_ppo.search == "optuna" and tune_ppo.num_trials() == 40
+    assert sweep.load_sweep(SWEEPS / "seeds.yml").num_trials() == 5
+
+
+def test_the_interval_over_seeds():
+    assert all(math.isnan(end) for end in sweep.t_interval(sweep.np.array([0.5])))
+    assert sweep.t_interval(sweep.np.array([0.9, 0.9])) == (0.9, 0.9)
+    low, high = sweep.t_interval(sweep.np.array([0.90, 0.92, 0.94]))
+    assert low == pytest.approx(0.92 - 4.303 * 0.02 / math.sqrt(3), abs=1e-3)
+    assert high == pytest.approx(0.92 + 4.303 * 0.02 / math.sqrt(3), abs=1e-3)
+    assert sweep.t_interval(sweep.np.array([0.0, 1.0])) == (0.0, 1.0)
+
+
+def interrupt_when(condition, timeout: float = 240) -> threading.Thread:
+    """A thread that sends this process SIGINT (Ctrl-C) once `condition()` holds."""
+
+    def watch() -> None:
+        deadline = time.monotonic() + timeout
+        while not condition() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    thread = threading.Thread(target=watch, daemon=True)
+    thread.start()
+    return thread
+
+
+def snapshot(folder: Path) -> dict[str, tuple[int, bytes]]:
+    """Every file's modification time and content."""
+    files = [path for path in folder.rglob("*") if path.is_file()]
+    return {str(path): (path.stat().st_mtime_ns, path.read_bytes()) for path in files}
+
+
+def test_resume_continues_an_interrupted_sweep_without_redoing_finished_trials(tmp_path):
+    """One trial at a time, a short one then a long one; Ctrl-C once the second has started."""
+    data = yaml.safe_load(SMOKE.read_text())
+    data["base"]["eval_freq"] = 4096
+    data.update(seeds=1, max_concurrent=1, grid={"timesteps": [1024, 16384]})
+    path = tmp_path / "two.yml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    runs = out / "runs"
+    watcher = interrupt_when(lambda: runs.is_dir() and len(list(runs.iterdir())) == 2)
+    assert sweep.main([str(path), "--out", str(out)]) == 130
+    watcher.join()
+    (first,) = [run for run in runs.iterdir() if (run / "results.md").is_file()]
+    (second,) = [run for run in runs.iterdir() if run != first]
+    before = snapshot(first)
+    assert sweep.main(["--resume", str(out)]) == 0
+    assert snapshot(first) == before, "the finished trial was not redone"
+    assert yaml.safe_load((second / "last" / "config.yaml").read_text())["num_timesteps"] == 16384
+    summary = sweep.pd.read_csv(out / "summary.csv")
+    assert sorted(summary["timesteps"]) == [1024, 16384]
+    assert list(summary["n_seeds"]) == [1, 1] and summary["success_ci_low"].isna().all()
+
+
+def test_resume_refuses_a_folder_without_a_sweep(tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        sweep.main(["--resume", str(tmp_path)])
+    assert "holds no Ray Tune sweep" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        sweep.main(["--resume", str(tmp_path), "--out", str(tmp_path)])
+    assert "drop --out" in capsys.readouterr().err
