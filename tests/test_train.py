@@ -9,6 +9,8 @@ from pathlib import Path
 import pytest
 import yaml
 
+from tether_gym.agents.evaluate import load_agent
+
 pytest.importorskip("stable_baselines3")
 
 from tether_gym.training import train
@@ -115,6 +117,8 @@ def test_sac_trains_and_resumes_with_its_replay_buffer(tmp_path):
     assert "| SAC (best) |" in (folder / "results.md").read_text()
     assert train.main(["--resume", str(folder), "--timesteps", "768", *options]) == 0
     assert saved_timesteps(folder / "last") == 768
+    agent = load_agent(folder / "last" / "model.zip")  # tether-evaluate loads SAC too
+    assert type(agent.model).__name__ == "SAC"
 
 
 def test_env_kwargs_and_named_flags_make_one_config(tmp_path):

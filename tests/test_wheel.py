@@ -25,11 +25,17 @@ PACKAGED = [
     "tether_gym/training/train.py",
     "tether_gym/training/sb3.py",
     "tether_gym/training/hyperparams/ppo.yml",
+    "tether_gym/training/hyperparams/sac.yml",
+    "tether_gym/training/sweep.py",
+    "tether_gym/agents/record.py",
+    "tether_gym/envs/tether_navigate/kernel.py",
+    "tether_gym/tasks/navigate.py",
 ]
 SCRIPTS = {
     "tether-train": "tether_gym.training:main",
     "tether-evaluate": "tether_gym.agents.evaluate:main",
     "tether-figures": "tether_gym.figures:main",
+    "tether-sweep": "tether_gym.training:sweep_main",
 }
 
 pytestmark = pytest.mark.slow

@@ -181,7 +181,7 @@ def format_table(results: list[EvalResult]) -> str:
 
 
 class SB3Agent:
-    """A saved stable-baselines3 PPO model, with its VecNormalize statistics if saved beside it."""
+    """A saved stable-baselines3 model, with its VecNormalize statistics if saved beside it."""
 
     def __init__(self, model, normalizer=None):
         self.model, self.normalizer = model, normalizer
@@ -193,7 +193,8 @@ class SB3Agent:
 
 
 def load_agent(path: str | Path) -> SB3Agent:
-    """A saved SB3 PPO model (zip) as an agent; `vecnormalize.pkl` beside it is applied.
+    """A saved SB3 model (zip: PPO or SAC, whichever loads it) as an agent; `vecnormalize.pkl`
+    beside it is applied.
 
     Raises:
         ValueError: naming the path, if it is missing or not a loadable SB3 model.
@@ -201,14 +202,19 @@ def load_agent(path: str | Path) -> SB3Agent:
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"model path {str(path)!r} does not exist or is not a file")
-    from stable_baselines3 import PPO
+    from stable_baselines3 import PPO, SAC
 
-    try:
-        model = PPO.load(path, device="cpu")
-    except Exception as error:
+    errors = []
+    for algorithm in (PPO, SAC):
+        try:
+            model = algorithm.load(path, device="cpu")
+            break
+        except Exception as error:  # SB3 refuses a zip saved by another algorithm
+            errors.append(f"{algorithm.__name__}: {error}")
+    else:
         raise ValueError(
-            f"model path {str(path)!r} is not a loadable SB3 PPO model: {error}"
-        ) from error
+            f"model path {str(path)!r} is not a loadable SB3 PPO or SAC model: {errors}"
+        )
     stats = path.parent / "vecnormalize.pkl"
     normalizer = None
     if stats.is_file():
