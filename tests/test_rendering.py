@@ -3,6 +3,7 @@ video capture and the GIF command."""
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import subprocess
@@ -18,6 +19,8 @@ from tether_gym.agents import record
 from tether_gym.envs import drawing
 from tether_gym.envs.tether_bounce import kernel
 from tether_gym.envs.tether_bounce.rendering import CONTACT_FRAMES, SIZE
+from tether_gym.envs.tether_navigate import kernel as navigate_kernel
+from tether_gym.envs.tether_navigate import rendering as navigate_rendering
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
@@ -49,6 +52,7 @@ def centroid(frame: np.ndarray, colour) -> np.ndarray:
 def test_pygame_is_imported_only_to_draw():
     code = (
         "import sys, tether_gym.envs.drawing, tether_gym.envs.tether_bounce.rendering\n"
+        "import tether_gym.envs.tether_navigate.rendering\n"
         "import tether_gym.agents.record\nassert 'pygame' not in sys.modules"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
@@ -156,3 +160,130 @@ def test_gif_command_writes_an_animation_and_keeps_existing_files(tmp_path, caps
     assert "--overwrite" in capsys.readouterr().err and gif.read_bytes() == written
     record.main([*args, "--overwrite", "--agent", "random"])
     assert gif.read_bytes() != written
+
+
+# ---- TetherNavigate-v0 -----------------------------------------------------------------------
+
+TABLE = {
+    "start": (1.2, 0.5),
+    "start_velocity": (1.2, 0.3),
+    "start_angle": 0.0,
+    "anchors": [(1.3, 0.3)],
+    "goal": (0.3, 0.8),
+}
+"""One peg (the one hooked): the puck hits the right wall, then the top wall, then the tether
+(0.8 m) goes taut after 1.8 s."""
+LONG_TETHER = navigate_kernel.ACTION.normalize([0.0, 0.8, 0.0, 1.0]).astype(np.float32)
+POST_IN_THE_WAY = [(1.45, 0.56)]
+"""A post the puck hits before its tether goes taut."""
+PER_METRE = navigate_rendering.SCALE
+
+
+def maneuver_frames(render_mode="rgb_array_list", **options):
+    env = gym.make("TetherNavigate-v0", render_mode=render_mode)
+    env.reset(seed=0, options={**TABLE, **options})
+    _, _, _, _, info = env.step(LONG_TETHER)
+    return env, env.render(), info
+
+
+def table_point(pixel: np.ndarray) -> np.ndarray:
+    """A pixel (column, row) of TetherNavigate's picture as a table point (m)."""
+    column, row = pixel
+    x = (column - navigate_rendering.MARGIN) / PER_METRE
+    return np.array(
+        [x, navigate_kernel.TABLE_HEIGHT - (row - navigate_rendering.STRIP) / PER_METRE]
+    )
+
+
+def taut_tether(frame: np.ndarray, anchor) -> int:
+    """Pixels of the taut tether's colour on the table, the hooked peg's mark left out."""
+    red = has(frame, drawing.TAUT)
+    red[: navigate_rendering.STRIP] = False  # the text
+    column = round(navigate_rendering.MARGIN + anchor[0] * PER_METRE)
+    row = round(navigate_rendering.STRIP + (navigate_kernel.TABLE_HEIGHT - anchor[1]) * PER_METRE)
+    red[row - 6 : row + 7, column - 6 : column + 7] = False
+    return int(red.sum())
+
+
+def test_a_maneuver_is_drawn_over_time_along_its_path():
+    """The puck glides along the path (two wall hits) at the wall law's speeds, sped up by a
+    whole factor, then sits at the tautening point with the tether taut, then at the release."""
+    env, frames, info = maneuver_frames()
+    anchor, path = info["anchor"], info["path"]
+    assert all(f.shape == (*navigate_rendering.SIZE[::-1], 3) for f in frames)
+    taut = np.array([taut_tether(f, anchor) > 50 for f in frames])
+    first, last = np.flatnonzero(taut)[[0, -1]]
+    assert taut.sum() == navigate_rendering.CONTACT_FRAMES and taut[first : last + 1].all()
+    flight = frames[1:first]  # frames[0] is the reset's
+    assert all(np.any(a != b) for a, b in itertools.pairwise(flight))
+    # where the puck should be: uniform motion, the wall law with restitution 0.9
+    x0, y0, vx, vy = 1.2, 0.5, 1.2, 0.3
+    right = (navigate_kernel.TABLE_WIDTH - navigate_kernel.PUCK_RADIUS - x0) / vx
+    top = right + (navigate_kernel.TABLE_HEIGHT - navigate_kernel.PUCK_RADIUS - path[1, 1]) / vy
+    hits = np.array([0.0, right, top, info["flight_time"]])
+    np.testing.assert_allclose(path[1], (x0 + vx * right, y0 + vy * right))
+    t = np.arange(len(flight)) * info["flight_time"] / len(flight)
+    expected = np.column_stack([np.interp(t, hits, path[:4, k]) for k in (0, 1)])
+    drawn = np.array([table_point(centroid(f, drawing.PUCK)) for f in flight])
+    np.testing.assert_allclose(drawn, expected, atol=2.0 / PER_METRE)
+    assert len(flight) < 1.5 * env.metadata["render_fps"]  # sped up: a 1.8 s flight
+    np.testing.assert_allclose(
+        table_point(centroid(frames[first], drawing.PUCK)), path[3], atol=1.5 / PER_METRE
+    )
+    attachment = table_point(centroid(frames[first], drawing.ATTACHMENT))  # turned by the wheel
+    reach = np.hypot(*(attachment - anchor))
+    assert reach == pytest.approx(info["tether_length"], abs=1.5 / PER_METRE)
+    end = table_point(centroid(frames[-1], drawing.PUCK))
+    np.testing.assert_allclose(end, info["position"], atol=1.5 / PER_METRE)
+    assert not any(taut_tether(f, anchor) for f in frames[last + 1 :])  # released
+    assert env.render() == []
+    env.close()
+
+
+def test_a_tether_that_never_goes_taut_is_never_drawn_taut():
+    env, frames, info = maneuver_frames(posts=POST_IN_THE_WAY)
+    assert info["hit_post"] and not info["bounced"] and len(frames) > 10
+    assert not any(taut_tether(f, info["anchor"]) for f in frames)
+    env.close()
+
+
+def test_navigate_rgb_array_is_the_latest_frame():
+    env = gym.make("TetherNavigate-v0", render_mode="rgb_array")
+    env.reset(seed=0, options=TABLE)
+    reset_frame = env.render()
+    env.step(LONG_TETHER)
+    frame = env.render()
+    _, frames, _ = maneuver_frames()
+    assert np.array_equal(reset_frame, frames[0]) and np.array_equal(frame, frames[-1])
+    assert np.array_equal(env.render(), frame)
+    env.close()
+
+
+def test_navigate_human_mode_plays_the_maneuver():
+    env = gym.make("TetherNavigate-v0", render_mode="human")
+    env.reset(seed=0, options=TABLE)
+    start = time.perf_counter()
+    env.step(LONG_TETHER)
+    elapsed = time.perf_counter() - start
+    _, frames, _ = maneuver_frames()
+    assert elapsed > 0.8 * (len(frames) - 2) / env.metadata["render_fps"]
+    assert env.render() is None and env.unwrapped._renderer.window.screen is not None
+    env.close()
+
+
+def test_navigate_passes_check_env_with_rendering():
+    from gymnasium.utils.env_checker import check_env
+
+    check_env(gym.make("TetherNavigate-v0", render_mode="rgb_array").unwrapped)
+    with pytest.raises(ValueError, match="render_mode"):
+        gym.make_vec("TetherNavigate-v0", 2, "vector_entry_point", render_mode="rgb_array")
+
+
+def test_gif_command_records_tether_navigate(tmp_path):
+    from PIL import Image
+
+    gif = tmp_path / "navigate.gif"
+    args = ["--env", "TetherNavigate-v0", "--agent", "random", "--episodes", "1"]
+    record.main([*args, "--out", str(gif), "--size", "96", "--fps", "10"])
+    with Image.open(gif) as image:
+        assert image.size == (96, 60) and image.n_frames > 5

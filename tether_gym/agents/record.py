@@ -2,11 +2,15 @@
 
     python -m tether_gym.agents.record --agent oracle --episodes 3 \\
         --out docs/figures/tether_bounce.gif
+    python -m tether_gym.agents.record --env TetherNavigate-v0 --agent random --episodes 2 \\
+        --out docs/figures/tether_navigate_random.gif
 
-An env whose step lasts a physical time (TetherBounce-v0's bounce) draws each step as many
-frames: its `"rgb_array_list"` render mode returns them (see `tether_gym.envs.drawing`). The
-GIF is those frames, downscaled to `--size` pixels and played at `--fps` (the env draws at
-that rate too); existing files are kept unless `--overwrite`.
+An env whose step lasts a physical time (TetherBounce-v0's bounce, TetherNavigate-v0's
+maneuver) draws each step as many frames: its `"rgb_array_list"` render mode returns them (see
+`tether_gym.envs.drawing`). The GIF is those frames, downscaled to `--size` pixels across and
+played at `--fps` (the env draws at that rate too); existing files are kept unless
+`--overwrite`. The agent is any that `agents.evaluate.make_agent` builds, by name or as the
+path of a saved SB3 model zip.
 """
 
 from __future__ import annotations
@@ -88,8 +92,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Write an animated GIF of an agent's episodes.",
     )
     add = parser.add_argument
-    add("--agent", default="oracle", help="oracle (impulse), shooting, random or a saved "
-        "SB3 model zip (default oracle)")  # fmt: skip
+    add("--agent", default="oracle", help="an agent that tether_gym.agents.evaluate.make_agent "
+        "knows (oracle and shooting: TetherBounce-v0's oracles; random) or a saved SB3 model "
+        "zip (default oracle)")  # fmt: skip
     add("--episodes", type=int, default=3, help="episodes (default 3)")
     add("--seed", type=int, default=0, help="seed of the first reset (default 0)")
     add("--out", type=Path, required=True, metavar="GIF", help="the GIF to write")

@@ -37,6 +37,7 @@ TARGET: Colour = (40, 150, 60)
 GOAL_FILL: Colour = (205, 235, 205)
 TEXT: Colour = (40, 40, 40)
 MISS: Colour = (215, 95, 0)
+VELOCITY: Colour = (60, 130, 230)
 RENDER_MODES = ("human", "rgb_array", "rgb_array_list")
 
 

@@ -156,7 +156,7 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     * v0: initial version.
     """
 
-    metadata = {"render_modes": [], "render_fps": 30}
+    metadata = {"render_modes": ["human", "rgb_array", "rgb_array_list"], "render_fps": 30}
 
     def __init__(
         self,
@@ -179,6 +179,11 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
             wall_restitution, reaction_wheel, wheel_rate, max_maneuvers,
         )  # fmt: skip
         super().__init__(NavigateKernel(self.config), render_mode)
+
+    def make_renderer(self):
+        from tether_gym.envs.tether_navigate.rendering import Renderer
+
+        return Renderer(self.render_mode, self.metadata["render_fps"], self.config)
 
 
 class TetherNavigateVectorEnv(GoalMixin, KernelVectorEnv):
