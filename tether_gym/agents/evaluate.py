@@ -187,8 +187,12 @@ class SB3Agent:
         self.model, self.normalizer = model, normalizer
 
     def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
-        if self.normalizer is not None:
-            obs = self.normalizer.normalize_obs(np.asarray(obs, dtype=np.float32))
+        if self.normalizer is not None:  # VecNormalize takes arrays and dicts of arrays
+            obs = self.normalizer.normalize_obs(
+                {key: np.asarray(value) for key, value in obs.items()}
+                if isinstance(obs, dict)
+                else np.asarray(obs, dtype=np.float32)
+            )
         return self.model.predict(obs, state, episode_start, deterministic)
 
 

@@ -147,7 +147,7 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     | `reaction_wheel`   | `True`     | the wheel sets the orientation at tautening              |
     | `wheel_rate`       | `20.0`     | rad/s, the wheel's turn rate relative to the free spin   |
     | `max_maneuvers`    | `6`        | maneuvers per episode                                    |
-    | `render_mode`      | `None`     | `"rgb_array"` or `"human"`                               |
+    | `render_mode`      | `None`     | `"rgb_array"`, `"rgb_array_list"` or `"human"`           |
 
     Bad arguments raise `ValueError` naming the argument.
 
