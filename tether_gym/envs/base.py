@@ -150,8 +150,9 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
         """(state, outcome) of each reset and step since the last render, in this episode."""
 
     @property
-    def state(self) -> np.void | None:
-        """The episode's state record (named fields), or None before the first reset."""
+    def state(self) -> np.void | np.ndarray | None:
+        """The episode's state (a record, or a row with named columns: the kernel's
+        declaration), or None before the first reset."""
         return None if self._state is None else self._state[0]
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -254,7 +255,7 @@ class KernelVectorEnv(VectorEnv):
         self._lockstep = True  # every copy at the same cursor: the next uniforms are a view
         self._rows = np.arange(self.num_envs)
         self.state: np.ndarray | None = None
-        """The copies' state records (named fields), or None before the first reset."""
+        """The copies' states (records or rows, as the kernel declares), None before a reset."""
 
     def _uniforms(self) -> np.ndarray:
         """Every copy's next episode's uniforms, (num_envs, n_uniforms); they stay the next ones

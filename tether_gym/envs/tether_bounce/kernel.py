@@ -93,23 +93,39 @@ OUTCOME = Fields(
 )
 OBS, OUT, SETUP = OBSERVATION.columns, OUTCOME.columns, OUTCOME.index["launch_speed"]
 
-STATE = np.dtype(
-    [("task", np.int64), ("target_heading", np.float64), ("heading_cos", np.float64),
-     ("heading_sin", np.float64), ("target_speed", np.float64), ("inertia_ratio", np.float64),
-     ("restitution", np.float64), ("stiffness", np.float64), ("log10_rho", np.float64),
-     ("spin", np.float64)]
-)  # fmt: skip
-"""An episode: its task, goal (the heading also as a unit vector, so that observing an
-episode is copying) and physical parameters (the puck's spin before the bounce)."""
+STATE = Fields(
+    Field("task", doc="index into TASKS"),
+    Field("target_heading", doc="rad"),
+    Field("heading_cos"),
+    Field("heading_sin"),
+    Field("target_speed", doc="m/s"),
+    Field("inertia_ratio"),
+    Field("restitution"),
+    Field("stiffness", doc="N/m"),
+    Field("log10_rho"),
+    Field("spin", doc="rad/s, before the bounce"),
+)
+"""An episode, one float64 row: its task, goal (the heading also as a unit vector, so that
+observing an episode is copying) and physical parameters. Plain rows with named columns
+rather than records: numba's dispatch and numpy's allocation of record arrays cost a tenth of
+a single env's step."""
+ST = STATE.columns
 
-PARAMS = np.dtype(
-    [("task", np.int64), ("dynamics", np.int64), ("inertia_ratio_low", np.float64),
-     ("inertia_ratio_high", np.float64), ("restitution_low", np.float64),
-     ("restitution_high", np.float64), ("ln_rho_low", np.float64), ("ln_rho_high", np.float64),
-     ("stiffness", np.float64), ("spin_disturbance", np.float64), ("damping_ratio", np.float64)]
-)  # fmt: skip
-"""The configuration as the kernels read it: `task` -1 for mixed, rho's range as natural
-logs, `stiffness` -1 where it is drawn per episode, the damper of a fixed restitution."""
+PARAMS = Fields(
+    Field("task", doc="index into TASKS, -1 for mixed"),
+    Field("dynamics", doc="index into DYNAMICS"),
+    Field("inertia_ratio_low"),
+    Field("inertia_ratio_high"),
+    Field("restitution_low"),
+    Field("restitution_high"),
+    Field("ln_rho_low", doc="natural log"),
+    Field("ln_rho_high"),
+    Field("stiffness", doc="N/m, -1 where drawn per episode"),
+    Field("spin_disturbance"),
+    Field("damping_ratio", doc="of a fixed restitution"),
+)
+"""The configuration as the kernels read it, one float64 row."""
+PA = PARAMS.columns
 
 
 @numba.njit(cache=True)
@@ -187,17 +203,23 @@ class EnvConfig:
         return tuple(f.name for f in fields(cls))
 
     def params(self) -> np.ndarray:
-        """The (1,) `PARAMS` record the kernels read."""
+        """The `PARAMS` row the kernels read."""
         k = self.stiffness
         if k is None:  # -1: a rho drawn per episode, its stiffness with it
             k = env_stiffness(self.rho[0]) if self.rho[0] == self.rho[1] else -1.0
-        return np.array(
-            [(-1 if self.task == "mixed" else TASKS.index(self.task),
-              DYNAMICS.index(self.dynamics), *self.inertia_ratio, *self.restitution,
-              math.log(self.rho[0]), math.log(self.rho[1]), k, self.spin_disturbance,
-              damping_ratio(self.restitution[0]))],
-            dtype=PARAMS,
-        )  # fmt: skip
+        return PARAMS.encode(
+            task=-1 if self.task == "mixed" else TASKS.index(self.task),
+            dynamics=DYNAMICS.index(self.dynamics),
+            inertia_ratio_low=self.inertia_ratio[0],
+            inertia_ratio_high=self.inertia_ratio[1],
+            restitution_low=self.restitution[0],
+            restitution_high=self.restitution[1],
+            ln_rho_low=math.log(self.rho[0]),
+            ln_rho_high=math.log(self.rho[1]),
+            stiffness=k,
+            spin_disturbance=self.spin_disturbance,
+            damping_ratio=damping_ratio(self.restitution[0]),
+        )
 
 
 @numba.njit(cache=True, inline="always")
@@ -213,47 +235,50 @@ def _sample(u, p, s):
     """Draw one episode into state record `s` from its uniforms `u`, in the order: task (if
     mixed), the goal's heading and speed (drawn for every task), then one per randomized
     quantity among kappa, e, log rho and spin."""
-    code, k = p.task, 0
+    code, k = p[PA.task], 0
     if code < 0:  # mixed
-        code, k = min(int(u[0] * 3.0), 2), 1
-    s.task = code
-    heading, s.target_speed = task.sample_goal(u[k], u[k + 1])
+        code, k = min(math.floor(u[0] * 3.0), 2.0), 1
+    s[ST.task] = code
+    heading, s[ST.target_speed] = task.sample_goal(u[k], u[k + 1])
     _aim(s, heading)
-    s.inertia_ratio, k = _draw(u, k + 2, p.inertia_ratio_low, p.inertia_ratio_high)
-    s.restitution, k = _draw(u, k, p.restitution_low, p.restitution_high)
-    ln_rho, k = _draw(u, k, p.ln_rho_low, p.ln_rho_high)
-    s.spin, k = _draw(u, k, -p.spin_disturbance, p.spin_disturbance)
-    fixed = p.stiffness > 0.0  # a fixed rho or stiffness: no exp per episode
-    s.stiffness = p.stiffness if fixed else env_stiffness(math.exp(ln_rho))
-    s.log10_rho = ln_rho / math.log(10.0)
+    s[ST.inertia_ratio], k = _draw(u, k + 2, p[PA.inertia_ratio_low], p[PA.inertia_ratio_high])
+    s[ST.restitution], k = _draw(u, k, p[PA.restitution_low], p[PA.restitution_high])
+    ln_rho, k = _draw(u, k, p[PA.ln_rho_low], p[PA.ln_rho_high])
+    s[ST.spin], k = _draw(u, k, -p[PA.spin_disturbance], p[PA.spin_disturbance])
+    fixed = p[PA.stiffness] > 0.0  # a fixed rho or stiffness: no exp per episode
+    s[ST.stiffness] = p[PA.stiffness] if fixed else env_stiffness(math.exp(ln_rho))
+    s[ST.log10_rho] = ln_rho / math.log(10.0)
 
 
 @numba.njit(cache=True, inline="always")
 def _aim(s, heading):
-    """Set the goal heading of state record `s`."""
-    s.target_heading, s.heading_cos, s.heading_sin = heading, math.cos(heading), math.sin(heading)
+    """Set the goal heading of state row `s`."""
+    s[ST.target_heading], s[ST.heading_cos], s[ST.heading_sin] = (
+        heading, math.cos(heading), math.sin(heading)
+    )  # fmt: skip
 
 
 @numba.njit(cache=True, inline="always")
 def _observe(s, obs):
     """One episode's observation (see the env's table): the goal the task uses, the physical
     parameters."""
+    code = int(s[ST.task])
     obs[:] = 0.0
-    obs[s.task] = 1.0  # the one-hot entries come first, in TASKS order
-    if s.task != task.DEADSPIN:
-        obs[OBS.target_heading_cos], obs[OBS.target_heading_sin] = s.heading_cos, s.heading_sin
-    if s.task == task.VELOCITY:
-        obs[OBS.target_speed] = s.target_speed * SPEED_SCALE
-    obs[OBS.inertia_ratio], obs[OBS.restitution] = s.inertia_ratio, s.restitution
-    obs[OBS.log10_rho] = s.log10_rho
-    obs[OBS.spin] = s.spin * SPIN_SCALE
+    obs[code] = 1.0  # the one-hot entries come first, in TASKS order
+    if code != task.DEADSPIN:
+        obs[OBS.target_heading_cos] = s[ST.heading_cos]
+        obs[OBS.target_heading_sin] = s[ST.heading_sin]
+    if code == task.VELOCITY:
+        obs[OBS.target_speed] = s[ST.target_speed] * SPEED_SCALE
+    obs[OBS.inertia_ratio], obs[OBS.restitution] = s[ST.inertia_ratio], s[ST.restitution]
+    obs[OBS.log10_rho] = s[ST.log10_rho]
+    obs[OBS.spin] = s[ST.spin] * SPIN_SCALE
 
 
 @numba.njit(cache=True)
 def _reset(uniforms, params, state, obs):
-    p = params[0]
     for i in range(state.shape[0]):
-        _sample(uniforms[i], p, state[i])
+        _sample(uniforms[i], params, state[i])
         _observe(state[i], obs[i])
 
 
@@ -273,8 +298,8 @@ def _decode(action, out):
 def _bounce_impulse(s, out):
     """Bounce the decoded set-up with the impulse model: velocity, spin and the flags."""
     vx, vy, w, bounced = impulse_core(
-        out[OUT.tether_angle], out[OUT.offset_angle], out[OUT.offset], s.inertia_ratio,
-        out[OUT.launch_speed], s.spin, s.restitution, PUCK_RADIUS,
+        out[OUT.tether_angle], out[OUT.offset_angle], out[OUT.offset], s[ST.inertia_ratio],
+        out[OUT.launch_speed], s[ST.spin], s[ST.restitution], PUCK_RADIUS,
     )  # fmt: skip
     out[OUT.vx], out[OUT.vy], out[OUT.spin] = vx, vy, w
     out[OUT.bounced], out[OUT.completed] = bounced, True
@@ -283,11 +308,12 @@ def _bounce_impulse(s, out):
 @numba.njit(cache=True, inline="always")
 def _bounce_hybrid(s, p, out):
     """The same with the hybrid model (its damper from the episode's restitution)."""
-    fixed = p.restitution_low == p.restitution_high
-    zeta = p.damping_ratio if fixed else damping_ratio(s.restitution)
+    fixed = p[PA.restitution_low] == p[PA.restitution_high]
+    zeta = p[PA.damping_ratio] if fixed else damping_ratio(s[ST.restitution])
     after, bounced, completed, _ = hybrid_core(
-        out[OUT.tether_angle], out[OUT.offset_angle], out[OUT.offset], s.inertia_ratio,
-        out[OUT.launch_speed], s.spin, zeta, PUCK_RADIUS, PUCK_MASS, TETHER_LENGTH, s.stiffness,
+        out[OUT.tether_angle], out[OUT.offset_angle], out[OUT.offset], s[ST.inertia_ratio],
+        out[OUT.launch_speed], s[ST.spin], zeta, PUCK_RADIUS, PUCK_MASS, TETHER_LENGTH,
+        s[ST.stiffness],
     )  # fmt: skip
     out[OUT.vx], out[OUT.vy], out[OUT.spin] = after.vx, after.vy, after.spin
     out[OUT.bounced], out[OUT.completed] = bounced, completed
@@ -300,7 +326,8 @@ def _score(s, out):
     deflection, ratio = task.achieved_goal(out[OUT.vx], out[OUT.vy], out[OUT.launch_speed])
     (success, heading_error, speed_error, term_heading, term_speed, term_deadspin,
      term_success, term_slack) = task.score(
-        s.task, s.target_heading, s.target_speed, deflection, ratio, out[OUT.launch_speed],
+        int(s[ST.task]), s[ST.target_heading], s[ST.target_speed], deflection, ratio,
+        out[OUT.launch_speed],
         out[OUT.bounced] == 1.0,
     )  # fmt: skip
     out[OUT.term_heading], out[OUT.term_speed] = term_heading, term_speed
@@ -330,11 +357,10 @@ def _step_impulse(actions, params, state, obs, out):
 
 @numba.njit(cache=True)
 def _step_hybrid(actions, params, state, obs, out):
-    p = params[0]
     bad = 0
     for i in range(state.shape[0]):
         bad += _decode(actions[i], out[i])
-        _bounce_hybrid(state[i], p, out[i])
+        _bounce_hybrid(state[i], params, out[i])
         _score(state[i], out[i])
         _observe(state[i], obs[i])
     return bad
@@ -366,7 +392,7 @@ def _step_autoreset_parallel(
     bad = 0
     for c in prange((n + chunk - 1) // chunk):
         rows = slice(c * chunk, min((c + 1) * chunk, n))
-        if params[0].dynamics == IMPULSE:
+        if params[PA.dynamics] == IMPULSE:
             bad += _step_impulse(actions[rows], params, state[rows], final_obs[rows], out[rows])
         else:
             bad += _step_hybrid(actions[rows], params, state[rows], final_obs[rows], out[rows])
@@ -399,7 +425,7 @@ class TetherBounceKernel(Kernel):
     def __init__(self, config: EnvConfig):
         self.config = config
         self.params = config.params()
-        p = self.params[0]
+        p = PARAMS.decode(self.params)
         randomized = sum(
             p[f"{name}_low"] != p[f"{name}_high"]
             for name in ("inertia_ratio", "restitution", "ln_rho")
@@ -410,7 +436,7 @@ class TetherBounceKernel(Kernel):
 
     def reset(self, uniforms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         n = uniforms.shape[0]
-        state, obs = np.empty(n, STATE), OBSERVATION.empty(n)
+        state, obs = STATE.empty(n), OBSERVATION.empty(n)
         _reset(uniforms, self.params, state, obs)
         return state, obs
 
@@ -427,10 +453,10 @@ class TetherBounceKernel(Kernel):
         _check_finite(_decode_all(actions, out), actions)
         result = bounce(
             out[:, OUT.tether_angle], out[:, OUT.offset_angle], offset=out[:, OUT.offset],
-            inertia_ratio=state["inertia_ratio"], speed=out[:, OUT.launch_speed],
-            spin=state["spin"], restitution=state["restitution"], model="pymunk",
+            inertia_ratio=state[:, ST.inertia_ratio], speed=out[:, OUT.launch_speed],
+            spin=state[:, ST.spin], restitution=state[:, ST.restitution], model="pymunk",
             mass=PUCK_MASS, radius=PUCK_RADIUS, tether_length=TETHER_LENGTH,
-            stiffness=state["stiffness"],
+            stiffness=state[:, ST.stiffness],
         )  # fmt: skip
         out[:, OUT.vx], out[:, OUT.vy] = result.velocity[:, 0], result.velocity[:, 1]
         out[:, OUT.spin] = result.spin
@@ -447,7 +473,7 @@ class TetherBounceKernel(Kernel):
             return (*self.reset(uniforms), final_obs, out)
         actions = self.as_actions(actions, n)
         final_obs, out = OBSERVATION.empty(n), OUTCOME.empty(n)
-        next_state, obs = np.empty(n, STATE), OBSERVATION.empty(n)
+        next_state, obs = STATE.empty(n), OBSERVATION.empty(n)
         bad = _step_autoreset_parallel(
             actions, self.params, state, final_obs, out, uniforms, next_state, obs,
             PARALLEL_CHUNK[self.dynamics],
@@ -464,7 +490,7 @@ class TetherBounceKernel(Kernel):
         if "task" in options:
             if options["task"] not in TASKS:
                 raise ValueError(f"options['task'] must be one of {TASKS}, got {options['task']!r}")
-            state["task"] = TASKS.index(options["task"])
+            state[:, ST.task] = TASKS.index(options["task"])
         if "target_heading" in options:
             heading = check_float("target_heading", options["target_heading"], -math.pi, math.pi)
             if abs(heading) < task.MIN_HEADING:
@@ -473,7 +499,7 @@ class TetherBounceKernel(Kernel):
                 )
             _aim_all(state, heading)
         if "target_speed" in options:
-            state["target_speed"] = check_float(
+            state[:, ST.target_speed] = check_float(
                 "target_speed", options["target_speed"], *TARGET_SPEED
             )
         _observe_all(state, obs)

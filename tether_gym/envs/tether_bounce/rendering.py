@@ -34,7 +34,7 @@ from tether_gym.envs.drawing import (
     SceneRenderer,
     Still,
 )
-from tether_gym.envs.tether_bounce.kernel import OUT, PUCK_MASS, PUCK_RADIUS, TETHER_LENGTH
+from tether_gym.envs.tether_bounce.kernel import OUT, PUCK_MASS, PUCK_RADIUS, ST, TETHER_LENGTH
 from tether_gym.physics.trajectory import trajectory
 from tether_gym.tasks.bounce import DEADSPIN, VELOCITY
 
@@ -59,7 +59,7 @@ class Renderer(SceneRenderer):
         super().__init__(render_mode, fps, "TetherBounce-v0", Canvas((SIZE, SIZE), VIEW))
         self.model = "impulse" if dynamics == "impulse" else "hybrid"
 
-    def scene(self, state: np.void | None, outcome: np.ndarray | None) -> Scene:
+    def scene(self, state: np.ndarray | None, outcome: np.ndarray | None) -> Scene:
         """Nothing before the first reset, the set-up after a reset, the bounce after a step."""
         if state is None:
             return Still(Canvas.clear)
@@ -68,7 +68,7 @@ class Renderer(SceneRenderer):
         return Bounce(state, outcome, self.model, self.fps)
 
 
-def _set_up(state: np.void, canvas: Canvas) -> None:
+def _set_up(state: np.ndarray, canvas: Canvas) -> None:
     """The target and the puck to come, up +y to where its tether will go taut."""
     origin = np.zeros(2)
     canvas.look_at(origin)
@@ -79,37 +79,37 @@ def _set_up(state: np.void, canvas: Canvas) -> None:
     canvas.text([_task_line(state), "set-up to choose"], (8, 6))
 
 
-def _target(canvas: Canvas, state: np.void, at: np.ndarray) -> None:
-    if state["task"] == DEADSPIN:
+def _target(canvas: Canvas, state: np.ndarray, at: np.ndarray) -> None:
+    if state[ST.task] == DEADSPIN:
         canvas.ring(at, DEADSPIN_RING, TARGET, 3)
         return
-    heading = state["target_heading"]
+    heading = state[ST.target_heading]
     direction = np.array([-math.sin(heading), math.cos(heading)])
-    length = AFTER * state["target_speed"] if state["task"] == VELOCITY else HEADING_ARROW
+    length = AFTER * state[ST.target_speed] if state[ST.task] == VELOCITY else HEADING_ARROW
     canvas.arrow(at, length * direction, TARGET)
 
 
-def _task_line(state: np.void) -> str:
-    if state["task"] == DEADSPIN:
+def _task_line(state: np.ndarray) -> str:
+    if state[ST.task] == DEADSPIN:
         return "target: deadspin"
-    heading = f"{math.degrees(state['target_heading']):+.0f} deg"
-    if state["task"] == VELOCITY:
-        return f"target: {state['target_speed']:.2f} m/s at {heading}"
+    heading = f"{math.degrees(state[ST.target_heading]):+.0f} deg"
+    if state[ST.task] == VELOCITY:
+        return f"target: {state[ST.target_speed]:.2f} m/s at {heading}"
     return f"target: heading {heading}"
 
 
 class Bounce:
     """One step's bounce as frames: in flight, contact, out, hold (see the module)."""
 
-    def __init__(self, state: np.void, outcome: np.ndarray, model: str, fps: float) -> None:
+    def __init__(self, state: np.ndarray, outcome: np.ndarray, model: str, fps: float) -> None:
         self.state = state
         arm = outcome[OUT.offset] * PUCK_RADIUS
         path = trajectory(
             outcome[OUT.tether_angle], outcome[OUT.offset_angle], offset=outcome[OUT.offset],
-            inertia_ratio=state["inertia_ratio"], speed=outcome[OUT.launch_speed],
-            spin=state["spin"], restitution=state["restitution"], model=model,
+            inertia_ratio=state[ST.inertia_ratio], speed=outcome[OUT.launch_speed],
+            spin=state[ST.spin], restitution=state[ST.restitution], model=model,
             mass=PUCK_MASS, radius=PUCK_RADIUS, tether_length=TETHER_LENGTH,
-            stiffness=state["stiffness"], before=BEFORE, after=AFTER, frames=2,
+            stiffness=state[ST.stiffness], before=BEFORE, after=AFTER, frames=2,
         )  # fmt: skip
         step = 1.0 / fps  # physical seconds per frame
         bounced = bool(path.taut.any())
