@@ -13,7 +13,14 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
-from tether_gym.agents.evaluate import evaluate, format_table, load_agent, main, wilson_interval
+from tether_gym.agents.evaluate import (
+    evaluate,
+    format_table,
+    load_agent,
+    main,
+    make_agent,
+    wilson_interval,
+)
 from tether_gym.agents.oracle import ImpulseOracle
 from tether_gym.agents.random_agent import RandomAgent
 
@@ -122,3 +129,18 @@ def test_cli_rejects_bad_options(tmp_path):
         main(["--task", "juggle", "--episodes", "5", "--no-progress"])
     with pytest.raises(SystemExit):
         main(["--env-kwargs", "restitution:2", "--episodes", "5", "--no-progress"])
+
+
+def test_agents_and_plots_are_refused_on_the_wrong_env(tmp_path):
+    """The oracles solve TetherBounce-v0, the planners TetherNavigate: each is refused on the
+    other with an error naming the agent; --plot draws TetherBounce's heading errors only."""
+    with pytest.raises(ValueError, match="greedy"):
+        make_agent("greedy", {})
+    with pytest.raises(ValueError, match="oracle"):
+        make_agent("oracle", {}, env_id="TetherNavigate-v0")
+    with pytest.raises(SystemExit):
+        main(["--env", "TetherNavigate-v0", "--agents", "shooting", "--episodes", "5",
+              "--no-progress"])  # fmt: skip
+    with pytest.raises(SystemExit):
+        main(["--env", "TetherNavigate-v0", "--agents", "random", "--episodes", "5",
+              "--no-progress", "--plot", str(tmp_path / "p.png")])  # fmt: skip

@@ -1,10 +1,14 @@
-"""Evaluate agents on the same fixed, seeded TetherBounce-v0 episodes and tabulate the results.
+"""Evaluate agents on the same fixed, seeded episodes and tabulate the results.
 
     tether-evaluate --agents oracle shooting random --episodes 1000 --rho 5 100
+    tether-evaluate --env TetherNavigate-v0 --agents greedy lookahead random --episodes 1000
 
 Every agent sees the same episodes: the native vector env (`BATCH` copies) with copy i seeded
 BATCH * seed + i, so the first k episodes of an evaluation do not depend on its length, and
 two seeds share no episodes (Gymnasium's seed + i would share all but one copy's).
+TetherBounce-v0's episodes are one bounce each (heading and deadspin metrics, `EvalResult`);
+TetherNavigate's last several maneuvers, copy i playing its first episodes in turn
+(navigation metrics, `NavigationResult`).
 """
 
 from __future__ import annotations
@@ -17,11 +21,13 @@ import pickle
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import ClassVar
 
 import gymnasium as gym
 import numpy as np
 
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
+from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner
 from tether_gym.agents.random_agent import RandomAgent
 from tether_gym.cli import DEFAULT_ENV_ID, add_env_arguments, env_from_args, require_extra
 from tether_gym.envs.tether_bounce import decode_observation
@@ -33,12 +39,27 @@ SUMMARY_FIELDS = (
     "name", "episodes", "success_rate", "success_ci", "heading_error_mean_deg",
     "heading_error_p95_deg", "deadspin_residual_mean", "reward_mean", "episodes_per_second",
 )  # fmt: skip
+NAVIGATION_FIELDS = (
+    "name", "episodes", "success_rate", "success_ci", "maneuvers_mean", "final_distance_mean",
+    "path_length_mean", "reward_mean", "episodes_per_second",
+)  # fmt: skip
+NAVIGATION_ENTRY_POINT = "tether_gym.envs.tether_navigate:TetherNavigateEnv"
+
+
+class _Summary:
+    summary_fields: ClassVar[tuple[str, ...]]
+
+    def summary(self) -> dict:
+        """The summary fields (NaN as None, so that the JSON is standard)."""
+        values = {name: getattr(self, name) for name in self.summary_fields}
+        return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in values.items()}
 
 
 @dataclass
-class EvalResult:
+class EvalResult(_Summary):
     """One agent's evaluation: the summary and the per-episode arrays behind it."""
 
+    summary_fields: ClassVar[tuple[str, ...]] = SUMMARY_FIELDS
     name: str
     episodes: int
     success_rate: float
@@ -59,10 +80,33 @@ class EvalResult:
     success: np.ndarray = field(repr=False)
     reward: np.ndarray = field(repr=False)
 
-    def summary(self) -> dict:
-        """The summary fields (NaN as None, so that the JSON is standard)."""
-        values = {name: getattr(self, name) for name in SUMMARY_FIELDS}
-        return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in values.items()}
+
+@dataclass
+class NavigationResult(_Summary):
+    """One agent's evaluation on TetherNavigate: the summary and the per-episode arrays."""
+
+    summary_fields: ClassVar[tuple[str, ...]] = NAVIGATION_FIELDS
+    name: str
+    episodes: int
+    success_rate: float
+    success_ci: tuple[float, float]
+    maneuvers_mean: float
+    """Maneuvers to the goal, over the successes (NaN if none)."""
+    final_distance_mean: float
+    """m, from the puck's last position to the goal's centre."""
+    path_length_mean: float
+    """m, the puck's path over the episode."""
+    reward_mean: float
+    """The episode's return."""
+    episodes_per_second: float
+    start: np.ndarray = field(repr=False)
+    """(episodes, 2) m: where each episode started."""
+    goal: np.ndarray = field(repr=False)
+    success: np.ndarray = field(repr=False)
+    maneuvers: np.ndarray = field(repr=False)
+    final_distance: np.ndarray = field(repr=False)
+    path_length: np.ndarray = field(repr=False)
+    reward: np.ndarray = field(repr=False)
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
@@ -113,6 +157,104 @@ def _run(
     return out
 
 
+def _run_navigation(
+    agent, env_id: str, env_kwargs: dict, episodes: int, seed: int, bar
+) -> dict[str, np.ndarray]:
+    """Per-episode outcomes of one agent on a navigation env, and its wall time. Copy i plays
+    its first episodes in turn (`episodes` shared out among the copies), the same ones for
+    every agent, listed round by round."""
+    copies = min(episodes, BATCH)
+    quota = episodes // copies + (np.arange(copies) < episodes % copies)
+    env = gym.make_vec(
+        env_id, num_envs=copies, vectorization_mode="vector_entry_point", **env_kwargs
+    )
+    obs, _ = env.reset(seed=BATCH * seed)
+    start, goal = obs["achieved_goal"].copy(), obs["desired_goal"].copy()
+    played, maneuvers = np.zeros(copies, dtype=np.int64), np.zeros(copies, dtype=np.int64)
+    returns, length = np.zeros(copies), np.zeros(copies)
+    rows, elapsed = [], 0.0
+    while np.any(played < quota):
+        clock = time.perf_counter()
+        action, _ = agent.predict(obs, deterministic=True)
+        obs, reward, terminated, truncated, info = env.step(action)
+        elapsed += time.perf_counter() - clock
+        returns += reward
+        maneuvers += 1
+        length += np.linalg.norm(np.diff(info["path"], axis=1), axis=-1).sum(axis=1)
+        ended = terminated | truncated
+        counted = np.flatnonzero(ended & (played < quota))
+        for i in counted:
+            distance = np.linalg.norm(info["position"][i] - goal[i])
+            rows.append((played[i], i, start[i].copy(), goal[i].copy(), info["is_success"][i],
+                         maneuvers[i], distance, length[i], returns[i]))  # fmt: skip
+        if bar is not None:
+            bar.update(len(counted))
+        played += ended
+        start[ended], goal[ended] = obs["achieved_goal"][ended], obs["desired_goal"][ended]
+        returns[ended], maneuvers[ended], length[ended] = 0.0, 0, 0.0
+    env.close()
+    rows.sort(key=lambda row: (row[0], row[1]))
+    names = ("round", "copy", "start", "goal", "success", "maneuvers", "final_distance",
+             "path_length", "reward")  # fmt: skip
+    columns = zip(*rows, strict=True)
+    out = {name: np.array(column) for name, column in zip(names, columns, strict=True)}
+    out["elapsed"] = elapsed
+    return out
+
+
+def _bounce_result(name: str, episodes: int, run: dict[str, np.ndarray]) -> EvalResult:
+    context = decode_observation(run["obs"])
+    task = context["task"]
+    success = run["is_success"].astype(bool)
+    error = np.abs(run["heading_error"])
+    aimed = np.degrees(error[task != DEADSPIN])
+    return EvalResult(
+        name=name,
+        episodes=episodes,
+        success_rate=float(success.mean()),
+        success_ci=wilson_interval(int(success.sum()), episodes),
+        heading_error_mean_deg=_mean(aimed),
+        heading_error_p95_deg=float(np.percentile(aimed, 95)) if aimed.size else math.nan,
+        deadspin_residual_mean=_mean(run["residual_speed"][task == DEADSPIN]),
+        reward_mean=float(run["reward"].mean()),
+        episodes_per_second=episodes / run["elapsed"],
+        task=task,
+        target_heading=context["target_heading"],
+        rho=context["rho"],
+        heading_error=error,
+        residual_speed=run["residual_speed"],
+        success=success,
+        reward=run["reward"],
+    )
+
+
+def _navigation_result(name: str, episodes: int, run: dict[str, np.ndarray]) -> NavigationResult:
+    success = run["success"].astype(bool)
+    return NavigationResult(
+        name=name,
+        episodes=episodes,
+        success_rate=float(success.mean()),
+        success_ci=wilson_interval(int(success.sum()), episodes),
+        maneuvers_mean=_mean(run["maneuvers"][success]),
+        final_distance_mean=float(run["final_distance"].mean()),
+        path_length_mean=float(run["path_length"].mean()),
+        reward_mean=float(run["reward"].mean()),
+        episodes_per_second=episodes / run["elapsed"],
+        start=run["start"],
+        goal=run["goal"],
+        success=success,
+        maneuvers=run["maneuvers"],
+        final_distance=run["final_distance"],
+        path_length=run["path_length"],
+        reward=run["reward"],
+    )
+
+
+def navigates(env_id: str) -> bool:
+    """Whether `env_id` is a TetherNavigate env (navigation metrics and agents)."""
+    return gym.spec(env_id).entry_point == NAVIGATION_ENTRY_POINT
+
+
 def evaluate(
     agents: dict[str, object],
     env_kwargs: dict,
@@ -120,10 +262,14 @@ def evaluate(
     seed: int = 0,
     progress: bool = False,
     env_id: str = DEFAULT_ENV_ID,
-) -> list[EvalResult]:
-    """Run every agent on the same `episodes` seeded episodes of `env_id(**env_kwargs)`."""
+) -> list[EvalResult] | list[NavigationResult]:
+    """Run every agent on the same `episodes` seeded episodes of `env_id(**env_kwargs)`:
+    `EvalResult`s for TetherBounce-v0, `NavigationResult`s for TetherNavigate."""
     if not isinstance(episodes, (int, np.integer)) or episodes < 1:
         raise ValueError(f"episodes must be an integer in [1, inf), got {episodes!r}")
+    run, result = (
+        (_run_navigation, _navigation_result) if navigates(env_id) else (_run, _bounce_result)
+    )
     results = []
     for name, agent in agents.items():
         bar = None
@@ -131,39 +277,17 @@ def evaluate(
             from tqdm import tqdm
 
             bar = tqdm(total=episodes, desc=name, unit="ep", leave=False)
-        run = _run(agent, env_id, env_kwargs, episodes, seed, bar)
+        outcomes = run(agent, env_id, env_kwargs, episodes, seed, bar)
         if bar is not None:
             bar.close()
-        context = decode_observation(run["obs"])
-        task = context["task"]
-        success = run["is_success"].astype(bool)
-        error = np.abs(run["heading_error"])
-        aimed = np.degrees(error[task != DEADSPIN])
-        results.append(
-            EvalResult(
-                name=name,
-                episodes=episodes,
-                success_rate=float(success.mean()),
-                success_ci=wilson_interval(int(success.sum()), episodes),
-                heading_error_mean_deg=_mean(aimed),
-                heading_error_p95_deg=float(np.percentile(aimed, 95)) if aimed.size else math.nan,
-                deadspin_residual_mean=_mean(run["residual_speed"][task == DEADSPIN]),
-                reward_mean=float(run["reward"].mean()),
-                episodes_per_second=episodes / run["elapsed"],
-                task=task,
-                target_heading=context["target_heading"],
-                rho=context["rho"],
-                heading_error=error,
-                residual_speed=run["residual_speed"],
-                success=success,
-                reward=run["reward"],
-            )
-        )
+        results.append(result(name, episodes, outcomes))
     return results
 
 
-def format_table(results: list[EvalResult]) -> str:
+def format_table(results: list[EvalResult] | list[NavigationResult]) -> str:
     """The results as one Markdown table."""
+    if results and isinstance(results[0], NavigationResult):
+        return _navigation_table(results)
     lines = [
         "| agent | episodes | success (95% CI) | heading error mean (deg) | heading error p95 "
         "(deg) | deadspin residual | reward | episodes/s |",
@@ -178,6 +302,34 @@ def format_table(results: list[EvalResult]) -> str:
             f"{r.reward_mean:.3f} | {r.episodes_per_second:,.0f} |"
         )
     return "\n".join(lines)
+
+
+def _navigation_table(results: list[NavigationResult]) -> str:
+    lines = [
+        "| agent | episodes | success (95% CI) | maneuvers to goal | final distance (m) | "
+        "path length (m) | reward | episodes/s |",
+        "|---|---:|---|---:|---:|---:|---:|---:|",
+    ]
+    for r in results:
+        low, high = r.success_ci
+        lines.append(
+            f"| {r.name} | {r.episodes} | {100 * r.success_rate:.1f}% "
+            f"[{100 * low:.1f}, {100 * high:.1f}] | {r.maneuvers_mean:.2f} | "
+            f"{r.final_distance_mean:.3f} | {r.path_length_mean:.2f} | {r.reward_mean:.3f} | "
+            f"{r.episodes_per_second:,.1f} |"
+        )
+    return "\n".join(lines)
+
+
+class FlatObservationAgent:
+    """An agent of flat observations (the random baseline) on a goal-conditioned env: it is
+    given the goal dict's "observation"."""
+
+    def __init__(self, agent):
+        self.agent = agent
+
+    def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
+        return self.agent.predict(obs["observation"], state, episode_start, deterministic)
 
 
 class SB3Agent:
@@ -231,14 +383,24 @@ def load_agent(path: str | Path) -> SB3Agent:
     return SB3Agent(model, normalizer)
 
 
-def make_agent(spec: str, env_kwargs: dict, seed: int = 0):
-    """ "oracle", "shooting", "random" or the path of a saved SB3 model zip."""
+def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT_ENV_ID):
+    """ "oracle", "shooting" (TetherBounce-v0), "greedy", "lookahead" (TetherNavigate),
+    "random" or the path of a saved SB3 model zip."""
+    navigation = navigates(env_id)
+    planner = spec in ("greedy", "lookahead")
+    if (planner or spec in ("oracle", "shooting")) and planner != navigation:
+        solves = "TetherNavigate" if planner else DEFAULT_ENV_ID
+        raise ValueError(f"the agent {spec!r} solves {solves} only, not {env_id}")
     if spec == "oracle":
         return ImpulseOracle()
     if spec == "shooting":
         return ShootingOracle(env_kwargs)
+    if spec == "greedy":
+        return GreedyPlanner(env_kwargs)
+    if spec == "lookahead":
+        return LookaheadPlanner(env_kwargs)
     if spec == "random":
-        return RandomAgent(seed)
+        return FlatObservationAgent(RandomAgent(seed)) if navigation else RandomAgent(seed)
     require_extra(f"the model {spec!r}", ("stable_baselines3", "torch"))
     return load_agent(spec)
 
@@ -273,17 +435,19 @@ def plot(results: list[EvalResult], path: Path, against: str = "rho") -> None:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="tether-evaluate",
-        description="Evaluate agents on the same fixed, seeded TetherBounce-v0 episodes.",
+        description="Evaluate agents on the same fixed, seeded episodes of an env.",
     )
     add = parser.add_argument
-    add("--agents", nargs="+", default=["oracle", "shooting", "random"], metavar="AGENT",
-        help="oracle (impulse), shooting (model-based), random, or a saved SB3 model zip path "
-        "(default: oracle shooting random)")  # fmt: skip
+    add("--agents", nargs="+", metavar="AGENT",
+        help="oracle (impulse), shooting (model-based) on TetherBounce-v0; greedy, lookahead "
+        "(planners) on TetherNavigate; random, or a saved SB3 model zip path (default: oracle "
+        "shooting random, or greedy lookahead random on TetherNavigate)")  # fmt: skip
     add("--episodes", type=int, default=1000, help="episodes per agent (default 1000)")
     add("--seed", type=int, default=0, help="seed of the episodes (default 0)")
     add("--csv", type=Path, metavar="PATH", help="write the table as CSV")
     add("--json", type=Path, metavar="PATH", help="write the table and the config as JSON")
-    add("--plot", type=Path, metavar="PNG", help="plot heading error, agents side by side")
+    add("--plot", type=Path, metavar="PNG",
+        help="plot heading error, agents side by side (TetherBounce-v0)")  # fmt: skip
     add("--plot-against", choices=("rho", "target"), default="rho",
         help="x axis of --plot: rho or the target heading (default rho)")  # fmt: skip
     add("--overwrite", action="store_true", help="replace existing output files")
@@ -302,9 +466,17 @@ def main(argv: list[str] | None = None) -> None:
             parser.error(f"{path} exists; pass --overwrite to replace it")
     try:
         env_id, env_kwargs = env_from_args(args)  # validated before any work
+        navigation = navigates(env_id)
+        if navigation and args.plot is not None:
+            raise ValueError("--plot draws TetherBounce-v0's heading errors only")
+        specs = args.agents or (
+            ["greedy", "lookahead", "random"] if navigation else ["oracle", "shooting", "random"]
+        )
         agents = {
-            Path(spec).stem if spec.endswith(".zip") else spec: make_agent(spec, env_kwargs)
-            for spec in args.agents
+            Path(spec).stem if spec.endswith(".zip") else spec: make_agent(
+                spec, env_kwargs, env_id=env_id
+            )
+            for spec in specs
         }
         results = evaluate(
             agents, env_kwargs, args.episodes, args.seed, not args.no_progress, env_id
@@ -315,12 +487,12 @@ def main(argv: list[str] | None = None) -> None:
     if args.csv is not None:
         with args.csv.open("w", newline="") as handle:
             writer = csv.writer(handle)
-            writer.writerow([*SUMMARY_FIELDS[:3], "success_ci_low", "success_ci_high",
-                             *SUMMARY_FIELDS[4:]])  # fmt: skip
+            names = results[0].summary_fields  # success_ci fourth, split in two columns
+            writer.writerow([*names[:3], "success_ci_low", "success_ci_high", *names[4:]])
             for r in results:
                 s = r.summary()
                 writer.writerow([s["name"], s["episodes"], s["success_rate"], *s["success_ci"],
-                                 *(s[k] for k in SUMMARY_FIELDS[4:])])  # fmt: skip
+                                 *(s[k] for k in names[4:])])  # fmt: skip
     if args.json is not None:
         results_json = [r.summary() for r in results]
         payload = {

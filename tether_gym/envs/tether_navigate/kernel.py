@@ -17,6 +17,7 @@ draws the goal and start among its candidate cells.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 import numba
@@ -128,6 +129,42 @@ GOAL_KEYS = {
     "achieved_goal": slice(OBS.x, OBS.goal_x),
     "desired_goal": slice(OBS.goal_x, OBS.goal_y + 1),
 }
+
+
+def decode_observation(obs) -> dict[str, np.ndarray]:
+    """TetherNavigate observations in physical terms, by name: the env's goal dict (one or a
+    batch) or plain `OBSERVATION` rows (..., 60). `position`, `velocity` (m/s) and `goal`
+    (..., 2) on the table; `angle` (rad, in (-pi, pi]) and `spin` (rad/s); `anchors`
+    (..., 12, 2) and `posts` (..., 4, 2) on the table, nearest first, with `anchor_present` and
+    `post_present` (..., k) bools (padding slots hold the puck's position); `maneuvers_left`
+    as a fraction of `max_maneuvers`. The public decoder agents use."""
+    if isinstance(obs, Mapping):
+        keys = sorted(GOAL_KEYS, key=lambda key: GOAL_KEYS[key].start)
+        obs = np.concatenate([np.asarray(obs[key], dtype=np.float64) for key in keys], axis=-1)
+    o = OBSERVATION.decode(obs)
+    position = np.stack([o["x"], o["y"]], axis=-1)
+
+    def points(prefix: str, count: int) -> tuple[np.ndarray, np.ndarray]:
+        offsets = [np.stack([o[f"{prefix}{j}_dx"], o[f"{prefix}{j}_dy"]], axis=-1)
+                   for j in range(count)]  # fmt: skip
+        present = np.stack([o[f"{prefix}{j}_present"] for j in range(count)], axis=-1)
+        return position[..., None, :] + np.stack(offsets, axis=-2), present > 0.5
+
+    anchors, anchor_present = points("anchor", MAX_ANCHORS)
+    posts, post_present = points("post", MAX_POSTS)
+    return {
+        "position": position,
+        "velocity": np.stack([o["vx"], o["vy"]], axis=-1),
+        "angle": np.arctan2(o["angle_sin"], o["angle_cos"]),
+        "spin": o["spin"],
+        "goal": np.stack([o["goal_x"], o["goal_y"]], axis=-1),
+        "anchors": anchors,
+        "anchor_present": anchor_present,
+        "posts": posts,
+        "post_present": post_present,
+        "maneuvers_left": o["maneuvers_left"],
+    }
+
 
 OUTCOME = Fields(
     Field("reward"),
