@@ -321,17 +321,6 @@ def _navigation_table(results: list[NavigationResult]) -> str:
     return "\n".join(lines)
 
 
-class FlatObservationAgent:
-    """An agent of flat observations (the random baseline) on a goal-conditioned env: it is
-    given the goal dict's "observation"."""
-
-    def __init__(self, agent):
-        self.agent = agent
-
-    def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
-        return self.agent.predict(obs["observation"], state, episode_start, deterministic)
-
-
 class SB3Agent:
     """A saved stable-baselines3 model, with its VecNormalize statistics if saved beside it."""
 
@@ -400,7 +389,7 @@ def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT
     if spec == "lookahead":
         return LookaheadPlanner(env_kwargs)
     if spec == "random":
-        return FlatObservationAgent(RandomAgent(seed)) if navigation else RandomAgent(seed)
+        return RandomAgent(seed)
     require_extra(f"the model {spec!r}", ("stable_baselines3", "torch"))
     return load_agent(spec)
 

@@ -12,7 +12,8 @@ class RandomAgent:
         self.rng = np.random.default_rng(seed)
 
     def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
-        """SB3's interface; `deterministic` is ignored: the baseline is random by design."""
-        obs = np.asarray(obs)
-        action = self.rng.uniform(-1.0, 1.0, size=(*obs.shape[:-1], 4)).astype(np.float32)
+        """SB3's interface, for a flat observation or a goal dict (one or a batch);
+        `deterministic` is ignored: the baseline is random by design."""
+        flat = np.asarray(obs["observation"] if isinstance(obs, dict) else obs)
+        action = self.rng.uniform(-1.0, 1.0, size=(*flat.shape[:-1], 4)).astype(np.float32)
         return action, state
