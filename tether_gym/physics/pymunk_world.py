@@ -34,7 +34,8 @@ contact is the product of the two shapes' elasticities; the puck's is 1, so a wa
 is the restitution of a puck-wall collision (1: elastic). Friction defaults to 0 (air table).
 
 Release. With `release=True` the tether is removed at its first slack instant, as the paper's
-deadspin experiment removed its bar (Fig. 10): otherwise a spinning puck bounces again.
+deadspin experiment removed its bar (Fig. 10): otherwise a spinning puck bounces again. `hook`
+attaches it again, to any anchor (`pymunk_maneuver` flies maneuvers between pegs on it).
 """
 
 from __future__ import annotations
@@ -52,6 +53,16 @@ from tether_gym.physics.state import PuckState
 EULER_STEPS_PER_HALF_PERIOD = 64
 """Symplectic Euler steps per half period of the fastest spring, while the tether may be taut."""
 FREE_STEP = 1.0 / 240.0
+
+
+def tether_damping(
+    stiffness: float, restitution: float, mass: float, inertia_ratio: float, moment_arm: float
+) -> float:
+    """The hybrid model's damper (N s/m) for a contact of restitution e: c = 2 zeta sqrt(k
+    m_eff), zeta = `hybrid.damping_ratio(e)` and m_eff = `hybrid.effective_mass` for the
+    tether's moment arm about the centre of mass at tautening (over R: d sin alpha)."""
+    m_eff = effective_mass(mass, inertia_ratio, moment_arm)
+    return 2.0 * damping_ratio(restitution) * math.sqrt(stiffness * m_eff)
 
 
 @dataclass(frozen=True)
@@ -118,22 +129,16 @@ class TetherWorld:
         self.radius = check_float("radius", radius, 0.0, INF, low_open=True)
         self.inertia_ratio = check_float("inertia_ratio", inertia_ratio, 0.0, INF, low_open=True)
         self.offset = check_float("offset", offset, 0.0, 1.0)
-        self.tether_length = check_float("tether_length", tether_length, 0.0, INF, low_open=True)
         self.stiffness = check_float("stiffness", stiffness, 0.0, INF, low_open=True)
-        self.damping = check_float("damping", damping, 0.0, INF)
         if int(taut_steps) != taut_steps or taut_steps < 1:
             raise ValueError(f"taut_steps must be an integer in [1, inf), got {taut_steps!r}")
+        self.taut_steps = int(taut_steps)
         self.free_step = check_float("free_step", free_step, 0.0, INF, low_open=True)
-        self.anchor = (check_float("anchor x", anchor[0]), check_float("anchor y", anchor[1]))
+        self._set_tether(anchor, tether_length, damping)
         self.table = table
         self.release = release
         self.arm = self.offset * self.radius
         self.inertia = self.inertia_ratio * self.mass * self.radius**2
-
-        fastest = fastest_rate(
-            self.stiffness, self.damping, self.mass, self.inertia_ratio, self.offset
-        )
-        self.taut_step = math.pi / (fastest * int(taut_steps))
 
         self.space = pymunk.Space()
         self.body = pymunk.Body(self.mass, self.inertia)
@@ -149,8 +154,6 @@ class TetherWorld:
                 wall.elasticity, wall.friction = table.elasticity, table.friction
                 self.walls.append(wall)
             self.space.add(*self.walls)
-        self.body.velocity_func = self._tether_velocity
-        self.attached = True
         self.place(0.0, -self.tether_length, 0.0, 0.0, 0.0, self.arm, 0.0)
 
     @classmethod
@@ -178,8 +181,7 @@ class TetherWorld:
         """
         e = check_float("restitution", restitution, 0.0, 1.0, low_open=True)
         kappa = check_float("inertia_ratio", inertia_ratio, 0.0, INF, low_open=True)
-        m_eff = effective_mass(mass, kappa, offset * math.sin(offset_angle))
-        damping = 2.0 * damping_ratio(e) * math.sqrt(stiffness * m_eff)
+        damping = tether_damping(stiffness, e, mass, kappa, offset * math.sin(offset_angle))
         made = cls(
             mass=mass,
             radius=radius,
@@ -195,6 +197,42 @@ class TetherWorld:
         )
         return made
 
+    def _set_tether(self, anchor: tuple[float, float], tether_length: float, damping: float):
+        """The tether's anchor, rest length and damper, validated, and the taut step they
+        imply."""
+        self.anchor = (check_float("anchor x", anchor[0]), check_float("anchor y", anchor[1]))
+        self.tether_length = check_float("tether_length", tether_length, 0.0, INF, low_open=True)
+        self.damping = check_float("damping", damping, 0.0, INF)
+        fastest = fastest_rate(
+            self.stiffness, self.damping, self.mass, self.inertia_ratio, self.offset
+        )
+        self.taut_step = math.pi / (fastest * self.taut_steps)
+
+    def _attach(self) -> None:
+        """Attach the tether to the puck as it is now."""
+        self.body.velocity_func = self._tether_velocity
+        self.attached = True
+        self.taut_time = self.slack_time = math.nan
+        # Attached slack (or at tautening, where rounding may leave a gauge of +1e-12): a tether
+        # attached taut counts as going taut at the instant it is attached.
+        self.gauge = min(self._tether(self.body)[0], 0.0)
+        self.tension = 0.0
+        self.pull = (0.0, 0.0, 0.0, 0.0, 0.0)
+        """The last taut step's (tension, ux, uy, rx, ry), see `_tether`."""
+        self.taut = False
+
+    def hook(self, anchor: tuple[float, float], tether_length: float, damping: float = 0.0):
+        """Re-attach the tether to `anchor` with a new rest length and damper (N s/m), the
+        puck, the clock and the count of bounces left as they are (one maneuver of a
+        multi-anchor world)."""
+        self._set_tether(anchor, tether_length, damping)
+        self._attach()
+
+    def unhook(self) -> None:
+        """Detach the tether: the puck flies freely until the next `hook`."""
+        self.attached = False
+        self.body.velocity_func = pymunk.Body.update_velocity
+
     def place(self, cx: float, cy: float, vx: float, vy: float, rx: float, ry: float, w: float):
         """Set the puck's state from the centre of mass, its velocity, the vector from the
         centre of mass to the attachment point (its length is ignored: only its direction
@@ -209,17 +247,9 @@ class TetherWorld:
         body.angle = state.angle
         body.angular_velocity = state.spin
         self.space.reindex_shapes_for_body(body)
-        if not self.attached:
-            self.body.velocity_func = self._tether_velocity
-        self.attached = True
         self.time = 0.0
         self.bounces = 0
-        self.taut_time = self.slack_time = math.nan
-        # Placed slack (or at tautening, where rounding may leave a gauge of +1e-12): a tether
-        # placed taut counts as going taut at time 0.
-        self.gauge = min(self._tether(body)[0], 0.0)
-        self.tension = 0.0
-        self.taut = False
+        self._attach()
 
     @property
     def state(self) -> PuckState:
@@ -262,14 +292,22 @@ class TetherWorld:
         """Chipmunk's velocity update, with the tether's force at the new position."""
         gauge, tension, ux, uy, rx, ry = self._tether(body)
         self.gauge = gauge
+        self.tension = self._taut_tension(tension, rx * uy - ry * ux, dt) if gauge > 0.0 else 0.0
+        self.pull = (self.tension, ux, uy, rx, ry)
         if gauge > 0.0:
-            self.tension = tension
-            fx, fy = -tension * ux * dt, -tension * uy * dt
-            vx, vy = body.velocity
-            body.velocity = (vx + fx / self.mass, vy + fy / self.mass)
-            body.angular_velocity += (rx * fy - ry * fx) / self.inertia
-        else:
-            self.tension = 0.0
+            self._kick(dt)
+
+    def _taut_tension(self, tension: float, _moment_arm: float, _dt: float) -> float:
+        """The tension a taut step applies (subclasses may treat the damper implicitly)."""
+        return tension
+
+    def _kick(self, dt: float) -> None:
+        """Apply the tether's last tension (`pull`) to the puck over `dt` seconds."""
+        tension, ux, uy, rx, ry = self.pull
+        fx, fy = -tension * ux * dt, -tension * uy * dt
+        vx, vy = self.body.velocity
+        self.body.velocity = (vx + fx / self.mass, vy + fy / self.mass)
+        self.body.angular_velocity += (rx * fy - ry * fx) / self.inertia
 
     def step(self, dt: float) -> None:
         """One pymunk step of `dt` seconds; locates tautening and slackening, releases."""
@@ -287,16 +325,23 @@ class TetherWorld:
             else:
                 self.slack_time = crossing
                 if self.release:
-                    self.attached = False
-                    self.body.velocity_func = pymunk.Body.update_velocity
+                    self.unhook()
         self.taut = taut
         self.time += dt
 
+    def reach(self) -> float:
+        """The greatest speed of any point of the puck now (m/s), which sizes the free step."""
+        v = self.body.velocity
+        return math.hypot(v.x, v.y) + abs(self.body.angular_velocity) * self.radius
+
+    def free_flight_step(self) -> float:
+        """The free step, shortened so the puck moves at most a quarter radius per step."""
+        reach = self.reach()
+        return min(self.free_step, 0.25 * self.radius / reach) if reach > 0 else self.free_step
+
     def next_step(self) -> float:
         """The step the world takes next: the taut step near the tether, else the free one."""
-        v, w = self.body.velocity, self.body.angular_velocity
-        reach = math.hypot(v.x, v.y) + abs(w) * self.radius
-        free = min(self.free_step, 0.25 * self.radius / reach) if reach > 0 else self.free_step
+        reach, free = self.reach(), self.free_flight_step()
         if not self.attached:
             return free
         px, py = self.attachment
