@@ -20,6 +20,7 @@ from tether_gym.envs.tether_navigate.kernel import (
     PUCK_MASS,
     PUCK_RADIUS,
 )
+from tether_gym.tasks import navigate
 
 LAYOUT = """
 A..A..
@@ -126,11 +127,15 @@ def test_compute_reward_equals_the_step_reward_and_relabels(task, reward_type):
     batch = env.unwrapped.compute_reward(np.stack(achieved), np.stack(desired), np.array(infos))
     np.testing.assert_allclose(batch, rewards, atol=1e-12)
     if task == "reach":
-        relabeled = env.unwrapped.compute_reward(np.stack(achieved), np.stack(achieved),
-                                                 np.array(infos))  # fmt: skip
-        hit = [not i["hit_post"] for i in infos]
-        success = 0.0 if reward_type == "sparse" else 1.0
-        assert np.all((relabeled >= success - 1.0)[hit])
+        goals, batch_infos = np.stack(achieved), np.array(infos)
+        relabeled = env.unwrapped.compute_reward(goals, goals, batch_infos)
+        _, met = navigate.compute(navigate.REACH, navigate.REWARD_TYPES.index(reward_type),
+                                  goals, batch_infos)  # fmt: skip
+        clear = np.array([not i["hit_post"] for i in infos])
+        assert np.all(met[clear]), "a path that ends at the goal must reach it"
+        # sparse: 0 on success; dense: the bonus, the maneuver's cost and a progress >= 0
+        floor = 0.0 if reward_type == "sparse" else navigate.SUCCESS_BONUS - navigate.MANEUVER_COST
+        assert np.all(relabeled[clear] >= floor - 1e-12)
 
 
 def cross(a, b) -> float:
