@@ -321,10 +321,10 @@ def test_threaded_step_and_reset_equals_the_serial_kernels(dynamics):
     bounce = kernel.TetherBounceKernel(config)
     n = 3 * kernel.PARALLEL_CHUNK[bounce.dynamics] + 1
     rng = np.random.default_rng(5)
-    state, _ = bounce.reset(rng.random((n, bounce.n_uniforms)))
+    state, state_obs = bounce.reset(rng.random((n, bounce.n_uniforms)))
     actions = rng.uniform(-1.0, 1.0, (n, 4)).astype(np.float32)
     uniforms = rng.random((n, bounce.n_uniforms))
-    next_state, obs, final_obs, out = bounce.step_autoreset(state, actions, uniforms)
+    next_state, obs, final_obs, out = bounce.step_autoreset(state, state_obs, actions, uniforms)
     _, serial_final_obs, serial_out = bounce.step(state, actions)
     serial_state, serial_obs = bounce.reset(uniforms)
     np.testing.assert_array_equal(next_state, serial_state)
@@ -332,7 +332,7 @@ def test_threaded_step_and_reset_equals_the_serial_kernels(dynamics):
         np.testing.assert_array_equal(a, b)
     actions[n - 1, 2] = np.nan
     with pytest.raises(ValueError, match="action"):
-        bounce.step_autoreset(state, actions, uniforms)
+        bounce.step_autoreset(state, state_obs, actions, uniforms)
 
 
 def test_a_refused_vector_step_loses_no_episode():

@@ -5,7 +5,7 @@ style of gymnax's pure `reset(key, params)` / `step(state, action, params)`:
 
     reset(uniforms)               -> (state, observation)
     step(state, actions)          -> (state, observation, outcome)
-    step_autoreset(state, actions, uniforms)
+    step_autoreset(state, observation, actions, uniforms)
                                   -> (state, observation, final observation, outcome)
 
 over named fields: `state` is a numpy record array (one record per episode, fields declared by
@@ -84,20 +84,23 @@ class Kernel:
         raise ValueError(f"this environment takes no reset options, got {options!r}")
 
     def step_autoreset(
-        self, state: np.ndarray, actions: np.ndarray, uniforms: np.ndarray
+        self, state: np.ndarray, obs: np.ndarray, actions: np.ndarray, uniforms: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """`step`, then episodes that ended start anew from their row of `uniforms`."""
+        """`step`, then episodes that ended start anew from their row of `uniforms`. `obs` is
+        the observation of `state` (the last one returned), for kernels whose step leaves some
+        of it unchanged."""
         state, final_obs, outcome = self.step(state, actions)
-        ended = self.ended(outcome)
+        terminated, truncated = self.episode_end(outcome)
+        ended = terminated | truncated
         obs = final_obs.copy()
         if ended.any():
             state[ended], obs[ended] = self.reset(uniforms[ended])
         return state, obs, final_obs, outcome
 
-    def ended(self, outcome: np.ndarray) -> np.ndarray:
-        """Which rows of an outcome ended their episode (terminated or truncated)."""
+    def episode_end(self, outcome: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Which rows of an outcome ended their episode: (terminated, truncated), bool arrays."""
         index = self.outcome.index
-        return (outcome[:, index["terminated"]] != 0.0) | (outcome[:, index["truncated"]] != 0.0)
+        return outcome[:, index["terminated"]] != 0.0, outcome[:, index["truncated"]] != 0.0
 
     def as_actions(self, actions, n: int) -> np.ndarray:
         """Actions as an (n, len(action)) float32 or float64 array; ValueError for a wrong
@@ -256,6 +259,7 @@ class KernelVectorEnv(VectorEnv):
         self._rows = np.arange(self.num_envs)
         self.state: np.ndarray | None = None
         """The copies' states (records or rows, as the kernel declares), None before a reset."""
+        self._obs: np.ndarray | None = None
 
     def _uniforms(self) -> np.ndarray:
         """Every copy's next episode's uniforms, (num_envs, n_uniforms); they stay the next ones
@@ -300,19 +304,18 @@ class KernelVectorEnv(VectorEnv):
         self._advance(None)  # drawn even if the options are refused, as by a single env's reset
         if options:
             self.kernel.reset_options(options, state, obs)
-        self.state = state
+        self.state, self._obs = state, obs
         return self.kernel.view(obs), {}
 
     def step(self, actions):
         if self.state is None:
             raise RuntimeError("call reset() before step()")
         state, obs, final_obs, outcome = self.kernel.step_autoreset(
-            self.state, actions, self._uniforms()
+            self.state, self._obs, actions, self._uniforms()
         )
-        self.state = state
-        columns = outcome.T
-        reward = columns[self._end[0]]
-        terminated, truncated = columns[self._end[1]] != 0.0, columns[self._end[2]] != 0.0
+        self.state, self._obs = state, obs
+        reward = outcome[:, self._end[0]]
+        terminated, truncated = self.kernel.episode_end(outcome)
         ended = terminated | truncated
         self._advance(ended)
         if self.num_envs > 1:

@@ -96,8 +96,6 @@ OBS, OUT, SETUP = OBSERVATION.columns, OUTCOME.columns, OUTCOME.index["launch_sp
 STATE = Fields(
     Field("task", doc="index into TASKS"),
     Field("target_heading", doc="rad"),
-    Field("heading_cos"),
-    Field("heading_sin"),
     Field("target_speed", doc="m/s"),
     Field("inertia_ratio"),
     Field("restitution"),
@@ -105,10 +103,9 @@ STATE = Fields(
     Field("log10_rho"),
     Field("spin", doc="rad/s, before the bounce"),
 )
-"""An episode, one float64 row: its task, goal (the heading also as a unit vector, so that
-observing an episode is copying) and physical parameters. Plain rows with named columns
-rather than records: numba's dispatch and numpy's allocation of record arrays cost a tenth of
-a single env's step."""
+"""An episode, one float64 row: its task, goal and physical parameters. Plain rows with named
+columns rather than records: numba's dispatch and numpy's allocation of record arrays cost a
+tenth of a single env's step."""
 ST = STATE.columns
 
 PARAMS = Fields(
@@ -239,8 +236,7 @@ def _sample(u, p, s):
     if code < 0:  # mixed
         code, k = min(math.floor(u[0] * 3.0), 2.0), 1
     s[ST.task] = code
-    heading, s[ST.target_speed] = task.sample_goal(u[k], u[k + 1])
-    _aim(s, heading)
+    s[ST.target_heading], s[ST.target_speed] = task.sample_goal(u[k], u[k + 1])
     s[ST.inertia_ratio], k = _draw(u, k + 2, p[PA.inertia_ratio_low], p[PA.inertia_ratio_high])
     s[ST.restitution], k = _draw(u, k, p[PA.restitution_low], p[PA.restitution_high])
     ln_rho, k = _draw(u, k, p[PA.ln_rho_low], p[PA.ln_rho_high])
@@ -251,14 +247,6 @@ def _sample(u, p, s):
 
 
 @numba.njit(cache=True, inline="always")
-def _aim(s, heading):
-    """Set the goal heading of state row `s`."""
-    s[ST.target_heading], s[ST.heading_cos], s[ST.heading_sin] = (
-        heading, math.cos(heading), math.sin(heading)
-    )  # fmt: skip
-
-
-@numba.njit(cache=True, inline="always")
 def _observe(s, obs):
     """One episode's observation (see the env's table): the goal the task uses, the physical
     parameters."""
@@ -266,8 +254,8 @@ def _observe(s, obs):
     obs[:] = 0.0
     obs[code] = 1.0  # the one-hot entries come first, in TASKS order
     if code != task.DEADSPIN:
-        obs[OBS.target_heading_cos] = s[ST.heading_cos]
-        obs[OBS.target_heading_sin] = s[ST.heading_sin]
+        obs[OBS.target_heading_cos] = math.cos(s[ST.target_heading])
+        obs[OBS.target_heading_sin] = math.sin(s[ST.target_heading])
     if code == task.VELOCITY:
         obs[OBS.target_speed] = s[ST.target_speed] * SPEED_SCALE
     obs[OBS.inertia_ratio], obs[OBS.restitution] = s[ST.inertia_ratio], s[ST.restitution]
@@ -343,32 +331,25 @@ def _score(s, out):
 
 # One kernel per dynamics: a call that a loop never takes still slows it (the hybrid integrator
 # in the impulse loop, the damper search in the sampling), so the damper is found in
-# `_bounce_hybrid`. Each returns the number of non-finite actions.
+# `_bounce_hybrid`. Each returns the number of non-finite actions. A step leaves the state, and
+# so its observation, unchanged: none observes.
 @numba.njit(cache=True)
-def _observe_all(state, obs):
-    for i in range(state.shape[0]):
-        _observe(state[i], obs[i])
-
-
-@numba.njit(cache=True)
-def _step_impulse(actions, params, state, obs, out):
+def _step_impulse(actions, params, state, out):
     bad = 0
     for i in range(state.shape[0]):
         bad += _decode(actions[i], out[i])
         _bounce_impulse(state[i], out[i])
         _score(state[i], out[i])
-    _observe_all(state, obs)  # a loop of its own: inside the one above it cost three times more
     return bad
 
 
 @numba.njit(cache=True)
-def _step_hybrid(actions, params, state, obs, out):
+def _step_hybrid(actions, params, state, out):
     bad = 0
     for i in range(state.shape[0]):
         bad += _decode(actions[i], out[i])
         _bounce_hybrid(state[i], params, out[i])
         _score(state[i], out[i])
-    _observe_all(state, obs)
     return bad
 
 
@@ -381,16 +362,19 @@ def _decode_all(actions, out):
 
 
 @numba.njit(cache=True)
-def _score_all(state, obs, out):
+def _score_all(state, out):
     for i in range(state.shape[0]):
         _score(state[i], out[i])
+
+
+@numba.njit(cache=True)
+def _observe_all(state, obs):
+    for i in range(state.shape[0]):
         _observe(state[i], obs[i])
 
 
 @numba.njit(cache=True, parallel=True)
-def _step_autoreset_parallel(
-    actions, params, state, final_obs, out, uniforms, next_state, obs, chunk
-):
+def _step_autoreset_parallel(actions, params, state, out, uniforms, next_state, obs, chunk):
     """The step kernel of the configured dynamics, then `_reset` (every episode ends at its
     step), on chunks of `chunk` rows across threads (the serial kernels' loops compile tighter
     than one prange over rows)."""
@@ -399,9 +383,9 @@ def _step_autoreset_parallel(
     for c in prange((n + chunk - 1) // chunk):
         rows = slice(c * chunk, min((c + 1) * chunk, n))
         if params[PA.dynamics] == IMPULSE:
-            bad += _step_impulse(actions[rows], params, state[rows], final_obs[rows], out[rows])
+            bad += _step_impulse(actions[rows], params, state[rows], out[rows])
         else:
-            bad += _step_hybrid(actions[rows], params, state[rows], final_obs[rows], out[rows])
+            bad += _step_hybrid(actions[rows], params, state[rows], out[rows])
         _reset(uniforms[rows], params, next_state[rows], obs[rows])
     return bad
 
@@ -451,10 +435,9 @@ class TetherBounceKernel(Kernel):
         n = state.shape[0]
         actions = self.as_actions(actions, n)
         obs, out = OBSERVATION.empty(n), OUTCOME.empty(n)
+        _observe_all(state, obs)
         if self.dynamics != PYMUNK:
-            _check_finite(
-                STEP_KERNELS[self.dynamics](actions, self.params, state, obs, out), actions
-            )
+            _check_finite(STEP_KERNELS[self.dynamics](actions, self.params, state, out), actions)
             return state, obs, out
         _check_finite(_decode_all(actions, out), actions)
         result = bounce(
@@ -467,25 +450,30 @@ class TetherBounceKernel(Kernel):
         out[:, OUT.vx], out[:, OUT.vy] = result.velocity[:, 0], result.velocity[:, 1]
         out[:, OUT.spin] = result.spin
         out[:, OUT.bounced], out[:, OUT.completed] = result.bounced, result.completed
-        _score_all(state, obs, out)
+        _score_all(state, out)
         return state, obs, out
 
-    def step_autoreset(self, state, actions, uniforms):
+    def step_autoreset(self, state, obs, actions, uniforms):
         """Every episode ends at its step: step, then all start anew, fused into one pass
-        across threads for batches large enough to pay for it."""
+        across threads for batches large enough to pay for it. A step leaves the state
+        unchanged, so the final observations are `obs` itself."""
         n = state.shape[0]
         if self.dynamics == PYMUNK or n < 2 * PARALLEL_CHUNK[self.dynamics]:
-            _, final_obs, out = self.step(state, actions)
-            return (*self.reset(uniforms), final_obs, out)
+            _, _, out = self.step(state, actions)
+            return (*self.reset(uniforms), obs, out)
         actions = self.as_actions(actions, n)
-        final_obs, out = OBSERVATION.empty(n), OUTCOME.empty(n)
-        next_state, obs = STATE.empty(n), OBSERVATION.empty(n)
+        out, next_state, next_obs = OUTCOME.empty(n), STATE.empty(n), OBSERVATION.empty(n)
         bad = _step_autoreset_parallel(
-            actions, self.params, state, final_obs, out, uniforms, next_state, obs,
+            actions, self.params, state, out, uniforms, next_state, next_obs,
             PARALLEL_CHUNK[self.dynamics],
         )  # fmt: skip
         _check_finite(bad, actions)
-        return next_state, obs, final_obs, out
+        return next_state, next_obs, obs, out
+
+    def episode_end(self, outcome: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every episode is one bounce: all terminated, none truncated."""
+        n = outcome.shape[0]
+        return np.ones(n, dtype=bool), np.zeros(n, dtype=bool)
 
     def reset_options(self, options: dict, state: np.ndarray, obs: np.ndarray) -> None:
         """Keys: "task" (one of TASKS), "target_heading" (rad, heading and velocity tasks) and
@@ -503,18 +491,12 @@ class TetherBounceKernel(Kernel):
                 raise ValueError(
                     f"target_heading must satisfy |target_heading| in [pi/12, pi], got {heading!r}"
                 )
-            _aim_all(state, heading)
+            state[:, ST.target_heading] = heading
         if "target_speed" in options:
             state[:, ST.target_speed] = check_float(
                 "target_speed", options["target_speed"], *TARGET_SPEED
             )
         _observe_all(state, obs)
-
-
-@numba.njit(cache=True)
-def _aim_all(state, heading):
-    for i in range(state.shape[0]):
-        _aim(state[i], heading)
 
 
 def decode_observation(obs) -> dict[str, np.ndarray]:

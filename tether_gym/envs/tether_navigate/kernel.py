@@ -746,8 +746,9 @@ class NavigateKernel(Kernel):
         _check_finite(_step(actions, self.params, state, new_state, obs, out), actions)
         return new_state, obs, out
 
-    def step_autoreset(self, state, actions, uniforms):
-        """Fused into one pass, across threads for batches large enough to pay for it."""
+    def step_autoreset(self, state, obs, actions, uniforms):
+        """Fused into one pass, across threads for batches large enough to pay for it (`obs`
+        is not needed: a maneuver changes the whole state)."""
         n = state.shape[0]
         actions = self.as_actions(actions, n)
         new_state = np.empty(n, STATE)
