@@ -138,6 +138,11 @@ class InfoLayout:
     def __init__(self, outcome: Fields, skip: tuple[str, ...] = ()):
         reported = [(outcome.index[f.name], f) for f in outcome.fields if f.name not in skip]
         self.arrays = [(f.name, i, f) for i, f in reported if f.shape]
+        self._blocks = [
+            (name, i, i + f.size, f.shape if len(f.shape) > 1 else None)
+            for name, i, f in self.arrays
+        ]
+        """(name, first column, end column, shape to take or None for a vector) per array."""
         reported = [(i, f) for i, f in reported if not f.shape]
         plain = [(i, f) for i, f in reported if f.group is None]
         self.names = tuple(f.name for _, f in plain)
@@ -164,8 +169,9 @@ class InfoLayout:
             info[flag] = bool(info[flag])
         for group, keys, get in self._group_get:
             info[group] = dict(zip(keys, get(values)))  # noqa: B905
-        for name, i, f in self.arrays:
-            info[name] = row[i : i + f.size].reshape(f.shape)
+        for name, start, stop, shape in self._blocks:
+            block = row[start:stop]
+            info[name] = block if shape is None else block.reshape(shape)
         return info
 
     def many(self, plain: np.ndarray) -> dict:
