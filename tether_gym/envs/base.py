@@ -254,8 +254,9 @@ class KernelVectorEnv(VectorEnv):
         self._block = int(block)
         self._generators: list[np.random.Generator] | None = None
         self._buffer = np.empty((self.num_envs, self._block, kernel.n_uniforms))
-        self._cursor = np.full(self.num_envs, self._block)
-        self._lockstep = True  # every copy at the same cursor: the next uniforms are a view
+        self._cursor: int | np.ndarray = self._block
+        """Where the copies' next uniforms are in their blocks: one int while every copy is at
+        the same place (the next uniforms are then a view), one per copy once they part."""
         self._rows = np.arange(self.num_envs)
         self.state: np.ndarray | None = None
         """The copies' states (records or rows, as the kernel declares), None before a reset."""
@@ -264,25 +265,23 @@ class KernelVectorEnv(VectorEnv):
     def _uniforms(self) -> np.ndarray:
         """Every copy's next episode's uniforms, (num_envs, n_uniforms); they stay the next ones
         until `_advance` moves past them (after a step that did not raise)."""
-        full = self._cursor == self._block if not self._lockstep else None
-        if self._lockstep:
-            if self._cursor[0] == self._block:
+        if isinstance(self._cursor, int):
+            if self._cursor == self._block:
                 for generator, block in zip(self._generators, self._buffer, strict=True):
                     generator.random(out=block)
-                self._cursor[:] = 0
-            return self._buffer[:, self._cursor[0]]
-        for i in np.flatnonzero(full):
+                self._cursor = 0
+            return self._buffer[:, self._cursor]
+        for i in np.flatnonzero(self._cursor == self._block):
             self._generators[i].random(out=self._buffer[i])
             self._cursor[i] = 0
         return self._buffer[self._rows, self._cursor]
 
     def _advance(self, ended: np.ndarray | None) -> None:
         """Past the uniforms of the copies that started a new episode (all if None)."""
-        if ended is None or (self._lockstep and ended.all()):
+        if ended is None or (isinstance(self._cursor, int) and ended.all()):
             self._cursor += 1
         else:
-            self._cursor += ended
-            self._lockstep = False
+            self._cursor = self._cursor + ended  # one cursor per copy from now on
 
     def reset(
         self,
@@ -298,8 +297,7 @@ class KernelVectorEnv(VectorEnv):
                 raise ValueError(f"seed must hold num_envs={self.num_envs} seeds, got {seed!r}")
         if seed is not None or self._generators is None:
             self._generators = [seeding.np_random(s)[0] for s in seeds]
-            self._cursor[:] = self._block
-            self._lockstep = True
+            self._cursor = self._block
         state, obs = self.kernel.reset(self._uniforms())
         self._advance(None)  # drawn even if the options are refused, as by a single env's reset
         if options:
