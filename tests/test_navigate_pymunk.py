@@ -224,6 +224,22 @@ def test_replays_agree_with_the_kernel_on_every_maneuver() -> None:
     assert_agree(compared(episodes(), consistent_only=False))
 
 
+def test_the_kernel_tautens_where_its_turning_body_first_pulls() -> None:
+    """Every maneuver of the 100 episodes passes `kernel_verdict`: the first tautening of the
+    body turning at the free spin plus the wheel's rate, pulling clearly, with the kernel's
+    orientation and offset angle. A contact within a wall's reach (the kernel's contact
+    ignores the walls) only where the tether went taut before the wheel's target: the wheel
+    keeps its targets clear of the walls."""
+    verdicts = {}
+    for run in episodes():
+        for j, (before, info) in enumerate(zip(run.before, run.infos, strict=True)):
+            verdict = kernel_verdict(before, info)
+            aimed = info["flight_time"] == info["wheel_target_time"] > 0.0
+            if verdict != CONSISTENT and (aimed or not verdict.startswith("contact within")):
+                verdicts[(run.seed, j)] = verdict
+    assert not verdicts
+
+
 def test_maneuvers_the_kernel_gets_right_agree_when_replayed_alone() -> None:
     """Each maneuver of 20 episodes replayed alone from the kernel's state before it (so the
     maneuvers after one the kernel gets wrong count too): where `kernel_verdict` finds the
