@@ -94,6 +94,9 @@ CONTACT_PERIODS = 1.0
 periods of the tether's spring (`_contact_clearance`): the contact ignores the walls."""
 TARGET_TOLERANCE = 1e-9
 """Relative: a tautening found this close before the wheel's target is the target itself."""
+AT_ONCE = 1e-9
+"""s: a tether that the free motion pulls taut this soon after the decision (one raised to the
+peg's distance, to rounding) is taut at once, before the wheel, at rest, turns the body."""
 DEFAULT_RHO = 850.0
 RHO_LENGTH, RHO_SPEED = 0.8, START_SPEED[1]
 """The stiffness is the one whose rho (eq. 11) is `rho` for the longest tether at the fastest
@@ -657,12 +660,17 @@ def _fly(s, p, ax, ay, length, alpha, out):
     wheel's plan and turn go into `out`. The body turns at its free spin plus the wheel's
     constant rate (`_wheel_plan`; none without the wheel), and the tether goes taut at the
     first instant the attachment point reaches its length moving away from the peg
-    (`events.time_to_taut_row`, at once if it does so at the decision): at the wheel's target
-    unless the tether goes taut before. The wheel stops there: the puck returned has its free
-    spin."""
+    (`events.time_to_taut_row`): at the wheel's target unless the tether goes taut before. The
+    wheel starts at rest: a tether the free motion pulls at the decision (`AT_ONCE`) is taut
+    at once, and a plan whose turn alone would pull it taut there is dropped. The wheel stops
+    at the tautening: the puck returned has its free spin."""
     target_hits, target_t, target_time, rate, target = -1, math.inf, 0.0, 0.0, alpha
-    if p.reaction_wheel:
+    puck = PuckState(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
+    if p.reaction_wheel and time_to_taut_row(puck, ax, ay, length, ARM, AT_ONCE) == math.inf:
         target_hits, target_t, target_time, rate, target = _wheel_plan(s, p, ax, ay, length, alpha)
+        turning = PuckState(s.x, s.y, s.vx, s.vy, s.angle, s.spin + rate)
+        if time_to_taut_row(turning, ax, ay, length, ARM, AT_ONCE) < math.inf:
+            target_hits, target_t, target_time, rate, target = -1, math.inf, 0.0, 0.0, alpha
     out[OUT.wheel_target], out[OUT.wheel_target_time] = target, target_time
     puck = PuckState(s.x, s.y, s.vx, s.vy, s.angle, s.spin + rate)
     n = _point(out, 0, puck.x, puck.y)
