@@ -275,6 +275,25 @@ def test_the_wheel_keeps_its_rate_and_meets_its_target_unless_pulled_taut_first(
     assert on_target.mean() > 0.3 and met.mean() > 0.1 and out_of_reach.any()
 
 
+def test_the_wheel_cannot_prevent_a_tether_pulling_at_the_decision():
+    """4096 random maneuvers with and without the wheel, from the same states: the tethers
+    taut at once (raised to the peg's distance while the free motion pulls) are the same, at
+    the same offset angle; the wheel, at rest at the decision, can neither prevent nor cause
+    them (about a third of random maneuvers)."""
+    infos = []
+    for wheel in (True, False):
+        envs = TetherNavigateVectorEnv(4096, dynamics="impulse", reaction_wheel=wheel)
+        envs.reset(seed=1)
+        envs.action_space.seed(1)
+        infos.append(envs.step(envs.action_space.sample())[-1])
+    at_once = [info["flight_time"] < 1e-9 for info in infos]
+    np.testing.assert_array_equal(at_once[0], at_once[1])
+    assert 0.1 < at_once[0].mean() < 0.6
+    np.testing.assert_array_equal(infos[0]["wheel_turn"][at_once[0]], 0.0)
+    for key in ("offset_angle", "velocity"):
+        np.testing.assert_array_equal(infos[0][key][at_once[0]], infos[1][key][at_once[0]])
+
+
 @pytest.mark.parametrize(
     ("kwargs", "name"),
     [

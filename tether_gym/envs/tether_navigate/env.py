@@ -75,24 +75,24 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     | 3   | brake         | 0.2        | 1.0        |      | this bounce's restitution e       |
 
     The reaction wheel turns the body relative to its free spin, at a constant rate of at most
-    `wheel_rate` from the decision, and stops at tautening, so the spin at tautening is the
-    free spin and only the orientation changes. It aims at the commanded offset angle: the
-    centre of mass meets the taut tether with that angle on a circle about the peg (radius
+    `wheel_rate` from the decision, and stops at tautening, so the spin at tautening is the free
+    spin and only the orientation changes. It aims at the commanded offset angle: the centre of
+    mass meets the taut tether with that angle on a circle about the peg (radius
     sqrt(L^2 + R^2 + 2 L R cos(alpha))), and the wheel turns the body to the orientation it
     needs where the centre leaves that circle (on the first straight stretch of the flight,
-    between wall bounces, where it can). It aims only where that tautening is robust: the
-    centre crosses the circle, and the tether pulls, at 10% of the speed or more, and the
-    puck's rim is clear of the walls by the way the contact (which ignores walls) can carry
-    it. A commanded angle out of reach is replaced by the nearest one in reach; with none, the
-    wheel stays at rest. The tether goes taut wherever the attachment point first reaches its
-    length moving away from the peg, at once if it does so at the decision (a tether raised
-    to the peg's distance): at the wheel's target unless the turning body pulls it taut first,
-    which no wheel can always prevent. `info` says what happened: `offset_angle` is the angle
-    met, `offset_angle_met` whether it is the command, `wheel_target` and `wheel_target_time`
-    what the wheel aimed at and when (0: nothing), `wheel_turn` its turn beyond the free spin.
-    With `reaction_wheel=False` the orientation turns freely and the offset angle is what it
-    is. A tether not taut within 5 s of flight (or 8 wall bounces) leaves the maneuver
-    unbounced.
+    between wall bounces, where it can). It aims only where that tautening is robust: the centre
+    crosses the circle, and the tether pulls, at 10% of the speed or more, and the puck's rim is
+    clear of the walls by the way the contact (which ignores walls) can carry it. A commanded
+    angle out of reach is replaced by the nearest one in reach; with none, the wheel stays at
+    rest. The tether goes taut wherever the attachment point first reaches its length moving
+    away from the peg, at once if the free motion does so at the decision (a tether raised to
+    the peg's distance; the wheel starts at rest): at the wheel's target unless the turning body
+    pulls it taut first, which no wheel can always prevent. `info` says what happened:
+    `offset_angle` is the angle met, `offset_angle_met` whether it is the command,
+    `wheel_target` and `wheel_target_time` what the wheel aimed at and when (0: nothing),
+    `wheel_turn` its turn beyond the free spin. With `reaction_wheel=False` the orientation
+    turns freely and the offset angle is what it is. A tether not taut within 5 s of flight (or
+    8 wall bounces) leaves the maneuver unbounced.
 
     ## Observation Space
 

@@ -7,21 +7,22 @@ reaction wheel setting its orientation), finds the tautening, runs the contact w
 configured dynamics, releases the tether at its slack instant and scores the maneuver with the
 episode's task (`tasks.navigate`). The world-frame physics is `tether_gym.physics`'s.
 
-Reaction wheel. The wheel plans, then the physics decides (`_fly`). The plan (`_wheel_plan`) is a
-target: where the centre of mass leaves the circle about the peg on which the taut tether makes
-the commanded offset angle (a line-circle intersection per straight stretch of the flight), and
-the constant rate beyond the free spin that turns the body from the decision to the orientation
-needed there, within `wheel_rate`; out of reach, the nearest angle in reach (`_wheel_target`). A
-target must be robust (`CROSSING_MARGIN`, `_contact_clearance`): near a tangent crossing, a
-grazing pull or a wall, the tautening or the contact jumps under any error of the flight (the
-pymunk replay parts from the kernel there). The tautening is then the first instant the
-attachment point of the body turning at the free spin plus that rate reaches the tether's
-length moving away from the peg (`events.time_to_taut_row`, at once if it does at the
-decision), the target unless the tether goes taut first; the wheel stops there, so the contact
-starts with the free spin. Every flight costs one such search, as without the wheel, and the
-target a few closed-form crossings (more when the command is out of reach: the grid nearest the
-command first, then bisection). The impulse contact is instantaneous; the hybrid one ignores the
-walls, so a tautening the wheel did not aim at may still come within its reach of a wall.
+Reaction wheel. The wheel plans, then the physics decides (`_fly`). The plan (`_wheel_plan`) is
+a target: where the centre of mass leaves the circle about the peg on which the taut tether
+makes the commanded offset angle (a line-circle intersection per straight stretch of the
+flight), and the constant rate beyond the free spin that turns the body from the decision to the
+orientation needed there, within `wheel_rate`; out of reach, the nearest angle in reach
+(`_wheel_target`). A target must be robust (`CROSSING_MARGIN`, `_contact_clearance`): near a
+tangent crossing, a grazing pull or a wall, the tautening or the contact jumps under any error
+of the flight (the pymunk replay parts from the kernel there). The tautening is then the first
+instant the attachment point of the body turning at the free spin plus that rate reaches the
+tether's length moving away from the peg (`events.time_to_taut_row`), the target unless the
+tether goes taut first; the wheel starts at rest, so a tether the free motion pulls at the
+decision is taut at once, and it stops at the tautening, so the contact starts with the free
+spin. Every flight costs one such search, as without the wheel, and the target a few closed-form
+crossings (more when the command is out of reach: the grid nearest the command first, then
+bisection). The impulse contact is instantaneous; the hybrid one ignores the walls, so a
+tautening the wheel did not aim at may still come within its reach of a wall.
 
 Placement. Without a layout, the table is cut into `GRID` cells and the pegs, posts, goal and
 start take distinct cells drawn by a partial Fisher-Yates shuffle, each jittered inside its cell:
