@@ -13,13 +13,12 @@ at `wheel_rate`: w = w_free + w_c. Its torque is internal, so the free spin (the
 momentum over I) is what the tether changes. `turn` runs it at a constant rate over a window;
 `aim_at` has it meet an offset angle at a planned tautening: before each free step it predicts
 the tautening from the world's own state (free flight, walls as mirrors, the centre of mass
-meeting alpha's circle about the peg after the given number of wall bounces, at the crossing
-nearest the planned instant) and turns there at a constant rate (the whole turns nearest the
-planned turn's), so errors of the flight are corrected on the way, as TetherNavigate's kernel
-plans it. It stops at the tautening, planned or not: the spin at tautening is the free spin, as
-the kernel has it. Each step adds the
-wheel's mean rate over the part of the step inside its window, so the orientation gained is
-exact; between steps the body holds its free spin.
+meeting alpha's circle about the peg on the straight stretch of the planned instant, at the
+crossing nearest it) and turns there at a constant rate (the whole turns nearest the planned
+turn's), so errors of the flight are corrected on the way, as TetherNavigate's kernel plans it.
+It stops at the tautening, planned or not: the spin at tautening is the free spin, as the kernel
+has it. Each step adds the wheel's mean rate over the part of the step inside its window, so
+the orientation gained is exact; between steps the body holds its free spin.
 
 Integration. While taut, `TAUT_STEPS` steps per half period of the fastest spring, and the
 tension's kicks made second order: Chipmunk's velocity update (symplectic Euler, the tension at
@@ -44,10 +43,9 @@ line from the peg to the attachment point at the current positions, and a drift 
 m v x v = 0. `Maneuver` reports it just before tautening and at release.
 
 Replay (`replay`). Each maneuver's control inputs (`ManeuverPlan`, from a TetherNavigate step's
-info: the hooked peg, the tether's length, the restitution, the offset angle met, the wall
-bounces and the wheel's turn before the tautening, the flight time), flown one after another
-from the episode's start: the world integrates the flight, walls, wheel and contact itself,
-and finds the tautening itself.
+info: the hooked peg, the tether's length, the restitution, the wheel's target and rate), flown
+one after another from the episode's start: the world integrates the flight, walls, wheel and
+contact itself, and finds the tautening itself (the wheel's target, or before it).
 """
 
 from __future__ import annotations
@@ -398,9 +396,10 @@ def replay(
 ) -> list[Maneuver]:
     """Fly `plans` one after another in a `ManeuverWorld` from `start`: the world integrates
     the flight, walls, wheel and contacts; only the control inputs come from the plans. The
-    damper is the hybrid model's for the plan's restitution and offset angle; a plan with a
-    tautening after its start aims the wheel at its offset angle (`aim_at`), and a plan with
-    one flies up to `flight_horizon`, one without its flight time."""
+    damper is the hybrid model's for the plan's restitution and offset angle; a plan whose
+    wheel had a target aims it there (`aim_at`: the target's offset angle and instant, the
+    plan's rate); a plan with a tautening flies up to `flight_horizon`, one without its flight
+    time."""
     world = ManeuverWorld(
         pegs=pegs, table=table, wheel_rate=wheel_rate, mass=mass, radius=radius,
         inertia_ratio=inertia_ratio, offset=offset, stiffness=stiffness,
