@@ -249,6 +249,51 @@ def test_the_wheel_meets_the_commanded_offset_angle_when_it_can():
     assert info["bounced"] and not info["offset_angle_met"]
 
 
+@pytest.mark.parametrize("wheel_rate", [20.0, 2.0])
+def test_the_wheel_keeps_its_rate_and_meets_its_target_unless_pulled_taut_first(wheel_rate):
+    """4096 random maneuvers: the wheel turns the body at most at `wheel_rate` beyond its free
+    spin; a maneuver taut at the wheel's target meets its offset angle, the commanded one when
+    `offset_angle_met`; out of reach (most often at 2 rad/s), the target differs from the
+    command; the orientation at the flight's end is the free spin's plus the wheel's turn."""
+    envs = TetherNavigateVectorEnv(4096, dynamics="impulse", wheel_rate=wheel_rate)
+    envs.reset(seed=0)
+    before = envs.state.copy()
+    envs.action_space.seed(0)
+    actions = envs.action_space.sample()
+    info = envs.step(actions)[-1]
+    commanded = actions[:, 2].astype(np.float64) * math.pi / 2
+    time, turn = info["flight_time"], info["wheel_turn"]
+    assert np.all(np.abs(turn) <= wheel_rate * time * (1 + 1e-12))
+    at_end = before["angle"] + before["spin"] * time + turn  # of the flight, taut or not
+    np.testing.assert_allclose(info["taut_angle"], at_end, rtol=0, atol=1e-9)
+    on_target = info["bounced"] & (time == info["wheel_target_time"]) & (time > 0)
+    assert np.all(info["offset_angle"][on_target] == info["wheel_target"][on_target])
+    met = info["offset_angle_met"]
+    np.testing.assert_allclose(info["offset_angle"][met], commanded[met], rtol=1e-6, atol=1e-6)
+    out_of_reach = on_target & ~met
+    assert np.all(info["wheel_target"][out_of_reach] != commanded[out_of_reach])
+    assert on_target.mean() > 0.3 and met.mean() > 0.1 and out_of_reach.any()
+
+
+def test_the_wheel_cannot_prevent_a_tether_pulling_at_the_decision():
+    """4096 random maneuvers with and without the wheel, from the same states: the tethers
+    taut at once (raised to the peg's distance while the free motion pulls) are the same, at
+    the same offset angle; the wheel, at rest at the decision, can neither prevent nor cause
+    them (about a third of random maneuvers)."""
+    infos = []
+    for wheel in (True, False):
+        envs = TetherNavigateVectorEnv(4096, dynamics="impulse", reaction_wheel=wheel)
+        envs.reset(seed=1)
+        envs.action_space.seed(1)
+        infos.append(envs.step(envs.action_space.sample())[-1])
+    at_once = [info["flight_time"] < 1e-9 for info in infos]
+    np.testing.assert_array_equal(at_once[0], at_once[1])
+    assert 0.1 < at_once[0].mean() < 0.6
+    np.testing.assert_array_equal(infos[0]["wheel_turn"][at_once[0]], 0.0)
+    for key in ("offset_angle", "velocity"):
+        np.testing.assert_array_equal(infos[0][key][at_once[0]], infos[1][key][at_once[0]])
+
+
 @pytest.mark.parametrize(
     ("kwargs", "name"),
     [

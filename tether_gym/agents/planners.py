@@ -1,9 +1,9 @@
 """Model-based planners for TetherNavigate-v0: the analytic yardstick of the navigation tasks.
 
 Both plan with the env's own kernel built with `dynamics="impulse"`: its flight is exact
-(straight lines, wall reflections, the tautening a line-circle intersection met by the reaction
-wheel) and its bounce is the impulse model, so the prediction of a candidate maneuver is one
-row of one batched `NavigateKernel.step`. The candidates come from the closed-form inverse of
+(straight lines, wall reflections, the reaction wheel's plan and the first tautening of the
+turning body) and its bounce is the impulse model, so the prediction of a candidate maneuver
+is one row of one batched `NavigateKernel.step`. The candidates come from the closed-form inverse of
 the bounce (`GreedyPlanner.candidates`); the planners rank their predicted outcomes
 (`GreedyPlanner.costs`):
 

@@ -11,13 +11,14 @@ attachment point reaches the tether's length moving away, it pulls, planned or n
 Reaction wheel. An ideal rate-controlled motor turns the body relative to its free spin, at most
 at `wheel_rate`: w = w_free + w_c. Its torque is internal, so the free spin (the body's angular
 momentum over I) is what the tether changes. `turn` runs it at a constant rate over a window;
-`aim_at` has it meet an offset angle at the tautening: before each free step it predicts the
-tautening from the world's own state (free flight, walls as mirrors, the centre of mass meeting
-alpha's circle about the peg after the given number of wall bounces) and turns there at a
-constant rate, so errors of the flight are corrected on the way. It stops at the tautening:
-the spin at tautening is the free spin, as TetherNavigate's kernel has it. Each step adds the
-wheel's mean rate over the part of the step inside its window, so the orientation gained is
-exact; between steps the body holds its free spin.
+`aim_at` has it meet an offset angle at a planned tautening: before each free step it predicts
+the tautening from the world's own state (free flight, walls as mirrors, the centre of mass
+meeting alpha's circle about the peg on the straight stretch of the planned instant, at the
+crossing nearest it) and turns there at a constant rate (the whole turns nearest the planned
+turn's), so errors of the flight are corrected on the way, as TetherNavigate's kernel plans it.
+It stops at the tautening, planned or not: the spin at tautening is the free spin, as the kernel
+has it. Each step adds the wheel's mean rate over the part of the step inside its window, so
+the orientation gained is exact; between steps the body holds its free spin.
 
 Integration. While taut, `TAUT_STEPS` steps per half period of the fastest spring, and the
 tension's kicks made second order: Chipmunk's velocity update (symplectic Euler, the tension at
@@ -42,9 +43,9 @@ line from the peg to the attachment point at the current positions, and a drift 
 m v x v = 0. `Maneuver` reports it just before tautening and at release.
 
 Replay (`replay`). Each maneuver's control inputs (`ManeuverPlan`, from a TetherNavigate step's
-info: the hooked peg, the tether's length, the restitution, the offset angle met, the wall
-bounces before the tautening), flown one after another from the episode's start: the world
-integrates the flight, walls, wheel and contact itself.
+info: the hooked peg, the tether's length, the restitution, the wheel's target and rate), flown
+one after another from the episode's start: the world integrates the flight, walls, wheel and
+contact itself, and finds the tautening itself (the wheel's target, or before it).
 """
 
 from __future__ import annotations
@@ -63,15 +64,16 @@ from tether_gym.physics.events import (
     time_to_wall_row,
     wall_bounce_row,
 )
-from tether_gym.physics.geometry import fold_angle
 from tether_gym.physics.hybrid import contact_budget
 from tether_gym.physics.pymunk_world import Table, TetherWorld, tether_damping
 from tether_gym.physics.state import PuckState
 
-TAUT_STEPS = 256
+TAUT_STEPS = 1024
 """Steps per half period of the fastest spring while taut (`TetherWorld`'s 64 are enough for one
-contact; chains of maneuvers with 5 s flights carry its errors further: over 100 replayed
-episodes the worst maneuver errs 3 mm at 64 steps, 0.8 mm at 256)."""
+contact; chains of maneuvers with 5 s flights carry its errors further, and a fast-spinning
+puck's contact converges to the hybrid model's at first order in the step (seed 40's first
+maneuver: 1.4e-4 of the speed at 256 steps, 3.5e-5 at 1024, 8.8e-6 at 4096); over 100
+replayed episodes the worst maneuver errs 3.5 mm at 256 steps, 0.9 mm at 1024)."""
 TAUT_LANDING = 1e-3
 """A step about to carry the tether taut ends this fraction of the taut step short of the
 predicted tautening, and the tether is crossed in steps of that sliver: the tension (the
@@ -124,8 +126,8 @@ class ManeuverWorld(TetherWorld):
         self.wheel = (0.0, 0.0, 0.0)
         """(start, end, rate): the wheel turns the body at `rate` beyond its free spin over
         [start, end] of the world clock."""
-        self.aim: tuple[float, int] | None = None
-        """(offset angle, wall hits): the wheel's goal, see `aim_at`."""
+        self.aim: tuple[float, float, float] | None = None
+        """(offset angle, world time, rate): the wheel's goal, see `aim_at`."""
         self.epoch = 0.0
         """s, world clock: the instant the current maneuver began (the last one ended)."""
         self.wall_hits = 0
@@ -170,24 +172,29 @@ class ManeuverWorld(TetherWorld):
         rate = min(max(check_float("angle", angle) / duration, -self.wheel_rate), self.wheel_rate)
         self.wheel = (self.time, self.time + duration, rate)
 
-    def aim_at(self, offset_angle: float, wall_hits: int = 0) -> None:
+    def aim_at(self, offset_angle: float, time: float, rate: float) -> None:
         """Have the wheel meet `offset_angle` (the paper's alpha) at the next maneuver's
-        tautening, on its flight's straight segment after `wall_hits` wall bounces: before
-        every free step, the tautening is predicted by free flight from the world's state
-        (walls as mirrors, the centre of mass meeting alpha's circle about the peg, as
-        `tautening_angle`) and the wheel set to `turn` there at a constant rate."""
-        self.aim = (check_float("offset_angle", offset_angle), self.wall_hits + int(wall_hits))
+        tautening, planned `time` seconds from now, turning the body beyond its free spin at
+        about `rate`: before every free step, the tautening is predicted by free flight from the
+        world's state (walls as mirrors, the centre of mass meeting alpha's circle about the
+        peg on the straight stretch of the planned instant, at the crossing nearest it, as
+        `tautening_angle`) and the wheel set to `turn` there at a constant rate, by the turn
+        nearest the planned one (the plan picks the crossing and the turn's direction)."""
+        self.aim = (
+            check_float("offset_angle", offset_angle),
+            self.time + check_float("time", time, 0.0, INF, low_open=True),
+            check_float("rate", rate),
+        )
 
     def _reaim(self) -> None:
         """`turn` towards the aim's predicted tautening, if the world's flight meets it."""
-        (alpha, hits), state = self.aim, self.state
-        puck, elapsed = state, 0.0
-        for _ in range(hits - self.wall_hits):
-            t, wall = self._time_to_wall(puck)
-            if t == INF:
-                return
-            puck = wall_bounce_row(free_flight_row(puck, t), wall, self.table.elasticity)
-            elapsed += t
+        (alpha, when, rate), state = self.aim, self.state
+        puck, elapsed, planned = state, 0.0, when - self.time
+        while (wall_hit := self._time_to_wall(puck))[0] < planned - elapsed:
+            puck = wall_bounce_row(
+                free_flight_row(puck, wall_hit[0]), wall_hit[1], self.table.elasticity
+            )
+            elapsed += wall_hit[0]
         px, py = puck.x - self.anchor[0], puck.y - self.anchor[1]
         length, arm = self.tether_length, self.arm
         radius2 = length * length + arm * arm + 2.0 * length * arm * math.cos(alpha)
@@ -195,12 +202,17 @@ class ManeuverWorld(TetherWorld):
         disc = b * b - v2 * (px * px + py * py - radius2)
         if v2 == 0.0 or disc < 0.0:
             return
-        t = (math.sqrt(disc) - b) / v2  # the outward crossing
+        roots = ((-b - math.sqrt(disc)) / v2, (math.sqrt(disc) - b) / v2)
+        t = min(
+            (t for t in roots if t >= 0.0), key=lambda t: abs(elapsed + t - planned), default=-1.0
+        )
         if t < 0.0 or elapsed + t == 0.0:
             return
         body = tautening_angle((px + puck.vx * t, py + puck.vy * t), length, arm, alpha)
         elapsed += t
-        self.turn(fold_angle(body - state.angle - state.spin * elapsed), elapsed)
+        turn = body - state.angle - state.spin * elapsed
+        turn -= 2.0 * math.pi * round((turn - rate * elapsed) / (2.0 * math.pi))
+        self.turn(turn, elapsed)
 
     def reach(self) -> float:
         """`TetherWorld.reach`, with the wheel's rate."""
@@ -320,6 +332,14 @@ class ManeuverPlan:
     """The brake: the contact's e."""
     offset_angle: float
     """rad: the paper's alpha met at tautening."""
+    wheel_target: float
+    """rad: the offset angle the wheel aimed at (the one met unless the tether went taut
+    first)."""
+    wheel_target_time: float
+    """s: from the decision to the wheel's target (0: it had none)."""
+    wheel_turn: float
+    """rad: the wheel's turn of the body beyond its free spin, at a constant rate over the
+    flight."""
     flight_time: float
     """s: from the decision to the tautening (to the end, without one)."""
     wall_hits: int
@@ -338,6 +358,9 @@ class ManeuverPlan:
             tether_length=float(info["tether_length"]),
             restitution=float(info["restitution"]),
             offset_angle=float(info["offset_angle"]),
+            wheel_target=float(info["wheel_target"]),
+            wheel_target_time=float(info["wheel_target_time"]),
+            wheel_turn=float(info["wheel_turn"]),
             flight_time=float(info["flight_time"]),
             wall_hits=int(info["wall_hits"]),
             taut_point=(float(point[0]), float(point[1])) if taut else None,
@@ -373,9 +396,10 @@ def replay(
 ) -> list[Maneuver]:
     """Fly `plans` one after another in a `ManeuverWorld` from `start`: the world integrates
     the flight, walls, wheel and contacts; only the control inputs come from the plans. The
-    damper is the hybrid model's for the plan's restitution and offset angle; a plan with a
-    tautening aims the wheel at its offset angle (`aim_at`) and flies up to `flight_horizon`,
-    one without flies its flight time."""
+    damper is the hybrid model's for the plan's restitution and offset angle; a plan whose
+    wheel had a target aims it there (`aim_at`: the target's offset angle and instant, the
+    plan's rate); a plan with a tautening flies up to `flight_horizon`, one without its flight
+    time."""
     world = ManeuverWorld(
         pegs=pegs, table=table, wheel_rate=wheel_rate, mass=mass, radius=radius,
         inertia_ratio=inertia_ratio, offset=offset, stiffness=stiffness,
@@ -387,7 +411,9 @@ def replay(
         damping = tether_damping(stiffness, plan.restitution, mass, inertia_ratio, moment_arm)
         horizon = plan.flight_time
         if plan.taut_point is not None:
-            world.aim_at(plan.offset_angle, plan.wall_hits)
+            if plan.flight_time > 0.0 and plan.wheel_target_time > 0.0:
+                rate = plan.wheel_turn / plan.flight_time
+                world.aim_at(plan.wheel_target, plan.wheel_target_time, rate)
             horizon = flight_horizon
         peg = world.pegs.index(plan.anchor)
         done.append(world.maneuver(peg, plan.tether_length, damping, horizon))

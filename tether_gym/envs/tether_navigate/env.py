@@ -74,13 +74,25 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     | 2   | offset angle  | -pi/2      | pi/2       | rad  | the paper's alpha at tautening    |
     | 3   | brake         | 0.2        | 1.0        |      | this bounce's restitution e       |
 
-    The reaction wheel turns the body relative to its free spin at most at `wheel_rate` and
-    returns to rest before tautening, so the spin at tautening is the free spin and only the
-    orientation changes; the centre of mass then meets the taut tether on a circle about the
-    peg (radius sqrt(L^2 + R^2 + 2 L R cos(alpha))). A commanded angle the wheel cannot reach
-    in time is replaced by the nearest one it can (`info["offset_angle_met"]` is False). With
-    `reaction_wheel=False` the orientation turns freely and the offset angle is what it is.
-    A tether not taut within 5 s of flight (or 8 wall bounces) leaves the maneuver unbounced.
+    The reaction wheel turns the body relative to its free spin, at a constant rate of at most
+    `wheel_rate` from the decision, and stops at tautening, so the spin at tautening is the free
+    spin and only the orientation changes. It aims at the commanded offset angle: the centre of
+    mass meets the taut tether with that angle on a circle about the peg (radius
+    sqrt(L^2 + R^2 + 2 L R cos(alpha))), and the wheel turns the body to the orientation it
+    needs where the centre leaves that circle (on the first straight stretch of the flight,
+    between wall bounces, where it can). It aims only where that tautening is robust: the centre
+    crosses the circle, and the tether pulls, at 10% of the speed or more, and the puck's rim is
+    clear of the walls by the way the contact (which ignores walls) can carry it. A commanded
+    angle out of reach is replaced by the nearest one in reach; with none, the wheel stays at
+    rest. The tether goes taut wherever the attachment point first reaches its length moving
+    away from the peg, at once if the free motion does so at the decision (a tether raised to
+    the peg's distance; the wheel starts at rest): at the wheel's target unless the turning body
+    pulls it taut first, which no wheel can always prevent. `info` says what happened:
+    `offset_angle` is the angle met, `offset_angle_met` whether it is the command,
+    `wheel_target` and `wheel_target_time` what the wheel aimed at and when (0: nothing),
+    `wheel_turn` its turn beyond the free spin. With `reaction_wheel=False` the orientation
+    turns freely and the offset angle is what it is. A tether not taut within 5 s of flight (or
+    8 wall bounces) leaves the maneuver unbounced.
 
     ## Observation Space
 
@@ -123,11 +135,11 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     `info` after each step: `is_success`, `position` (2,), `velocity` (2,), `angle`, `spin`
     (the puck after the maneuver), `anchor` (2,) (the hooked peg), `taut_velocity` (2,),
     `taut_angle`, `taut_spin` (the puck at tautening, or where the flight ended), `bounced`,
-    `completed`,
-    `tether_length`, `tether_angle` and `offset_angle` met at tautening (the paper's beta
-    from the incoming velocity, and alpha), `offset_angle_met`, `restitution`, `flight_time`
-    (s), `wall_hits`, `at_rest`, `hit_post`, `maneuvers_left`, `path` (11, 2) (start, wall
-    hits, tautening, slack instant, padded with the last point) and `reward_terms`.
+    `completed`, `tether_length`, `tether_angle` and `offset_angle` met at tautening (the
+    paper's beta from the incoming velocity, and alpha), `offset_angle_met`, `wheel_target`
+    (rad), `wheel_target_time` (s), `wheel_turn` (rad), `restitution`, `flight_time` (s),
+    `wall_hits`, `at_rest`, `hit_post`, `maneuvers_left`, `path` (11, 2) (start, wall hits,
+    tautening, slack instant, padded with the last point) and `reward_terms`.
 
     ## Arguments
 

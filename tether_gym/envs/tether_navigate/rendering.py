@@ -17,10 +17,9 @@ only; the timing between them is replayed: the puck glides uniformly between wal
 its velocity after each hit is the physics' wall law (`events.wall_bounce_row`, the env's
 `wall_restitution`) applied to the velocity of the state the step started from, so the time of
 each segment is exact, the last one (to the tautening) taking what is left of `flight_time`.
-The orientation is the free spin (unchanged by the frictionless walls) plus the reaction
-wheel's turn to the body angle met at tautening (from the step's beta and alpha); the wheel is
-drawn turning at its full `wheel_rate` from the decision until it is done, one admissible
-profile among many (the kernel only bounds the rate). During the contact the centre of mass is
+The orientation is exact in flight: the free spin (unchanged by the frictionless walls) plus
+the reaction wheel's turn (`info["wheel_turn"]`) at the kernel's constant rate from the
+decision to the tautening. During the contact the centre of mass is
 drawn on the chord from the tautening point to the slack point and the orientation turns at a
 constant rate to the outcome's (the hybrid contact's true arc and spin history are not kept).
 A fast spin may alias at the render rate.
@@ -60,7 +59,6 @@ from tether_gym.envs.tether_navigate.kernel import (
     NavigateConfig,
 )
 from tether_gym.physics.events import time_to_wall_row, wall_bounce_row
-from tether_gym.physics.frames import launch_angle, launch_rotation
 from tether_gym.physics.geometry import fold_angle
 from tether_gym.physics.state import PuckState
 from tether_gym.tasks.navigate import GOAL_RADIUS
@@ -200,9 +198,9 @@ def _result(state: np.void, outcome: np.ndarray) -> Lines:
 
 def flight_times(
     path: np.ndarray, velocity: tuple[float, float], flight_time: float, restitution: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """The instants (s) at the points of a flight's path (start, wall hits, end) and the
-    velocity on its last segment, replaying the wall law from the start's `velocity`."""
+) -> np.ndarray:
+    """The instants (s) at the points of a flight's path (start, wall hits, end), replaying
+    the wall law from the start's `velocity`."""
     vx, vy = velocity
     times = np.zeros(len(path))
     for k in range(1, len(path) - 1):  # each inner point a wall hit
@@ -214,7 +212,7 @@ def flight_times(
             PuckState(*path[k], vx, vy, 0.0, 0.0), wall, restitution
         )
     times[-1] = flight_time
-    return times, np.array([vx, vy])
+    return times
 
 
 class Maneuver:
@@ -233,7 +231,7 @@ class Maneuver:
         bounced = bool(outcome[OUT.bounced])
         flight = path[: int(outcome[OUT.wall_hits]) + 2]
         duration = float(outcome[OUT.flight_time])
-        times, velocity = flight_times(
+        times = flight_times(
             flight, (before["vx"], before["vy"]), duration, config.wall_restitution
         )
         self.factor = max(1, math.ceil(duration / FLIGHT_PLAY))
@@ -244,15 +242,12 @@ class Maneuver:
         com = np.column_stack([np.interp(self.t, times, flight[:, k]) for k in (0, 1)])
         self.passed = np.searchsorted(times, self.t, side="right")
         """The path's points behind the puck at each flight frame."""
-        orientation = before["angle"] + before["spin"] * self.t  # the free spin
+        # the free spin and the wheel's constant rate
+        wheel = outcome[OUT.wheel_turn] / duration if duration > 0.0 else 0.0
+        orientation = before["angle"] + (before["spin"] + wheel) * self.t
         n_contact = CONTACT_FRAMES if bounced else 0
         if bounced:
-            taut_angle = launch_angle(
-                outcome[OUT.tether_angle], outcome[OUT.offset_angle]
-            ) - launch_rotation(*velocity)
-            turn = fold_angle(taut_angle - before["angle"] - before["spin"] * duration)
-            wheel = np.minimum(abs(turn), config.wheel_rate * self.t)
-            orientation = orientation + math.copysign(1.0, turn) * wheel
+            taut_angle = outcome[OUT.taut_angle]
             s = np.linspace(0.0, 1.0, n_contact)[:, None]
             com = np.vstack([com, flight[-1] + s * (path[len(flight)] - flight[-1])])
             spun = fold_angle(outcome[OUT.angle] - taut_angle)
