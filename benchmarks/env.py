@@ -11,7 +11,7 @@ which adds Gymnasium's sampling: about 13 us per call for TetherBounce's Box of 
 (45 us for the vector env's 1024 x 4), against about 1 us for CartPole's Discrete (4 us
 batched), i.e. more than the TetherBounce step itself.
 
-    python benchmarks/env.py [--quick] [--json]
+    python benchmarks/env.py [--quick] [--json] [--only NAME]
 
 `benchmarks/env_against.py` runs these cases against another revision in the same run.
 """
@@ -65,6 +65,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=7, help="repeats per case (median)")
     parser.add_argument("--num-envs", type=int, default=1024, help="copies in the vector envs")
     parser.add_argument("--json", action="store_true", help="print the rates as JSON only")
+    parser.add_argument("--only", default="", help="run only the cases whose name holds this")
     args = parser.parse_args()
     repeats = 2 if args.quick else args.repeats
     single, vector, n = (2_000, 20, args.num_envs) if args.quick else (50_000, 300, args.num_envs)
@@ -94,6 +95,9 @@ def main() -> None:
     }
     if "TetherNavigate-v0" in gym.registry:  # absent from revisions before it
         cases.update({
+            "TetherNavigate-v0 impulse (gym.make)": (
+                single_steps_per_second, lambda: gym.make("TetherNavigate-v0", dynamics="impulse")
+            ),
             "TetherNavigate-v0 hybrid (gym.make)": (
                 single_steps_per_second, lambda: gym.make("TetherNavigate-v0")
             ),
@@ -104,6 +108,7 @@ def main() -> None:
                 vector_steps_per_second, lambda: make_vec("TetherNavigate-v0")
             ),
         })  # fmt: skip
+    cases = {name: case for name, case in cases.items() if args.only in name}
     for measure, make in cases.values():  # warm-up: numba compiles or loads its cache
         measure(make(), 5, predrawn=True)
     rates = {}
@@ -120,16 +125,18 @@ def main() -> None:
         print(harness)
         for name, value in rate.items():
             print(f"  {name:38s} {value:>14,.0f} steps/s (median of {repeats})")
+        for name, target in NAVIGATE_TARGETS.items():
+            if any(case.startswith(name) for case in rate):
+                value = next(v for case, v in rate.items() if case.startswith(name))
+                print(f"  {name:36s} {value:>10,.0f} steps/s  (target >= {target:,})")
+        if args.only:
+            continue
         cart, imp, hyb, cart_vec, vec_imp, vec_hyb = list(rate.values())[:6]
         print(f"  single impulse / CartPole-v1        {imp / cart:6.2f}x  (target >= 0.3)")
         print(f"  single hybrid / CartPole-v1         {hyb / cart:6.2f}x")
         print(f"  vector impulse / CartPoleVectorEnv  {vec_imp / cart_vec:6.2f}x  (target >= 0.5)")
         print(f"  vector hybrid / CartPoleVectorEnv   {vec_hyb / cart_vec:6.2f}x  "
               f"({vec_hyb:,.0f} env-steps/s, target >= 200,000)")  # fmt: skip
-        for name, target in NAVIGATE_TARGETS.items():
-            if any(case.startswith(name) for case in rate):
-                value = next(v for case, v in rate.items() if case.startswith(name))
-                print(f"  {name:36s} {value:>10,.0f} steps/s  (target >= {target:,})")
 
 
 if __name__ == "__main__":
