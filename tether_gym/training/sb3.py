@@ -3,8 +3,11 @@
 SB3 does not accept a Gymnasium `VectorEnv`: it wants `reset()` without arguments, the
 `step_async`/`step_wait` pair, `dones` instead of terminated/truncated, and a list of
 per-copy info dicts holding `terminal_observation` for every finished episode. The native
-`TetherBounceVectorEnv` steps every copy in one batched call with same-step autoreset, so this
-adapter only reshapes its output: no Python loop runs the environment.
+vector envs (`TetherBounceVectorEnv`, `TetherNavigateVectorEnv`) step every copy in one batched
+call with same-step autoreset, so this adapter only reshapes their output: no Python loop runs
+the environment. Goal-conditioned envs (Dict observations) pass through as they are, their
+`final_obs` split per copy, and the info entries their `compute_reward` reads are copied, so
+that SB3's `HerReplayBuffer` (with `copy_info_dict=True`) relabels goals exactly.
 
 Needs the optional extra "train" (stable-baselines3); `import tether_gym` does not import it.
 """
@@ -17,8 +20,16 @@ import gymnasium as gym
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
-INFO_KEYS = ("is_success", "heading_error", "speed_error", "residual_speed", "bounced")
-"""Per-episode outcomes copied into SB3's info dicts (`is_success` feeds its success rate)."""
+INFO_KEYS = (
+    "is_success", "heading_error", "speed_error", "residual_speed", "bounced",
+    "path", "at_rest", "hit_post", "maneuvers_left",
+)  # fmt: skip
+"""Outcomes copied into SB3's per-copy info dicts, those the env has: `is_success` feeds SB3's
+success rate; TetherNavigate's `path`, `at_rest`, `hit_post` and `maneuvers_left` are what its
+`compute_reward`, `compute_terminated` and `compute_truncated` read (hindsight relabeling)."""
+PURE_METHODS = ("compute_reward", "compute_terminated", "compute_truncated")
+"""Methods that change nothing: `env_method` calls them for any subset of the copies (SB3's
+`HerReplayBuffer` calls `compute_reward` with `indices=[0]`)."""
 
 
 class SB3VecEnv(VecEnv):
@@ -52,13 +63,17 @@ class SB3VecEnv(VecEnv):
     def step_wait(self) -> VecEnvStepReturn:
         obs, rewards, terminated, truncated, info = self.venv.step(self._actions)
         dones = terminated | truncated
-        columns = {key: np.asarray(info[key]).tolist() for key in INFO_KEYS if key in info}
+        columns = {key: _per_copy(info[key]) for key in INFO_KEYS if key in info}
         final_obs = info["final_obs"]
         infos = []
         for i in range(self.num_envs):
             entry = {key: column[i] for key, column in columns.items()}
             if dones[i]:
-                entry["terminal_observation"] = final_obs[i]
+                entry["terminal_observation"] = (
+                    {key: value[i] for key, value in final_obs.items()}
+                    if isinstance(final_obs, dict)
+                    else final_obs[i]
+                )
                 entry["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
             infos.append(entry)
         return obs, rewards.astype(np.float32), dones, infos
@@ -77,10 +92,12 @@ class SB3VecEnv(VecEnv):
     def env_method(
         self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs
     ) -> list[Any]:
-        """Call the method once on the vector env; every copy gets its result."""
-        self._all_copies(indices, "env_method")
+        """Call the method once on the vector env; every copy asked for gets its result. A
+        method that changes the env applies to all copies at once (`PURE_METHODS` to any)."""
+        if method_name not in PURE_METHODS:
+            self._all_copies(indices, "env_method")
         result = getattr(self.venv, method_name)(*method_args, **method_kwargs)
-        return [result for _ in range(self.num_envs)]
+        return [result for _ in self._get_indices(indices)]
 
     def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None):
         return [False for _ in self._get_indices(indices)]
@@ -89,6 +106,13 @@ class SB3VecEnv(VecEnv):
         """The copies share one vector env: changing some of them alone is not possible."""
         if indices is not None and sorted(self._get_indices(indices)) != list(range(self.num_envs)):
             raise ValueError(f"{what} applies to all copies at once; got indices={indices!r}")
+
+
+def _per_copy(values) -> list:
+    """An info entry of the vector env as one value per copy: Python scalars, or the rows of
+    an array entry (a maneuver's path), copied off the step's arrays."""
+    values = np.asarray(values)
+    return values.tolist() if values.ndim == 1 else list(values.copy())
 
 
 def make_sb3_vec_env(

@@ -1,8 +1,10 @@
-"""Train PPO or SAC (stable-baselines3) on TetherBounce-v0 and compare it with the oracles.
+"""Train PPO or SAC (stable-baselines3) on a tether env and compare it with its yardsticks.
 
     tether-train                                     # the default run (`make train`)
     tether-train --rho 5 100                         # the low-stiffness configuration
     tether-train --algo sac                          # SAC instead of PPO
+    tether-train --env TetherNavigate-v0 --env-kwargs n_obstacles:3   # maneuvering
+    tether-train --algo sac --env TetherNavigateSparse-v0             # SAC + HER
     tether-train --resume runs/<name>                # continue an interrupted run
 
 (`python train.py ...` from a clone's root is the same command.) `--algo` picks the algorithm
@@ -10,14 +12,15 @@
 rl-baselines3-zoo's format (keyed by env id, `lin_<x>` for a linear schedule, `policy_kwargs` as a
 Python expression), or `--conf-file`, and `--hyperparams key:value ...` overrides them. The native
 vector env feeds SB3 through `tether_gym.training.sb3`. Every `--eval-freq` timesteps the
-deterministic policy plays the same fixed, seeded episodes as the impulse oracle; the best policy
-so far and the last one are kept in `runs/<name>/best/` and `runs/<name>/last/` (model.zip,
-config.yaml, vecnormalize.pkl if used, replay_buffer.pkl for SAC), TensorBoard logs in
-`runs/<name>/tb/`. At the end the policy, the impulse oracle, the shooting oracle and a random
-agent play the same fresh test episodes and the table is printed and saved to
-`runs/<name>/results.md`. Ctrl-C saves the last model before exiting, and so does every periodic
-evaluation (a killed run resumes from its last evaluation); an existing run is never overwritten
-without `--overwrite`.
+deterministic policy plays the same fixed, seeded episodes as the env's yardstick (`yardstick`:
+TetherBounce's impulse oracle, TetherNavigate's greedy planner); the best policy so far and the
+last one are kept in `runs/<name>/best/` and `runs/<name>/last/` (model.zip, config.yaml,
+vecnormalize.pkl if used, replay_buffer.pkl for SAC), TensorBoard logs in `runs/<name>/tb/`. At
+the end the policy and the env's baselines (`baselines`: the impulse and shooting oracles, or
+the greedy and lookahead planners; and a random agent) play the same fresh test episodes and
+the table is printed and saved to `runs/<name>/results.md`. Ctrl-C saves the last model before
+exiting, and so does every periodic evaluation (a killed run resumes from its last evaluation);
+an existing run is never overwritten without `--overwrite`.
 
 `train(config, run_dir)` is that whole run for callers that make their own configs (a sweep's
 trials): `make_config` gives the schema, saved as `config.yaml`, and `check_run` the checks.
@@ -30,22 +33,33 @@ import inspect
 import shutil
 import sys
 import time
+import warnings
 from collections.abc import Callable
 from importlib.resources import files
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import gymnasium as gym
 import torch
 import yaml
-from stable_baselines3 import PPO, SAC
+from gymnasium.envs.registration import load_env_creator
+from stable_baselines3 import PPO, SAC, HerReplayBuffer
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.utils import LinearSchedule
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
-from tether_gym.agents.evaluate import EvalResult, SB3Agent, evaluate, format_table
+from tether_gym.agents.evaluate import (
+    EvalResult,
+    NavigationResult,
+    SB3Agent,
+    evaluate,
+    format_table,
+    navigates,
+)
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
+from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner
 from tether_gym.agents.random_agent import RandomAgent
 from tether_gym.cli import (
     DEFAULT_ENV_ID,
@@ -55,6 +69,7 @@ from tether_gym.cli import (
     env_from_args,
     given_env_options,
 )
+from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.sb3 import make_sb3_vec_env
 
 if TYPE_CHECKING:
@@ -85,6 +100,10 @@ RESUME_OPTIONS = ("timesteps", "eval_episodes", "eval_freq")
 """The options a resumed run may change."""
 REPLAY_BUFFER = "replay_buffer.pkl"
 """An off-policy algorithm's replay buffer in `last/`."""
+REPLAY_BUFFERS = {"HerReplayBuffer": HerReplayBuffer}
+"""`replay_buffer_class` names a zoo entry may give (hindsight relabeling for goal envs)."""
+EXPRESSION_NAMES = {"dict": dict, "nn": torch.nn, "NavigateExtractor": NavigateExtractor}
+"""What a zoo expression (`policy_kwargs`, `replay_buffer_kwargs`) may name."""
 
 
 def parse_overrides(items: list[str]) -> dict[str, Any]:
@@ -126,20 +145,27 @@ def schedule(value: Any) -> Any:
 
 
 def expression(text: str) -> Any:
-    """The zoo's convention for dict values: a Python expression, e.g. "dict(net_arch=[64])"."""
-    return eval(text, {"__builtins__": {}, "dict": dict, "nn": torch.nn})
+    """The zoo's convention for dict values: a Python expression, e.g. "dict(net_arch=[64])",
+    over `EXPRESSION_NAMES`."""
+    return eval(text, {"__builtins__": {}, **EXPRESSION_NAMES})
 
 
 def algo_kwargs(params: dict[str, Any]) -> dict[str, Any]:
-    """The algorithm's keyword arguments in a zoo entry (schedules and policy_kwargs
-    evaluated)."""
+    """The algorithm's keyword arguments in a zoo entry (schedules, policy_kwargs and
+    replay_buffer_kwargs evaluated, replay_buffer_class by name)."""
     kwargs = {k: v for k, v in params.items() if k not in ZOO_KEYS}
     try:
         for key in ("learning_rate", "clip_range", "clip_range_vf"):
             if kwargs.get(key) is not None:
                 kwargs[key] = schedule(kwargs[key])
-        if isinstance(kwargs.get("policy_kwargs"), str):
-            kwargs["policy_kwargs"] = expression(kwargs["policy_kwargs"])
+        for key in ("policy_kwargs", "replay_buffer_kwargs"):
+            if isinstance(kwargs.get(key), str):
+                kwargs[key] = expression(kwargs[key])
+        buffer = kwargs.get("replay_buffer_class")
+        if isinstance(buffer, str):
+            if buffer not in REPLAY_BUFFERS:
+                raise ValueError(f"replay_buffer_class must be one of {sorted(REPLAY_BUFFERS)}")
+            kwargs["replay_buffer_class"] = REPLAY_BUFFERS[buffer]
         if isinstance(params.get("normalize"), str):
             expression(params["normalize"])
     except Exception as error:
@@ -226,11 +252,25 @@ def label(config: dict[str, Any]) -> str:
     return config["algo"].upper()
 
 
+def env_defaults(env_id: str) -> dict[str, Any]:
+    """The keyword defaults of a registered env (its class's, then its registration's);
+    TetherBounce-v0's for an id that is not registered."""
+    try:
+        spec = gym.spec(env_id)
+    except gym.error.Error:
+        return ENV_DEFAULTS
+    creator = load_env_creator(spec.entry_point) if isinstance(spec.entry_point, str) else None
+    parameters = inspect.signature(creator).parameters.values() if creator else ()
+    defaults = {p.name: p.default for p in parameters if p.default is not p.empty}
+    return {**defaults, **spec.kwargs}
+
+
 def default_name(env_id: str, env_kwargs: dict[str, Any], seed: int, algo: str = "ppo") -> str:
     """runs/<name>: `<algo>_<task>_<dynamics>` (after the env id if not the default), the other
     env arguments given, and the seed."""
     parts = [algo] if env_id == DEFAULT_ENV_ID else [algo, env_id]
-    parts += [str(env_kwargs.get(key, ENV_DEFAULTS[key])) for key in ("task", "dynamics")]
+    defaults = env_defaults(env_id)
+    parts += [str(env_kwargs.get(key, defaults.get(key))) for key in ("task", "dynamics")]
     for key, value in env_kwargs.items():
         if key not in ("task", "dynamics"):
             values = value if isinstance(value, list) else [value]
@@ -284,12 +324,36 @@ def as_agent(model: BaseAlgorithm) -> SB3Agent:
     return SB3Agent(model, model.get_vec_normalize_env())
 
 
+def yardstick(config: dict[str, Any]) -> tuple[str, object]:
+    """The baseline the periodic evaluations compare with: TetherBounce's impulse oracle, or
+    TetherNavigate's greedy planner (`navigates`)."""
+    if navigates(config["env_id"]):
+        return "greedy planner", GreedyPlanner(config["env_kwargs"])
+    return "impulse oracle", ImpulseOracle()
+
+
+def baselines(config: dict[str, Any]) -> dict[str, object]:
+    """The agents of the final table besides the policy: the oracles (TetherBounce) or the
+    planners (TetherNavigate), and random."""
+    env_kwargs = config["env_kwargs"]
+    if navigates(config["env_id"]):
+        agents = {"greedy planner": GreedyPlanner(env_kwargs)}
+        agents["lookahead planner"] = LookaheadPlanner(env_kwargs)
+    else:
+        agents = {"impulse oracle": ImpulseOracle()}
+        agents["shooting oracle"] = ShootingOracle(env_kwargs)
+    return {**agents, "random": RandomAgent(config["seed"])}
+
+
 class OracleEvalCallback(BaseCallback):
-    """Every `eval_freq` timesteps: the policy vs the impulse oracle on the same seeded episodes.
+    """Every `eval_freq` timesteps: the policy vs the env's `yardstick` on the same seeded
+    episodes.
 
     Logs both success rates to TensorBoard, prints a line, saves the last model and the best
     one, and hands the numbers to `report` (after saving: a sweep reports `last/` as the
-    trial's checkpoint).
+    trial's checkpoint). The numbers are the success rates (the yardstick's as
+    `oracle_success_rate` or `planner_success_rate`), the return, and the heading error
+    (TetherBounce) or the final distance and maneuvers to the goal (TetherNavigate).
     """
 
     def __init__(
@@ -306,16 +370,17 @@ class OracleEvalCallback(BaseCallback):
         self.episodes = config["eval_episodes"]
         self.freq = config["eval_freq"] or 2 * config["timesteps"]  # 0: never
         self.next_eval = self.last_eval = 0
+        self.yardstick, self.baseline = yardstick(config)
         self.oracle_rate = float("nan")
 
-    def _evaluate(self, name: str, agent: object) -> EvalResult:
+    def _evaluate(self, name: str, agent: object) -> EvalResult | NavigationResult:
         (result,) = evaluate(
             {name: agent}, self.env_kwargs, self.episodes, EVAL_SEED, env_id=self.env_id
         )
         return result
 
     def _on_training_start(self) -> None:
-        self.oracle_rate = self._evaluate("impulse oracle", ImpulseOracle()).success_rate
+        self.oracle_rate = self._evaluate(self.yardstick, self.baseline).success_rate
         self.next_eval = self.num_timesteps + self.freq
 
     def _on_step(self) -> bool:
@@ -327,13 +392,15 @@ class OracleEvalCallback(BaseCallback):
     def run_eval(self) -> None:
         self.last_eval = self.num_timesteps
         policy = self._evaluate(self.label, as_agent(self.model))
-        numbers = {
-            "timesteps": self.num_timesteps,
-            "success_rate": policy.success_rate,
-            "oracle_success_rate": self.oracle_rate,
-            "heading_error_mean_deg": policy.heading_error_mean_deg,
-            "reward_mean": policy.reward_mean,
-        }
+        numbers = {"timesteps": self.num_timesteps, "success_rate": policy.success_rate}
+        if isinstance(policy, NavigationResult):
+            numbers["planner_success_rate"] = self.oracle_rate
+            numbers["final_distance_mean"] = policy.final_distance_mean
+            numbers["maneuvers_mean"] = policy.maneuvers_mean
+        else:
+            numbers["oracle_success_rate"] = self.oracle_rate
+            numbers["heading_error_mean_deg"] = policy.heading_error_mean_deg
+        numbers["reward_mean"] = policy.reward_mean
         for key, value in numbers.items():
             if key != "timesteps":
                 self.logger.record(f"eval/{key}", value)
@@ -345,7 +412,7 @@ class OracleEvalCallback(BaseCallback):
         print(
             f"[eval] {self.num_timesteps:,} timesteps: {self.label} "
             f"{100 * policy.success_rate:.1f}% "
-            f"vs impulse oracle {100 * self.oracle_rate:.1f}% success"
+            f"vs {self.yardstick} {100 * self.oracle_rate:.1f}% success"
             + (" (new best)" if improved else ""),
             flush=True,
         )
@@ -353,16 +420,16 @@ class OracleEvalCallback(BaseCallback):
             self.report(numbers)
 
 
-def final_results(run_dir: Path, model: BaseAlgorithm, config: dict[str, Any]) -> list[EvalResult]:
-    """The policy (best and last), the oracles and random on the same fresh test episodes."""
+def final_results(
+    run_dir: Path, model: BaseAlgorithm, config: dict[str, Any]
+) -> list[EvalResult] | list[NavigationResult]:
+    """The policy (best and last) and the env's `baselines` on the same fresh test episodes."""
     agents: dict[str, object] = {}
     name = label(config)
     if (run_dir / "best" / "model.zip").is_file():
         agents[f"{name} (best)"] = as_agent(load_model(run_dir / "best", config, make_venv(config)))
     agents[f"{name} (last)"] = as_agent(model)
-    agents["impulse oracle"] = ImpulseOracle()
-    agents["shooting oracle"] = ShootingOracle(config["env_kwargs"])
-    agents["random"] = RandomAgent(config["seed"])
+    agents.update(baselines(config))
     return evaluate(
         agents, config["env_kwargs"], config["eval_episodes"], TEST_SEED, env_id=config["env_id"]
     )
@@ -392,7 +459,10 @@ def make_model(config: dict[str, Any], run_dir: Path, resume: bool) -> BaseAlgor
         last = run_dir / "last"
         model = load_model(last, config, venv)
         if isinstance(model, OffPolicyAlgorithm):
-            model.load_replay_buffer(last / REPLAY_BUFFER)
+            with warnings.catch_warnings():  # HER's buffer ends the episodes in progress: right,
+                # as the resumed run starts new ones (seeded below)
+                warnings.filterwarnings("ignore", "The last trajectory in the replay buffer")
+                model.load_replay_buffer(last / REPLAY_BUFFER)
         venv.seed(seed + model.num_timesteps)  # fresh episodes, not a replay of the first ones
         return model
     normalize = params.get("normalize", False)
@@ -428,7 +498,7 @@ def train(
     what may be overwritten); `resume` continues from `run_dir/last/` up to
     `config["timesteps"]` in total. Periodic evaluations save `last/`, keep the best model in
     `best/` and hand their numbers to `report`; at the end `last/` is saved and the final table
-    of the policy, the oracles and random is written to `results.md`. On KeyboardInterrupt
+    of the policy and the `baselines` is written to `results.md`. On KeyboardInterrupt
     `last/` is saved and the interrupt propagates. Runs on one torch thread, so that a seed
     gives one result.
 

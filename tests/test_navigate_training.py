@@ -1,0 +1,129 @@
+"""Training on TetherNavigate: PPO and SAC + HER smoke runs end to end (train, checkpoint,
+resume, evaluate against the planners), and the frame-of-flight features extractor."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("stable_baselines3")
+
+import torch
+from stable_baselines3 import HerReplayBuffer
+
+from tether_gym.agents.evaluate import NavigationResult, evaluate, load_agent
+from tether_gym.envs.tether_navigate.kernel import MAX_ANCHORS, decode_observation
+from tether_gym.training import train
+from tether_gym.training.features import NavigateExtractor
+
+OPTIONS = ["--eval-episodes", "20", "--no-progress-bar", "--n-envs", "8"]
+BASELINES = ("greedy planner", "lookahead planner", "random")
+TINY_POLICY = "policy_kwargs:dict(features_extractor_class=NavigateExtractor, net_arch=[16])"
+
+
+def saved_timesteps(folder: Path) -> int:
+    return yaml.safe_load((folder / "config.yaml").read_text())["num_timesteps"]
+
+
+def test_ppo_trains_on_navigate_with_env_kwargs_and_evaluates_against_the_planners(
+    tmp_path, capsys
+):
+    tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY]
+    argv = ["--env", "TetherNavigate-v0", "--env-kwargs", "n_obstacles:3", "task:stop",
+            "--timesteps", "1024", "--eval-freq", "512", "--runs-dir", str(tmp_path),
+            *OPTIONS, "--hyperparams", *tiny]  # fmt: skip
+    assert train.main(argv) == 0
+    folder = tmp_path / "ppo_TetherNavigate-v0_stop_hybrid_nobstacles3_seed0"
+    config = yaml.safe_load((folder / "config.yaml").read_text())
+    assert config["env_id"] == "TetherNavigate-v0"
+    assert config["env_kwargs"] == {"n_obstacles": 3, "task": "stop"}
+    assert config["hyperparams"]["policy"] == "MultiInputPolicy"
+    for which in ("best", "last"):
+        assert (folder / which / "model.zip").is_file()
+    assert saved_timesteps(folder / "last") == 1024
+    out = capsys.readouterr().out
+    assert "[eval] 512 timesteps: PPO" in out and "vs greedy planner" in out
+    table = (folder / "results.md").read_text()
+    for name in ("PPO (best)", "PPO (last)", *BASELINES):
+        assert f"| {name} |" in table
+    assert "maneuvers to goal" in table
+    agent = load_agent(folder / "last" / "model.zip")  # tether-evaluate's loader
+    (result,) = evaluate({"ppo": agent}, config["env_kwargs"], 10, env_id="TetherNavigate-v0")
+    assert isinstance(result, NavigationResult) and result.episodes == 10
+
+
+def test_sac_with_her_trains_on_the_sparse_env_and_resumes(tmp_path):
+    tiny = ["learning_starts:128", "batch_size:64", "buffer_size:4096", TINY_POLICY]
+    argv = ["--algo", "sac", "--env", "TetherNavigateSparse-v0", "--timesteps", "512",
+            "--eval-freq", "256", "--name", "her", "--runs-dir", str(tmp_path), *OPTIONS,
+            "--hyperparams", *tiny]  # fmt: skip
+    assert train.main(argv) == 0
+    folder = tmp_path / "her"
+    config = yaml.safe_load((folder / "config.yaml").read_text())
+    assert config["hyperparams"]["replay_buffer_class"] == "HerReplayBuffer"
+    assert (folder / "last" / "replay_buffer.pkl").is_file()
+    for name in ("SAC (best)", "SAC (last)", *BASELINES):
+        assert f"| {name} |" in (folder / "results.md").read_text()
+    summary = train.train({**config, "timesteps": 768}, folder, resume=True)
+    assert summary["timesteps"] == saved_timesteps(folder / "last") == 768
+    model = train.load_model(folder / "last", config, train.make_venv(config))
+    model.load_replay_buffer(folder / "last" / "replay_buffer.pkl", truncate_last_traj=False)
+    assert isinstance(model.replay_buffer, HerReplayBuffer)
+    samples = model.replay_buffer.sample(64, env=None)  # relabels through the adapter
+    rewards = samples.rewards.numpy()
+    assert set(np.unique(rewards)) <= {-1.0, 0.0} and (rewards == 0.0).any()
+
+
+def test_the_default_hyperparameters_have_navigate_entries():
+    ppo = train.load_hyperparams(train.default_conf("ppo"), env_id="TetherNavigate-v0")
+    sac = train.load_hyperparams(train.default_conf("sac"), env_id="TetherNavigateSparse-v0")
+    assert ppo["policy"] == sac["policy"] == "MultiInputPolicy"
+    assert train.algo_kwargs(sac)["replay_buffer_class"] is HerReplayBuffer
+    assert train.algo_kwargs(ppo)["policy_kwargs"]["features_extractor_class"] is NavigateExtractor
+    with pytest.raises(ValueError, match="replay_buffer_class must be one of"):
+        train.algo_kwargs({"replay_buffer_class": "DictReplayBuffer"})
+
+
+def test_default_names_use_the_navigate_envs_defaults():
+    name = train.default_name("TetherNavigate-v0", {"n_obstacles": 3}, 1)
+    assert name == "ppo_TetherNavigate-v0_reach_hybrid_nobstacles3_seed1"
+
+
+EXTRACTOR = NavigateExtractor(gym.make("TetherNavigate-v0").observation_space)
+
+
+def features(obs) -> np.ndarray:
+    batch = {key: torch.as_tensor(np.atleast_2d(value)) for key, value in obs.items()}
+    return EXTRACTOR(batch).numpy()
+
+
+def test_a_pegs_bearing_feature_is_the_action_that_hooks_it():
+    """The extractor's bearing of peg j (over pi), played as action 0, hooks peg j."""
+    env = gym.make("TetherNavigate-v0", n_anchors=8, dynamics="impulse")
+    size = env.observation_space["observation"].shape[0]
+    bearings = slice(size + 9 + 4 + 3, size + 9 + 4 * (1 + MAX_ANCHORS), 4)
+    hooked = 0
+    for seed in range(5):
+        for j in range(8):
+            obs, _ = env.reset(seed=seed)
+            bearing = features(obs)[0, bearings][j]
+            _, _, _, _, info = env.step(np.array([bearing, 1.0, 0.0, 1.0], dtype=np.float32))
+            np.testing.assert_allclose(info["anchor"], decode_observation(obs)["anchors"][j])
+            hooked += 1
+    assert hooked == 40
+
+
+def test_the_goal_feature_follows_a_relabeled_desired_goal():
+    """Under HER the observation still shows the true goal: the extractor's goal relative to
+    the puck is desired - achieved, so a relabeled goal moves it and the true one does not."""
+    env = gym.make("TetherNavigate-v0")
+    obs, _ = env.reset(seed=0)
+    relabeled = {**obs, "desired_goal": obs["desired_goal"] + np.array([0.3, -0.2])}
+    before, after = features(obs)[0], features(relabeled)[0]
+    goal_columns = slice(5, 7)  # goal_dx, goal_dy in the observation's layout
+    np.testing.assert_allclose(before[goal_columns], obs["observation"][5:7], atol=1e-6)
+    np.testing.assert_allclose(after[goal_columns] - before[goal_columns], [0.3, -0.2], atol=1e-6)
