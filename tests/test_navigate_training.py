@@ -3,6 +3,7 @@ resume, evaluate against the planners), and the frame-of-flight features extract
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import gymnasium as gym
@@ -17,7 +18,7 @@ from stable_baselines3 import HerReplayBuffer
 
 from tether_gym.agents.evaluate import NavigationResult, evaluate, load_agent
 from tether_gym.envs.tether_navigate.kernel import MAX_ANCHORS, decode_observation
-from tether_gym.training import train
+from tether_gym.training import summary, train
 from tether_gym.training.features import NavigateExtractor
 
 OPTIONS = ["--eval-episodes", "20", "--no-progress-bar", "--n-envs", "8"]
@@ -51,6 +52,8 @@ def test_ppo_trains_on_navigate_with_env_kwargs_and_evaluates_against_the_planne
     for name in ("PPO (best)", "PPO (last)", *BASELINES):
         assert f"| {name} |" in table
     assert "maneuvers to goal" in table
+    saved = json.loads((folder / "results.json").read_text())
+    assert [r["name"] for r in saved["results"]] == ["PPO (best)", "PPO (last)", *BASELINES]
     agent = load_agent(folder / "last" / "model.zip")  # tether-evaluate's loader
     (result,) = evaluate({"ppo": agent}, config["env_kwargs"], 10, env_id="TetherNavigate-v0")
     assert isinstance(result, NavigationResult) and result.episodes == 10
@@ -127,3 +130,27 @@ def test_the_goal_feature_follows_a_relabeled_desired_goal():
     goal_columns = slice(5, 7)  # goal_dx, goal_dy in the observation's layout
     np.testing.assert_allclose(before[goal_columns], obs["observation"][5:7], atol=1e-6)
     np.testing.assert_allclose(after[goal_columns] - before[goal_columns], [0.3, -0.2], atol=1e-6)
+
+
+def test_the_summary_averages_the_runs_over_seeds(tmp_path, capsys):
+    rates = {"PPO (best)": [0.90, 0.92, 0.97], "greedy planner": [0.95, 0.95, 0.95]}
+    folders = []
+    for seed in range(3):
+        results = [{"name": name, "success_rate": values[seed], "final_distance_mean": 0.1 * seed}
+                   for name, values in rates.items()]  # fmt: skip
+        folder = tmp_path / f"seed{seed}"
+        folder.mkdir()
+        run = {"timesteps": 1000, "train_seconds": 60.0 + seed, "results": results}
+        (folder / summary.RESULTS).write_text(json.dumps(run))
+        folders.append(str(folder))
+    assert summary.main(folders) == 0
+    out = capsys.readouterr().out
+    low, high = summary.t_interval(np.array(rates["PPO (best)"]))
+    assert low < 0.93 < high
+    interval = f"[{100 * low:.1f}, {100 * high:.1f}]"
+    assert f"| PPO (best) | 3 | 93.0% {interval} | 90.0, 92.0, 97.0 |" in out
+    assert "| greedy planner | 3 | 95.0% [95.0, 95.0] |" in out
+    assert "3 runs, 1,000 timesteps and 61 s" in out
+    with pytest.raises(SystemExit):
+        summary.main([str(tmp_path / "missing")])
+    assert "cannot read the results of" in capsys.readouterr().err

@@ -72,7 +72,6 @@ import numpy as np
 import optuna
 import pandas as pd
 import ray
-import scipy.stats
 import torch
 import yaml
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -84,6 +83,7 @@ from ray.tune.search.repeater import TRIAL_INDEX
 from ray.tune.search.sample import Categorical, Domain
 
 from tether_gym.cli import DEFAULT_ENV_ID
+from tether_gym.training.summary import t_interval
 from tether_gym.training.train import (
     ALGOS,
     check_config,
@@ -474,17 +474,6 @@ def thread_env(cpus: float) -> dict[str, str]:
     CPUs, set before the worker imports either."""
     threads = str(max(1, int(cpus)))
     return {"NUMBA_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
-
-
-def t_interval(values: np.ndarray) -> tuple[float, float]:
-    """The 95% Student t interval of the mean success rate over seeds, within [0, 1]; NaN for
-    one seed."""
-    if len(values) < 2:
-        return math.nan, math.nan
-    if np.ptp(values) == 0:  # scipy warns about the zero spread
-        return float(values[0]), float(values[0])
-    interval = scipy.stats.ttest_1samp(values, 0.0).confidence_interval(0.95)
-    return max(float(interval.low), 0.0), min(float(interval.high), 1.0)
 
 
 @dataclass

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import inspect
+import json
 import shutil
 import sys
 import time
@@ -71,6 +72,7 @@ from tether_gym.cli import (
 )
 from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.sb3 import make_sb3_vec_env
+from tether_gym.training.summary import RESULTS
 
 if TYPE_CHECKING:
     from importlib.resources.abc import Traversable
@@ -498,7 +500,8 @@ def train(
     what may be overwritten); `resume` continues from `run_dir/last/` up to
     `config["timesteps"]` in total. Periodic evaluations save `last/`, keep the best model in
     `best/` and hand their numbers to `report`; at the end `last/` is saved and the final table
-    of the policy and the `baselines` is written to `results.md`. On KeyboardInterrupt
+    of the policy and the `baselines` is written to `results.md` (and `results.json`, which
+    `tether_gym.training.summary` reads). On KeyboardInterrupt
     `last/` is saved and the interrupt propagates. Runs on one torch thread, so that a seed
     gives one result.
 
@@ -547,14 +550,15 @@ def train(
     results = final_results(run_dir, model, config)
     table = format_table(results)
     (run_dir / "results.md").write_text(table + "\n")
-    return {
+    summary = {
         "run_dir": str(run_dir),
         "timesteps": int(model.num_timesteps),
         "train_seconds": elapsed,
         "best_eval_success_rate": callback.best,
         "results": [result.summary() for result in results],
-        "table": table,
     }
+    (run_dir / RESULTS).write_text(json.dumps(summary, indent=1) + "\n")
+    return {**summary, "table": table}
 
 
 def build_parser() -> argparse.ArgumentParser:
