@@ -18,8 +18,9 @@ from stable_baselines3 import HerReplayBuffer
 
 from tether_gym.agents.evaluate import NavigationResult, evaluate, load_agent
 from tether_gym.envs.tether_navigate.kernel import MAX_ANCHORS, decode_observation
-from tether_gym.training import summary, train
+from tether_gym.training import residual, summary, train
 from tether_gym.training.features import NavigateExtractor
+from tether_gym.training.sb3 import make_sb3_vec_env
 
 OPTIONS = ["--eval-episodes", "20", "--no-progress-bar", "--n-envs", "8"]
 BASELINES = ("greedy planner", "lookahead planner", "random")
@@ -154,3 +155,69 @@ def test_the_summary_averages_the_runs_over_seeds(tmp_path, capsys):
     with pytest.raises(SystemExit):
         summary.main([str(tmp_path / "missing")])
     assert "cannot read the results of" in capsys.readouterr().err
+
+
+class ZeroPolicy:
+    """A residual policy that corrects nothing; records the observations it saw."""
+
+    def __init__(self):
+        self.seen = []
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        self.seen.append(obs)
+        return np.zeros((len(obs["observation"]), 4), dtype=np.float32), state
+
+
+def test_combine_wraps_the_bearing_and_clips_the_rest():
+    base = np.array([[0.9, 0.9, -0.9, 0.0]])
+    played = residual.combine(base, np.array([[1.0, 1.0, -1.0, 2.0]]), 0.5)
+    np.testing.assert_allclose(played, [[-0.6, 1.0, -1.0, 0.5]], atol=1e-6)
+    with pytest.raises(ValueError, match="residual_scale must be"):
+        residual.ResidualAgent(ZeroPolicy(), None, 0.0)
+    with pytest.raises(ValueError, match="residual must be one of"):
+        residual.make_planner("oracle", {})
+
+
+def test_a_zero_residual_plays_the_planner_through_the_vec_env_and_the_agent():
+    kwargs = {"n_obstacles": 3, "dynamics": "impulse", "max_maneuvers": 2, "task": "stop"}
+    planner = residual.make_planner("greedy", kwargs)
+    env = residual.ResidualVecEnv(
+        make_sb3_vec_env(4, seed=7, env_id="TetherNavigate-v0", **kwargs), planner, 0.3
+    )
+    native = gym.make_vec(
+        "TetherNavigate-v0", num_envs=4, vectorization_mode="vector_entry_point", **kwargs
+    )
+    obs = env.reset()
+    ref, _ = native.reset(seed=7)
+    truncated = 0
+    for _ in range(8):
+        np.testing.assert_array_equal(obs["base_action"], planner.predict(ref)[0])
+        obs, rewards, dones, infos = env.step(np.zeros((4, 4), dtype=np.float32))
+        ref, ref_rewards, _, _, _ = native.step(planner.predict(ref)[0])
+        np.testing.assert_allclose(rewards, ref_rewards.astype(np.float32))
+        for i in np.flatnonzero(dones):
+            final = infos[i]["terminal_observation"]
+            expected = planner.predict(final)[0] if infos[i]["TimeLimit.truncated"] else 0.0
+            truncated += infos[i]["TimeLimit.truncated"]
+            np.testing.assert_array_equal(final["base_action"], expected)
+    assert truncated > 0, "a truncated episode's terminal observation must be checked"
+    policy = ZeroPolicy()
+    agent = residual.ResidualAgent(policy, planner, 0.3)
+    action, _ = agent.predict(ref)
+    np.testing.assert_array_equal(action, planner.predict(ref)[0])
+    np.testing.assert_array_equal(policy.seen[0]["base_action"], action)
+
+
+def test_a_residual_ppo_run_names_its_planner_and_loads_with_it(tmp_path, capsys):
+    tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY, "residual:greedy",
+            "residual_scale:0.2"]  # fmt: skip
+    run = ["--timesteps", "512", "--eval-freq", "0", "--runs-dir", str(tmp_path), *OPTIONS]
+    argv = ["--env", "TetherNavigate-v0", "--name", "res", *run, "--hyperparams", *tiny]
+    assert train.main(argv) == 0
+    table = (tmp_path / "res" / "results.md").read_text()
+    assert "| PPO residual on greedy (last) |" in table
+    agent = load_agent(tmp_path / "res" / "last" / "model.zip")
+    assert isinstance(agent, residual.ResidualAgent) and agent.scale == 0.2
+    with pytest.raises(SystemExit):
+        train.main(["--env", "TetherBounce-v0", *run, "--hyperparams", "residual:greedy"])
+    assert "the planners solve TetherNavigate" in capsys.readouterr().err

@@ -44,6 +44,9 @@ NAVIGATION_FIELDS = (
     "path_length_mean", "reward_mean", "episodes_per_second",
 )  # fmt: skip
 NAVIGATION_ENTRY_POINT = "tether_gym.envs.tether_navigate:TetherNavigateEnv"
+BASE_KEY = "base_action"
+"""The observation entry of a residual policy: its planner's action
+(`tether_gym.training.residual`)."""
 
 
 class _Summary:
@@ -337,9 +340,10 @@ class SB3Agent:
         return self.model.predict(obs, state, episode_start, deterministic)
 
 
-def load_agent(path: str | Path) -> SB3Agent:
+def load_agent(path: str | Path):
     """A saved SB3 model (zip: PPO or SAC, whichever loads it) as an agent; `vecnormalize.pkl`
-    beside it is applied.
+    beside it is applied, and a residual policy (a training run's `config.yaml` beside it names
+    its planner: `tether_gym.training.residual`) plays with its planner.
 
     Raises:
         ValueError: naming the path, if it is missing or not a loadable SB3 model.
@@ -369,7 +373,18 @@ def load_agent(path: str | Path) -> SB3Agent:
         except Exception as error:
             raise ValueError(f"cannot read VecNormalize stats {str(stats)!r}: {error}") from error
         normalizer.training = False
-    return SB3Agent(model, normalizer)
+    agent = SB3Agent(model, normalizer)
+    config = path.parent / "config.yaml"
+    if BASE_KEY in getattr(model.observation_space, "spaces", {}) and config.is_file():
+        import yaml
+
+        from tether_gym.training.residual import ResidualAgent, make_planner
+
+        run = yaml.safe_load(config.read_text())
+        params = run["hyperparams"]
+        planner = make_planner(params["residual"], run["env_kwargs"])
+        return ResidualAgent(agent, planner, params.get("residual_scale", 1.0))
+    return agent
 
 
 def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT_ENV_ID):

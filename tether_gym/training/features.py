@@ -14,18 +14,20 @@ computes it exactly, from the observation alone (no physics, nothing the env doe
 - the achieved and desired goals, the speed, the velocity's direction, and the orientation
   relative to it;
 - the goal, each peg and each post in the frame of flight: along and across the velocity, the
-  distance, and the bearing over pi (a peg's is the action that hooks it); zero for padding.
+  distance, and the bearing over pi (a peg's is the action that hooks it); zero for padding;
+- any other entry of the dict as it is (a residual policy's base action).
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 import torch
 from gymnasium import spaces
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
-from tether_gym.envs.tether_navigate.kernel import MAX_ANCHORS, MAX_POSTS, OBS
+from tether_gym.envs.tether_navigate.kernel import GOAL_KEYS, MAX_ANCHORS, MAX_POSTS, OBS
 
 GOAL = slice(OBS.goal_dx, OBS.goal_dy + 1)
 ANCHORS = slice(OBS.anchor0_present, OBS.anchor0_present + 3 * MAX_ANCHORS)
@@ -52,7 +54,10 @@ class NavigateExtractor(BaseFeaturesExtractor):
     def __init__(self, observation_space: spaces.Dict):
         size = observation_space["observation"].shape[0]
         points = 1 + MAX_ANCHORS + MAX_POSTS
-        super().__init__(observation_space, features_dim=size + 4 + 5 + POINT_FEATURES * points)
+        self.extra = sorted(set(observation_space) - set(GOAL_KEYS))
+        extra = sum(int(np.prod(observation_space[key].shape)) for key in self.extra)
+        dim = size + 4 + 5 + POINT_FEATURES * points + extra
+        super().__init__(observation_space, features_dim=dim)
 
     def forward(self, observations: dict[str, torch.Tensor]) -> torch.Tensor:
         obs = observations["observation"]
@@ -73,8 +78,10 @@ class NavigateExtractor(BaseFeaturesExtractor):
         points = torch.cat([local, distance[..., None], bearing[..., None]], dim=-1)
         points = points * present[..., None]
         flat = torch.cat([obs[:, : GOAL.start], goal, obs[:, GOAL.stop :]], dim=-1)
+        extra = [observations[key].flatten(1) for key in self.extra]
         return torch.cat(
-            [flat, achieved, desired, speed, heading, orientation, points.flatten(1)], dim=-1
+            [flat, achieved, desired, speed, heading, orientation, points.flatten(1), *extra],
+            dim=-1,
         )
 
 

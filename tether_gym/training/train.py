@@ -71,6 +71,7 @@ from tether_gym.cli import (
     given_env_options,
 )
 from tether_gym.training.features import NavigateExtractor
+from tether_gym.training.residual import ResidualAgent, ResidualVecEnv, check_scale, make_planner
 from tether_gym.training.sb3 import make_sb3_vec_env
 from tether_gym.training.summary import RESULTS
 
@@ -92,8 +93,9 @@ EVAL_SEED = 1_000_000
 """Seed of the periodic evaluation episodes (which pick the best model)."""
 TEST_SEED = 2_000_000
 """Seed of the final table's episodes, apart from those that picked the best model."""
-ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize")
-"""Keys of a zoo entry that are not arguments of the algorithm."""
+ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "residual", "residual_scale")
+"""Keys of a zoo entry that are not arguments of the algorithm (`residual`, `residual_scale`:
+a residual policy on a TetherNavigate planner, `tether_gym.training.residual`)."""
 Report = Callable[[dict[str, float]], None]
 """Receives each periodic evaluation's numbers (e.g. a sweep's `tune.report`)."""
 RUN_OPTIONS = ("algo", "seed", "n_envs", "timesteps", "eval_episodes", "eval_freq")
@@ -217,6 +219,11 @@ def check_config(config: dict[str, Any]) -> None:
     if unknown:
         raise ValueError(f"unknown {label(config)} hyperparameters {sorted(unknown)}")
     algo_kwargs(params)
+    if params.get("residual") is not None:
+        if not navigates(config["env_id"]):
+            raise ValueError(f"residual: the planners solve TetherNavigate, not {config['env_id']}")
+        make_planner(params["residual"], config["env_kwargs"])
+        check_scale(params.get("residual_scale", 1.0))
     for key in ("n_envs", "timesteps", "eval_episodes"):
         if config[key] < 1:
             raise ValueError(f"{key} must be at least 1, got {config[key]}")
@@ -250,8 +257,10 @@ def check_run(config: dict[str, Any], run_dir: Path, resume: bool = False) -> No
 
 
 def label(config: dict[str, Any]) -> str:
-    """The algorithm's name in tables and logs, e.g. "PPO"."""
-    return config["algo"].upper()
+    """The algorithm's name in tables and logs, e.g. "PPO", or "PPO residual on greedy"."""
+    residual = config["hyperparams"].get("residual")
+    name = config["algo"].upper()
+    return name if residual is None else f"{name} residual on {residual}"
 
 
 def env_defaults(env_id: str) -> dict[str, Any]:
@@ -321,9 +330,15 @@ class Checkpoints:
         return folder / "model.zip"
 
 
-def as_agent(model: BaseAlgorithm) -> SB3Agent:
-    """The model as an evaluation agent (normalizing observations never updates the stats)."""
-    return SB3Agent(model, model.get_vec_normalize_env())
+def as_agent(model: BaseAlgorithm, config: dict[str, Any]) -> SB3Agent | ResidualAgent:
+    """The model as an evaluation agent (normalizing observations never updates the stats),
+    with its planner if it is a residual policy."""
+    agent = SB3Agent(model, model.get_vec_normalize_env())
+    residual = config["hyperparams"].get("residual")
+    if residual is None:
+        return agent
+    planner = make_planner(residual, config["env_kwargs"])
+    return ResidualAgent(agent, planner, config["hyperparams"].get("residual_scale", 1.0))
 
 
 def yardstick(config: dict[str, Any]) -> tuple[str, object]:
@@ -393,7 +408,7 @@ class OracleEvalCallback(BaseCallback):
 
     def run_eval(self) -> None:
         self.last_eval = self.num_timesteps
-        policy = self._evaluate(self.label, as_agent(self.model))
+        policy = self._evaluate(self.label, as_agent(self.model, self.checkpoints.config))
         numbers = {"timesteps": self.num_timesteps, "success_rate": policy.success_rate}
         if isinstance(policy, NavigationResult):
             numbers["planner_success_rate"] = self.oracle_rate
@@ -429,8 +444,9 @@ def final_results(
     agents: dict[str, object] = {}
     name = label(config)
     if (run_dir / "best" / "model.zip").is_file():
-        agents[f"{name} (best)"] = as_agent(load_model(run_dir / "best", config, make_venv(config)))
-    agents[f"{name} (last)"] = as_agent(model)
+        best = load_model(run_dir / "best", config, make_venv(config))
+        agents[f"{name} (best)"] = as_agent(best, config)
+    agents[f"{name} (last)"] = as_agent(model, config)
     agents.update(baselines(config))
     return evaluate(
         agents, config["env_kwargs"], config["eval_episodes"], TEST_SEED, env_id=config["env_id"]
@@ -438,10 +454,14 @@ def final_results(
 
 
 def make_venv(config: dict[str, Any]) -> VecMonitor:
-    """The run's SB3 vector env; VecMonitor gives the episode rewards to the logs
-    (rollout/ep_rew_mean)."""
-    env_id, env_kwargs = config["env_id"], config["env_kwargs"]
-    return VecMonitor(make_sb3_vec_env(config["n_envs"], config["seed"], env_id, **env_kwargs))
+    """The run's SB3 vector env (under a residual policy's planner if it has one); VecMonitor
+    gives the episode rewards to the logs (rollout/ep_rew_mean)."""
+    env_id, env_kwargs, params = config["env_id"], config["env_kwargs"], config["hyperparams"]
+    venv = make_sb3_vec_env(config["n_envs"], config["seed"], env_id, **env_kwargs)
+    if params.get("residual") is not None:
+        planner = make_planner(params["residual"], env_kwargs)
+        venv = ResidualVecEnv(venv, planner, params.get("residual_scale", 1.0))
+    return VecMonitor(venv)
 
 
 def load_model(folder: Path, config: dict[str, Any], venv: VecEnv) -> BaseAlgorithm:
