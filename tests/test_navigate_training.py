@@ -18,7 +18,7 @@ from stable_baselines3 import HerReplayBuffer
 
 from tether_gym.agents.evaluate import NavigationResult, evaluate, load_agent
 from tether_gym.envs.tether_navigate.kernel import MAX_ANCHORS, decode_observation
-from tether_gym.training import residual, summary, train
+from tether_gym.training import pretrain, residual, summary, train
 from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.sb3 import make_sb3_vec_env
 
@@ -221,3 +221,45 @@ def test_a_residual_ppo_run_names_its_planner_and_loads_with_it(tmp_path, capsys
     with pytest.raises(SystemExit):
         train.main(["--env", "TetherBounce-v0", *run, "--hyperparams", "residual:greedy"])
     assert "the planners solve TetherNavigate" in capsys.readouterr().err
+
+
+def test_demonstrations_hold_the_planners_actions_and_discounted_returns():
+    kwargs = {"n_obstacles": 2, "dynamics": "impulse"}
+    planner = residual.make_planner("greedy", kwargs)
+    obs, actions, returns = pretrain.demonstrations(
+        planner, "TetherNavigate-v0", kwargs, n_envs=3, decisions=30, gamma=0.9
+    )
+    assert obs["observation"].shape == (30, 56) and actions.shape == (30, 4)
+    env = gym.make("TetherNavigate-v0", **kwargs)  # copy 0 alone, seeded as the vector env
+    first, _ = env.reset(seed=pretrain.PRETRAIN_SEED)
+    np.testing.assert_array_equal(obs["observation"][0], first["observation"])
+    np.testing.assert_array_equal(actions[0], planner.predict(first)[0])
+    rewards, ended = [], False
+    while not ended:
+        first, reward, terminated, truncated, _ = env.step(planner.predict(first)[0])
+        rewards.append(reward)
+        ended = terminated or truncated
+    assert len(rewards) <= 10, "the episode must end within the demonstrated rounds"
+    expected = sum(reward * 0.9**k for k, reward in enumerate(rewards))
+    assert returns[0] == pytest.approx(expected, rel=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [("greedy", "mapping with a planner"), ({"planner": "greedy", "epoch": 3}, "unknown"),
+     ({"planner": "greedy", "decisions": 0}, "decisions must be"),
+     ({"planner": "oracle"}, "residual must be one of")],
+)  # fmt: skip
+def test_bad_pretrain_entries_name_themselves(spec, message):
+    with pytest.raises(ValueError, match=message):
+        pretrain.check_pretrain(spec, {})
+
+
+def test_a_ppo_run_cloned_from_the_planner_names_it(tmp_path, capsys):
+    tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY,
+            "pretrain:{planner: greedy, decisions: 256, epochs: 2}"]  # fmt: skip
+    run = ["--timesteps", "512", "--eval-freq", "0", "--runs-dir", str(tmp_path), *OPTIONS]
+    argv = ["--env", "TetherNavigate-v0", "--name", "bc", *run, "--hyperparams", *tiny]
+    assert train.main(argv) == 0
+    assert "[pretrain] cloned in" in capsys.readouterr().out
+    assert "| PPO from greedy demos (last) |" in (tmp_path / "bc" / "results.md").read_text()

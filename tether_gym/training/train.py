@@ -71,6 +71,7 @@ from tether_gym.cli import (
     given_env_options,
 )
 from tether_gym.training.features import NavigateExtractor
+from tether_gym.training.pretrain import check_pretrain, clone_planner
 from tether_gym.training.residual import ResidualAgent, ResidualVecEnv, check_scale, make_planner
 from tether_gym.training.sb3 import make_sb3_vec_env
 from tether_gym.training.summary import RESULTS
@@ -93,9 +94,12 @@ EVAL_SEED = 1_000_000
 """Seed of the periodic evaluation episodes (which pick the best model)."""
 TEST_SEED = 2_000_000
 """Seed of the final table's episodes, apart from those that picked the best model."""
-ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "residual", "residual_scale")
+ZOO_KEYS = (
+    "n_timesteps", "n_envs", "policy", "normalize", "residual", "residual_scale", "pretrain",
+)  # fmt: skip
 """Keys of a zoo entry that are not arguments of the algorithm (`residual`, `residual_scale`:
-a residual policy on a TetherNavigate planner, `tether_gym.training.residual`)."""
+a residual policy on a TetherNavigate planner, `tether_gym.training.residual`; `pretrain`: PPO
+cloned from a planner first, `tether_gym.training.pretrain`)."""
 Report = Callable[[dict[str, float]], None]
 """Receives each periodic evaluation's numbers (e.g. a sweep's `tune.report`)."""
 RUN_OPTIONS = ("algo", "seed", "n_envs", "timesteps", "eval_episodes", "eval_freq")
@@ -224,6 +228,10 @@ def check_config(config: dict[str, Any]) -> None:
             raise ValueError(f"residual: the planners solve TetherNavigate, not {config['env_id']}")
         make_planner(params["residual"], config["env_kwargs"])
         check_scale(params.get("residual_scale", 1.0))
+    if params.get("pretrain") is not None:
+        if config["algo"] != "ppo" or not navigates(config["env_id"]) or params.get("normalize"):
+            raise ValueError("pretrain: PPO on TetherNavigate without normalize only")
+        check_pretrain(params["pretrain"], config["env_kwargs"])
     for key in ("n_envs", "timesteps", "eval_episodes"):
         if config[key] < 1:
             raise ValueError(f"{key} must be at least 1, got {config[key]}")
@@ -257,10 +265,15 @@ def check_run(config: dict[str, Any], run_dir: Path, resume: bool = False) -> No
 
 
 def label(config: dict[str, Any]) -> str:
-    """The algorithm's name in tables and logs, e.g. "PPO", or "PPO residual on greedy"."""
-    residual = config["hyperparams"].get("residual")
+    """The algorithm's name in tables and logs, e.g. "PPO", "PPO residual on greedy" or "PPO
+    from greedy demos"."""
+    params = config["hyperparams"]
     name = config["algo"].upper()
-    return name if residual is None else f"{name} residual on {residual}"
+    if params.get("residual") is not None:
+        return f"{name} residual on {params['residual']}"
+    if params.get("pretrain") is not None:
+        return f"{name} from {params['pretrain']['planner']} demos"
+    return name
 
 
 def env_defaults(env_id: str) -> dict[str, Any]:
@@ -502,6 +515,23 @@ def make_model(config: dict[str, Any], run_dir: Path, resume: bool) -> BaseAlgor
     )
 
 
+def pretrain_from_planner(model: BaseAlgorithm, config: dict[str, Any]) -> None:
+    """Clone the zoo entry's `pretrain` planner into `model` and print how the clone does on
+    the periodic evaluation's episodes."""
+    clock = time.perf_counter()
+    losses = clone_planner(model, config, config["hyperparams"]["pretrain"])
+    (result,) = evaluate(
+        {label(config): as_agent(model, config)}, config["env_kwargs"], config["eval_episodes"],
+        EVAL_SEED, env_id=config["env_id"],
+    )  # fmt: skip
+    print(
+        f"[pretrain] cloned in {time.perf_counter() - clock:.0f} s (action loss "
+        f"{losses['action_loss']:.4f}, value loss {losses['value_loss']:.4f}): "
+        f"{100 * result.success_rate:.1f}% success",
+        flush=True,
+    )
+
+
 def use_one_thread() -> None:
     """One torch thread: the gradient steps are small, a second thread does not help."""
     torch.set_num_threads(1)
@@ -549,6 +579,8 @@ def train(
     remaining = config["timesteps"] - start_timesteps
     print(f"training {label(config)} for {remaining:,} timesteps into {run_dir}", flush=True)
     start = time.perf_counter()
+    if not resume and config["hyperparams"].get("pretrain") is not None:
+        pretrain_from_planner(model, config)
     try:
         model.learn(
             remaining,
