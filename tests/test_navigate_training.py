@@ -77,6 +77,8 @@ def test_sac_with_her_trains_on_the_sparse_env_and_resumes(tmp_path):
     model = train.load_model(folder / "last", config, train.make_venv(config))
     model.load_replay_buffer(folder / "last" / "replay_buffer.pkl", truncate_last_traj=False)
     assert isinstance(model.replay_buffer, HerReplayBuffer)
+    agent = load_agent(folder / "last" / "model.zip")  # without the env HER's buffer needs
+    assert type(agent.model).__name__ == "SAC"
     samples = model.replay_buffer.sample(64, env=None)  # relabels through the adapter
     rewards = samples.rewards.numpy()
     assert set(np.unique(rewards)) <= {-1.0, 0.0} and (rewards == 0.0).any()

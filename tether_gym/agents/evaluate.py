@@ -44,6 +44,9 @@ NAVIGATION_FIELDS = (
     "path_length_mean", "reward_mean", "episodes_per_second",
 )  # fmt: skip
 NAVIGATION_ENTRY_POINT = "tether_gym.envs.tether_navigate:TetherNavigateEnv"
+INFERENCE_ONLY = {"replay_buffer_class": None, "replay_buffer_kwargs": {}, "buffer_size": 1}
+"""Saved settings `load_agent` replaces: playing needs no replay buffer (a hindsight one would
+need the training env)."""
 BASE_KEY = "base_action"
 """The observation entry of a residual policy: its planner's action
 (`tether_gym.training.residual`)."""
@@ -356,7 +359,7 @@ def load_agent(path: str | Path):
     errors = []
     for algorithm in (PPO, SAC):
         try:
-            model = algorithm.load(path, device="cpu")
+            model = algorithm.load(path, device="cpu", custom_objects=INFERENCE_ONLY)
             break
         except Exception as error:  # SB3 refuses a zip saved by another algorithm
             errors.append(f"{algorithm.__name__}: {error}")

@@ -20,6 +20,7 @@ import numpy as np
 import torch
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
+from tether_gym.agents.evaluate import BASE_KEY
 from tether_gym.training.residual import make_planner
 
 PRETRAIN_SEED = 3_000_000
@@ -78,13 +79,19 @@ def clone_planner(
     model: OnPolicyAlgorithm, config: dict[str, Any], spec: dict[str, Any]
 ) -> dict[str, float]:
     """Fit `model`'s policy mean to the planner's actions and its value to the returns (see
-    the module docstring); returns the final losses."""
+    the module docstring); returns the final losses. For a residual policy on the same planner
+    the observations show the planner's action as its base and the fitted correction is 0:
+    the policy stays the planner and only the critic learns, the burn-in of Silver et al.'s
+    "Residual Policy Learning" (2018)."""
     options = check_pretrain(spec, config["env_kwargs"])
     planner = make_planner(options["planner"], config["env_kwargs"])
     obs, actions, returns = demonstrations(
         planner, config["env_id"], config["env_kwargs"], config["n_envs"],
         options["decisions"], model.gamma,
     )  # fmt: skip
+    if config["hyperparams"].get("residual") is not None:
+        obs[BASE_KEY] = actions
+        actions = np.zeros_like(actions)
     policy = model.policy
     policy.set_training_mode(True)
     optimizer = torch.optim.Adam(policy.parameters(), lr=options["learning_rate"])

@@ -232,6 +232,9 @@ def check_config(config: dict[str, Any]) -> None:
         if config["algo"] != "ppo" or not navigates(config["env_id"]) or params.get("normalize"):
             raise ValueError("pretrain: PPO on TetherNavigate without normalize only")
         check_pretrain(params["pretrain"], config["env_kwargs"])
+        residual = params.get("residual")
+        if residual is not None and params["pretrain"]["planner"] != residual:
+            raise ValueError("pretrain: a residual policy's burn-in demonstrates its own planner")
     for key in ("n_envs", "timesteps", "eval_episodes"):
         if config[key] < 1:
             raise ValueError(f"{key} must be at least 1, got {config[key]}")
