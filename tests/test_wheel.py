@@ -30,6 +30,11 @@ PACKAGED = [
     "tether_gym/agents/record.py",
     "tether_gym/envs/tether_navigate/kernel.py",
     "tether_gym/tasks/navigate.py",
+    "tether_gym/agents/pretrained/__init__.py",
+    "tether_gym/agents/pretrained/default.pt",
+    "tether_gym/agents/pretrained/default.md",
+    "tether_gym/agents/pretrained/low-stiffness.pt",
+    "tether_gym/agents/pretrained/low-stiffness.md",
 ]
 SCRIPTS = {
     "tether-train": "tether_gym.training:main",
@@ -123,6 +128,20 @@ def test_tether_evaluate_runs_the_oracle_and_random_from_any_folder(fresh_venv, 
     assert "| oracle | 100 |" in out and "| random | 100 |" in out
     oracle, random = json.loads((outside / "results.json").read_text())["results"]
     assert oracle["success_rate"] > 0.9 > 0.1 > random["success_rate"]
+
+
+def test_tether_evaluate_runs_the_pretrained_agents_without_training(fresh_venv, outside):
+    """The shipped policies load from the installed package, with no run folder anywhere."""
+    bin_dir, _ = fresh_venv
+    command = [bin_dir / "tether-evaluate", "--agents", "pretrained", "oracle", "--episodes", "100"]
+    out = run([*command, "--no-progress", "--json", "results.json"], outside).stdout
+    assert "| pretrained | 100 |" in out
+    pretrained, _ = json.loads((outside / "results.json").read_text())["results"]
+    assert pretrained["success_rate"] > 0.9
+    command = [bin_dir / "tether-evaluate", "--agents", "pretrained-low-stiffness", "--rho", "5",
+               "100", "--episodes", "20", "--no-progress"]  # fmt: skip
+    assert "| pretrained-low-stiffness | 20 |" in run(command, outside).stdout
+    assert not (outside / "runs").exists()
 
 
 def test_tether_train_reads_its_packaged_hyperparameters_and_writes_under_cwd(fresh_venv, outside):

@@ -391,9 +391,16 @@ def load_agent(path: str | Path):
 
 
 def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT_ENV_ID):
-    """ "oracle", "shooting" (TetherBounce-v0), "greedy", "lookahead" (TetherNavigate),
-    "random" or the path of a saved SB3 model zip."""
+    """ "oracle", "shooting", a pretrained agent ("pretrained", "pretrained-low-stiffness":
+    `pretrained.AGENTS`; TetherBounce-v0), "greedy", "lookahead" (TetherNavigate), "random" or
+    the path of a saved SB3 model zip."""
+    from tether_gym.agents import pretrained  # which imports this module
+
     navigation = navigates(env_id)
+    if spec in pretrained.AGENTS:
+        if navigation:
+            raise ValueError(f"the agent {spec!r} solves {DEFAULT_ENV_ID} only, not {env_id}")
+        return pretrained.load(spec)
     planner = spec in ("greedy", "lookahead")
     if (planner or spec in ("oracle", "shooting")) and planner != navigation:
         solves = "TetherNavigate" if planner else DEFAULT_ENV_ID
@@ -446,9 +453,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add = parser.add_argument
     add("--agents", nargs="+", metavar="AGENT",
-        help="oracle (impulse), shooting (model-based) on TetherBounce-v0; greedy, lookahead "
-        "(planners) on TetherNavigate; random, or a saved SB3 model zip path (default: oracle "
-        "shooting random, or greedy lookahead random on TetherNavigate)")  # fmt: skip
+        help="oracle (impulse), shooting (model-based), pretrained, pretrained-low-stiffness "
+        "(shipped policies, trained on the default env and on rho 5-100) on TetherBounce-v0; "
+        "greedy, lookahead (planners) on TetherNavigate; random, or a saved SB3 model zip "
+        "path (default: oracle shooting random, or greedy lookahead random on "
+        "TetherNavigate)")  # fmt: skip
     add("--episodes", type=int, default=1000, help="episodes per agent (default 1000)")
     add("--seed", type=int, default=0, help="seed of the episodes (default 0)")
     add("--csv", type=Path, metavar="PATH", help="write the table as CSV")
