@@ -27,7 +27,7 @@ $(TRAIN_STAMP): pyproject.toml constraints.txt
 
 test: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto
 
 train: $(TRAIN_STAMP)
 	$(BIN)/python train.py

@@ -121,3 +121,14 @@ def test_the_navigation_table_prints(capsys, tmp_path):
     assert csv.read_text().splitlines()[0].startswith("name,episodes,success_rate,success_ci_low")
     (result,) = evaluate({"greedy": GreedyPlanner()}, {}, 3, env_id="TetherNavigate-v0")
     assert "| greedy | 3 |" in format_table([result]) and result.path_length.shape == (3,)
+
+
+def test_the_navigation_table_shows_no_maneuvers_to_goal_without_a_success():
+    (result,) = evaluate(
+        {"random": make_agent("random", {}, env_id="TetherNavigate-v0")},
+        {"task": "stop", "max_maneuvers": 1},
+        5,
+        env_id="TetherNavigate-v0",
+    )
+    assert result.success_rate == 0.0, "a random first maneuver does not stop on the goal"
+    assert "| random | 5 | 0.0% [0.0, 43.4] | - |" in format_table([result])

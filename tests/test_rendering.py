@@ -279,11 +279,12 @@ def test_navigate_passes_check_env_with_rendering():
         gym.make_vec("TetherNavigate-v0", 2, "vector_entry_point", render_mode="rgb_array")
 
 
-def test_gif_command_records_tether_navigate(tmp_path):
+@pytest.mark.parametrize("agent", ["random", "greedy"])
+def test_gif_command_records_tether_navigate(tmp_path, agent):
     from PIL import Image
 
     gif = tmp_path / "navigate.gif"
-    args = ["--env", "TetherNavigate-v0", "--agent", "random", "--episodes", "1"]
+    args = ["--env", "TetherNavigate-v0", "--agent", agent, "--episodes", "1"]
     record.main([*args, "--out", str(gif), "--size", "96", "--fps", "10"])
     with Image.open(gif) as image:
         assert image.size == (96, 60) and image.n_frames > 5

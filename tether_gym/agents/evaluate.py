@@ -50,6 +50,9 @@ need the training env)."""
 BASE_KEY = "base_action"
 """The observation entry of a residual policy: its planner's action
 (`tether_gym.training.residual`)."""
+PROPOSALS_KEY = "proposals"
+"""The observation entry of a policy over a planner's proposals: their features
+(`tether_gym.training.proposals`)."""
 
 
 class _Summary:
@@ -318,9 +321,10 @@ def _navigation_table(results: list[NavigationResult]) -> str:
     ]
     for r in results:
         low, high = r.success_ci
+        to_goal = "-" if math.isnan(r.maneuvers_mean) else f"{r.maneuvers_mean:.2f}"  # no success
         lines.append(
             f"| {r.name} | {r.episodes} | {100 * r.success_rate:.1f}% "
-            f"[{100 * low:.1f}, {100 * high:.1f}] | {r.maneuvers_mean:.2f} | "
+            f"[{100 * low:.1f}, {100 * high:.1f}] | {to_goal} | "
             f"{r.final_distance_mean:.3f} | {r.path_length_mean:.2f} | {r.reward_mean:.3f} | "
             f"{r.episodes_per_second:,.1f} |"
         )
@@ -345,8 +349,9 @@ class SB3Agent:
 
 def load_agent(path: str | Path):
     """A saved SB3 model (zip: PPO or SAC, whichever loads it) as an agent; `vecnormalize.pkl`
-    beside it is applied, and a residual policy (a training run's `config.yaml` beside it names
-    its planner: `tether_gym.training.residual`) plays with its planner.
+    beside it is applied, and a policy that plays with a planner (a residual policy or one over
+    a planner's proposals; a training run's `config.yaml` beside it names the planner) plays
+    with it.
 
     Raises:
         ValueError: naming the path, if it is missing or not a loadable SB3 model.
@@ -378,15 +383,13 @@ def load_agent(path: str | Path):
         normalizer.training = False
     agent = SB3Agent(model, normalizer)
     config = path.parent / "config.yaml"
-    if BASE_KEY in getattr(model.observation_space, "spaces", {}) and config.is_file():
+    planned = {BASE_KEY, PROPOSALS_KEY} & set(getattr(model.observation_space, "spaces", {}))
+    if planned and config.is_file():
         import yaml
 
-        from tether_gym.training.residual import ResidualAgent, make_planner
+        from tether_gym.training.proposals import with_planner
 
-        run = yaml.safe_load(config.read_text())
-        params = run["hyperparams"]
-        planner = make_planner(params["residual"], run["env_kwargs"])
-        return ResidualAgent(agent, planner, params.get("residual_scale", 1.0))
+        return with_planner(agent, yaml.safe_load(config.read_text()))
     return agent
 
 

@@ -65,6 +65,9 @@ LINE_UP_ALPHAS = np.radians([0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90,
 """Offset angles of a line-up bounce, least turn first (a spinning puck dumps worse)."""
 FAIL = 1e6
 """The cost of an episode that ends without success."""
+KINDS = ("aim", "dump", "extreme", "line_up")
+"""The kinds of candidate maneuver (`Candidates.kind` indexes this; see `GreedyPlanner`)."""
+AIM, DUMP, EXTREME, LINE_UP = range(len(KINDS))
 
 
 def observed_states(obs, config: NavigateConfig) -> np.ndarray:
@@ -258,13 +261,15 @@ def _brake(dv, pull, alpha):
 @dataclass(frozen=True)
 class Candidates:
     """Maneuvers to predict: `rows` (m,) the state each belongs to, the peg `anchor` (m,)
-    (index into the state's pegs) and the set-up `length` (m), `alpha` (rad), `brake` (e)."""
+    (index into the state's pegs), the set-up `length` (m), `alpha` (rad), `brake` (e), and
+    the `kind` (m,) of each (an index into `KINDS`)."""
 
     rows: np.ndarray
     anchor: np.ndarray
     length: np.ndarray
     alpha: np.ndarray
     brake: np.ndarray
+    kind: np.ndarray
 
     @classmethod
     def concat(cls, parts: list[Candidates]) -> Candidates:
@@ -347,7 +352,10 @@ def _aims(states: np.ndarray, flight: Flight) -> Candidates:
     point = start[k] + velocity[k] * root.x[:, None]
     length = np.linalg.norm(point - peg[k], axis=-1) - ARM
     ok = root.success
-    return Candidates(i[k][ok], j[k][ok], length[ok], np.zeros(ok.sum()), AIM_RESTITUTIONS[ei][ok])
+    n = int(ok.sum())
+    return Candidates(
+        i[k][ok], j[k][ok], length[ok], np.zeros(n), AIM_RESTITUTIONS[ei][ok], np.full(n, AIM)
+    )
 
 
 def _dumps(states: np.ndarray, flight: Flight) -> Candidates:
@@ -357,7 +365,7 @@ def _dumps(states: np.ndarray, flight: Flight) -> Candidates:
         point, flight.velocity[i, s], states["spin"][i], states["anchors"][i, j]
     )
     ok = np.isfinite(length)
-    return Candidates(i[ok], j[ok], length[ok], alpha[ok], e[ok])
+    return Candidates(i[ok], j[ok], length[ok], alpha[ok], e[ok], np.full(int(ok.sum()), DUMP))
 
 
 def _line_ups(states: np.ndarray, flight: Flight) -> Candidates:
@@ -404,7 +412,10 @@ def _line_ups(states: np.ndarray, flight: Flight) -> Candidates:
     ok &= (length >= shortest[i][..., None]) & (length <= LENGTH.high) & present[i][..., None]
     k, q = np.nonzero(ok.any(axis=-1))
     least = np.argmax(ok[k, q], axis=-1)
-    return Candidates(i[k], q, length[k, q, least], LINE_UP_ALPHAS[least], e[k, q, least])
+    return Candidates(
+        i[k], q, length[k, q, least], LINE_UP_ALPHAS[least], e[k, q, least],
+        np.full(len(k), LINE_UP),
+    )  # fmt: skip
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -416,13 +427,15 @@ def _extremes(states: np.ndarray) -> Candidates:
     i, j = np.nonzero(np.arange(MAX_ANCHORS) < states["n_anchors"][:, None])
     grid = np.meshgrid([LENGTH.low, LENGTH.high], [-0.5 * math.pi, 0.0, 0.5 * math.pi])
     length, alpha = (np.tile(a.ravel(), len(i)) for a in grid)
-    k = grid[0].size
-    return Candidates(np.repeat(i, k), np.repeat(j, k), length, alpha, np.ones(len(length)))
+    k, m = grid[0].size, len(length)
+    return Candidates(
+        np.repeat(i, k), np.repeat(j, k), length, alpha, np.ones(m), np.full(m, EXTREME)
+    )
 
 
 def _none() -> Candidates:
-    empty = np.zeros(0)
-    return Candidates(empty.astype(np.int64), empty.astype(np.int64), empty, empty, empty)
+    empty, none = np.zeros(0), np.zeros(0, dtype=np.int64)
+    return Candidates(none, none, empty, empty, empty, none)
 
 
 class GreedyPlanner:
@@ -473,19 +486,19 @@ class GreedyPlanner:
 
     def plan(self, states: np.ndarray) -> np.ndarray:
         """The chosen actions (n, 4) for `STATE` records (n,)."""
-        rows, actions, _, cost, _ = self.expand(states, 0)
-        return actions[_best(rows, cost)[1]]
+        candidates, actions, _, cost, _ = self.expand(states, 0)
+        return actions[_best(candidates.rows, cost)[1]]
 
-    def expand(self, states: np.ndarray, depth: int) -> tuple[np.ndarray, ...]:
-        """Every candidate of every state, predicted: (rows, actions, next states, costs at
-        this depth, episode ended)."""
+    def expand(self, states: np.ndarray, depth: int) -> tuple:
+        """Every candidate of every state, predicted: (the `Candidates`, their actions, next
+        states, costs at this depth, episode ended)."""
         candidates = self.candidates(states)
         actions = candidates.actions(states)
         before = states[candidates.rows]
         after, _, out = self.kernel.step(before, actions)
         ended = (out[:, OUT.terminated] != 0) | (out[:, OUT.truncated] != 0)
         cost = self.costs(before, after, out[:, OUT.is_success] != 0, ended, depth)
-        return candidates.rows, actions, after, cost, ended
+        return candidates, actions, after, cost, ended
 
     def costs(self, before, after, success, ended, depth: int) -> np.ndarray:
         """Lower is better, for maneuvers from `before` to `after` (`STATE` records): in
@@ -544,9 +557,9 @@ class LookaheadPlanner(GreedyPlanner):
         best_cost, best_action = np.full(n, np.inf), np.zeros((n, len(ACTION)), np.float32)
         frontier, roots, first = states, np.arange(n), None
         for depth in range(self.depth):
-            rows, actions, after, cost, ended = self.expand(frontier, depth)
-            root = roots[rows]
-            lead = actions if first is None else first[rows]
+            candidates, actions, after, cost, ended = self.expand(frontier, depth)
+            root = roots[candidates.rows]
+            lead = actions if first is None else first[candidates.rows]
             leaf = ended | (depth == self.depth - 1)  # an expanded node counts by its children
             groups, pick = _best(root[leaf], cost[leaf])
             pick = np.flatnonzero(leaf)[pick]

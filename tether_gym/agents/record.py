@@ -117,7 +117,7 @@ def main(argv: list[str] | None = None) -> None:
         )
     try:
         env_id, env_kwargs = env_from_args(args)
-        agent = make_agent(args.agent, env_kwargs, args.seed)
+        agent = make_agent(args.agent, env_kwargs, args.seed, env_id)
         frames = episode_frames(env_id, env_kwargs, agent, args.episodes, args.seed, args.fps)
     except (ValueError, ModuleNotFoundError) as error:
         parser.error(str(error))

@@ -72,7 +72,15 @@ from tether_gym.cli import (
 )
 from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.pretrain import check_pretrain, clone_planner
-from tether_gym.training.residual import ResidualAgent, ResidualVecEnv, check_scale, make_planner
+from tether_gym.training.proposals import (
+    PROPOSALS_K,
+    ProposalVecEnv,
+    check_count,
+    check_depth,
+    make_proposer,
+    with_planner,
+)
+from tether_gym.training.residual import ResidualVecEnv, check_scale, make_planner
 from tether_gym.training.sb3 import make_sb3_vec_env
 from tether_gym.training.summary import RESULTS
 
@@ -96,10 +104,12 @@ TEST_SEED = 2_000_000
 """Seed of the final table's episodes, apart from those that picked the best model."""
 ZOO_KEYS = (
     "n_timesteps", "n_envs", "policy", "normalize", "residual", "residual_scale", "pretrain",
+    "proposals", "proposals_k", "proposals_depth",
 )  # fmt: skip
 """Keys of a zoo entry that are not arguments of the algorithm (`residual`, `residual_scale`:
 a residual policy on a TetherNavigate planner, `tether_gym.training.residual`; `pretrain`: PPO
-cloned from a planner first, `tether_gym.training.pretrain`)."""
+cloned from a planner first, `tether_gym.training.pretrain`; `proposals`, `proposals_k`,
+`proposals_depth`: PPO picking among a planner's proposals, `tether_gym.training.proposals`)."""
 Report = Callable[[dict[str, float]], None]
 """Receives each periodic evaluation's numbers (e.g. a sweep's `tune.report`)."""
 RUN_OPTIONS = ("algo", "seed", "n_envs", "timesteps", "eval_episodes", "eval_freq")
@@ -228,6 +238,14 @@ def check_config(config: dict[str, Any]) -> None:
             raise ValueError(f"residual: the planners solve TetherNavigate, not {config['env_id']}")
         make_planner(params["residual"], config["env_kwargs"])
         check_scale(params.get("residual_scale", 1.0))
+    if params.get("proposals") is not None:
+        if config["algo"] != "ppo" or not navigates(config["env_id"]):
+            raise ValueError("proposals: PPO on TetherNavigate only (the action is discrete)")
+        if params.get("residual") is not None or params.get("pretrain") is not None:
+            raise ValueError("proposals: not with residual or pretrain")
+        make_proposer(params["proposals"], config["env_kwargs"])
+        check_count(params.get("proposals_k", PROPOSALS_K))
+        check_depth(params.get("proposals_depth", 1))
     if params.get("pretrain") is not None:
         if config["algo"] != "ppo" or not navigates(config["env_id"]) or params.get("normalize"):
             raise ValueError("pretrain: PPO on TetherNavigate without normalize only")
@@ -274,6 +292,8 @@ def label(config: dict[str, Any]) -> str:
     name = config["algo"].upper()
     if params.get("residual") is not None:
         return f"{name} residual on {params['residual']}"
+    if params.get("proposals") is not None:
+        return f"{name} over {params['proposals']}'s proposals"
     if params.get("pretrain") is not None:
         return f"{name} from {params['pretrain']['planner']} demos"
     return name
@@ -346,15 +366,10 @@ class Checkpoints:
         return folder / "model.zip"
 
 
-def as_agent(model: BaseAlgorithm, config: dict[str, Any]) -> SB3Agent | ResidualAgent:
+def as_agent(model: BaseAlgorithm, config: dict[str, Any]):
     """The model as an evaluation agent (normalizing observations never updates the stats),
-    with its planner if it is a residual policy."""
-    agent = SB3Agent(model, model.get_vec_normalize_env())
-    residual = config["hyperparams"].get("residual")
-    if residual is None:
-        return agent
-    planner = make_planner(residual, config["env_kwargs"])
-    return ResidualAgent(agent, planner, config["hyperparams"].get("residual_scale", 1.0))
+    with its planner if it is a residual policy or picks among a planner's proposals."""
+    return with_planner(SB3Agent(model, model.get_vec_normalize_env()), config)
 
 
 def yardstick(config: dict[str, Any]) -> tuple[str, object]:
@@ -477,6 +492,10 @@ def make_venv(config: dict[str, Any]) -> VecMonitor:
     if params.get("residual") is not None:
         planner = make_planner(params["residual"], env_kwargs)
         venv = ResidualVecEnv(venv, planner, params.get("residual_scale", 1.0))
+    if params.get("proposals") is not None:
+        planner = make_proposer(params["proposals"], env_kwargs)
+        k, depth = params.get("proposals_k", PROPOSALS_K), params.get("proposals_depth", 1)
+        venv = ProposalVecEnv(venv, planner, k, depth)
     return VecMonitor(venv)
 
 

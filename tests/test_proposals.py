@@ -1,0 +1,150 @@
+"""PPO over the greedy planner's proposals (tether_gym.training.proposals): what the policy
+sees and plays, and a training run that names its planner and reloads with it."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from tether_gym.agents.evaluate import PROPOSALS_KEY, load_agent
+from tether_gym.agents.planners import KINDS, GreedyPlanner, observed_states
+from tether_gym.training import proposals, train
+from tether_gym.training.sb3 import make_sb3_vec_env
+
+KWARGS = {"n_obstacles": 3, "dynamics": "impulse", "max_maneuvers": 2, "task": "stop"}
+COST = 3  # the features' column of the cost over COST_CAP
+KIND = slice(5, 5 + len(KINDS))
+
+
+def native_env(n: int, seed: int, **kwargs):
+    env = gym.make_vec(
+        "TetherNavigate-v0",
+        num_envs=n,
+        vectorization_mode="vector_entry_point",
+        **(kwargs or KWARGS),
+    )
+    return env, env.reset(seed=seed)[0]
+
+
+def test_the_proposals_are_the_best_of_distinct_groups_in_rank_order():
+    planner = GreedyPlanner(KWARGS)
+    _, obs = native_env(16, seed=3)
+    k = 8
+    features, actions = proposals.propose(planner, obs, k)
+    features = features.reshape(16, k, proposals.PROPOSAL_FEATURES)
+    candidates, all_actions, _, cost, _ = planner.expand(observed_states(obs, planner.config), 0)
+    for i in range(16):
+        present = features[i, :, 0] == 1
+        assert present[0] and np.all(present[:-1] >= present[1:]), "present slots come first"
+        shown = features[i, present, COST]
+        assert np.all(np.diff(shown) >= 0), "slots are in rank order"
+        least = min(cost[candidates.rows == i].min(), proposals.COST_CAP)
+        assert shown[0] == pytest.approx(least / proposals.COST_CAP, rel=1e-6)
+        # one proposal per (peg, kind): the bearing names the peg, the one-hot the kind
+        pegs = np.round(actions[i, present, 0], 4).tolist()
+        kinds = np.argmax(features[i, present][:, KIND], axis=1).tolist()
+        assert len(set(zip(pegs, kinds, strict=True))) == present.sum()
+        np.testing.assert_array_equal(
+            actions[i, ~present], np.repeat(actions[i, :1], (~present).sum(), 0)
+        )
+        mine = all_actions[candidates.rows == i]
+        assert all(np.any(np.all(mine == a, axis=1)) for a in actions[i, present])
+    # a predicted failure shows the capped cost, and nothing else does
+    np.testing.assert_array_equal(features[..., 2] == 1, features[..., COST] == 1)
+
+
+def test_the_vec_env_plays_the_picked_proposal_and_the_agent_plays_the_same():
+    planner = GreedyPlanner(KWARGS)
+    k = 4
+    env = proposals.ProposalVecEnv(
+        make_sb3_vec_env(4, seed=7, env_id="TetherNavigate-v0", **KWARGS), planner, k
+    )
+    assert env.action_space == gym.spaces.Discrete(k)
+    native, ref = native_env(4, seed=7)
+    obs = env.reset()
+    truncated = 0
+    for step in range(8):
+        pick = np.array([step % k, 0, k - 1, 1])
+        features, actions = proposals.propose(planner, ref, k)
+        np.testing.assert_array_equal(obs[PROPOSALS_KEY], features)
+        obs, rewards, dones, infos = env.step(pick)
+        ref, ref_rewards, _, _, _ = native.step(actions[np.arange(4), pick])
+        np.testing.assert_allclose(rewards, ref_rewards.astype(np.float32))
+        for i in np.flatnonzero(dones):
+            final = infos[i]["terminal_observation"]
+            if infos[i]["TimeLimit.truncated"]:
+                batch = {key: value[None] for key, value in final.items() if key != PROPOSALS_KEY}
+                expected = proposals.propose(planner, batch, k)[0][0]
+                truncated += 1
+            else:
+                expected = np.zeros(k * proposals.PROPOSAL_FEATURES)
+            np.testing.assert_array_equal(final[PROPOSALS_KEY], expected)
+    assert truncated > 0, "a truncated episode's terminal observation must be checked"
+
+    class Third:
+        def predict(self, obs, state=None, episode_start=None, deterministic=True):
+            return np.full(len(obs[PROPOSALS_KEY]), 2), state
+
+    agent = proposals.ProposalAgent(Third(), planner, k)
+    _, actions = proposals.propose(planner, ref, k)
+    np.testing.assert_array_equal(agent.predict(ref)[0], actions[:, 2])
+    single = {key: value[1] for key, value in ref.items()}
+    np.testing.assert_array_equal(agent.predict(single)[0], actions[1, 2])
+
+
+def test_a_ppo_run_over_proposals_names_its_planner_and_loads_with_it(tmp_path, capsys):
+    policy = "policy_kwargs:dict(features_extractor_class=NavigateExtractor, net_arch=[16])"
+    tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", "proposals:greedy", "proposals_k:4",
+            policy]  # fmt: skip
+    run = ["--timesteps", "512", "--eval-freq", "0", "--runs-dir", str(tmp_path),
+           "--eval-episodes", "20", "--no-progress-bar", "--n-envs", "8"]  # fmt: skip
+    argv = ["--env", "TetherNavigate-v0", "--name", "picks", *run, "--hyperparams", *tiny]
+    assert train.main(argv) == 0
+    table = (tmp_path / "picks" / "results.md").read_text()
+    assert "| PPO over greedy's proposals (last) |" in table
+    agent = load_agent(tmp_path / "picks" / "last" / "model.zip")
+    assert isinstance(agent, proposals.ProposalAgent) and agent.k == 4
+
+
+@pytest.mark.parametrize(
+    ("env", "extra", "message"),
+    [(["--algo", "sac", "--env", "TetherNavigateSparse-v0"], [], "PPO on TetherNavigate only"),
+     (["--env", "TetherBounce-v0"], [], "PPO on TetherNavigate only"),
+     (["--env", "TetherNavigate-v0"], ["proposals_k:1"], "proposals_k must be an"),
+     (["--env", "TetherNavigate-v0"], ["residual:greedy"], "not with residual"),
+     (["--env", "TetherNavigate-v0"], ["proposals:lookahead"], "must be 'greedy'")],
+)  # fmt: skip
+def test_bad_proposal_settings_name_themselves(tmp_path, capsys, env, extra, message):
+    with pytest.raises(SystemExit):
+        train.main([*env, "--runs-dir", str(tmp_path), "--hyperparams", "proposals:greedy", *extra])
+    assert message in capsys.readouterr().err
+
+
+def test_depth_two_shows_the_best_next_maneuver_of_each_proposal():
+    reach = {"n_obstacles": 3, "dynamics": "impulse"}
+    planner = GreedyPlanner(reach)
+    _, obs = native_env(6, seed=11, **reach)
+    k = 4
+    shallow, _ = proposals.propose(planner, obs, k, depth=1)
+    deep, actions = proposals.propose(planner, obs, k, depth=2)
+    shallow, deep = (f.reshape(6, k, proposals.PROPOSAL_FEATURES) for f in (shallow, deep))
+    np.testing.assert_array_equal(deep[..., :-2], shallow[..., :-2])
+    assert not shallow[..., -2:].any()
+    states = observed_states(obs, planner.config)
+    successes = 0
+    for i in range(6):
+        for j in np.flatnonzero(deep[i, :, 0]):
+            after, _, _ = planner.kernel.step(states[i : i + 1], actions[i, j][None])
+            if deep[i, j, 1] or deep[i, j, 2]:  # the episode ends: no next maneuver
+                continue
+            _, _, _, cost, _ = planner.expand(after, 1)
+            least = min(cost.min(), proposals.COST_CAP)
+            assert deep[i, j, -2] == pytest.approx(least / proposals.COST_CAP, rel=1e-6)
+            assert deep[i, j, -1] == (cost.min() < 2.0)
+            successes += deep[i, j, -1]
+    assert successes > 0, "some proposal must be followed by a predicted success"
+    with pytest.raises(ValueError, match="proposals_depth must be 1 or 2"):
+        proposals.ProposalAgent(None, planner, k, 3)
