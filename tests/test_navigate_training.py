@@ -54,6 +54,7 @@ def test_ppo_trains_on_navigate_with_env_kwargs_and_evaluates_against_the_planne
         assert f"| {name} |" in table
     assert "maneuvers to goal" in table
     saved = json.loads((folder / "results.json").read_text())
+    assert (saved["env_id"], saved["env_kwargs"]) == ("TetherNavigate-v0", config["env_kwargs"])
     assert [r["name"] for r in saved["results"]] == ["PPO (best)", "PPO (last)", *BASELINES]
     agent = load_agent(folder / "last" / "model.zip")  # tether-evaluate's loader
     (result,) = evaluate({"ppo": agent}, config["env_kwargs"], 10, env_id="TetherNavigate-v0")
@@ -143,7 +144,8 @@ def test_the_summary_averages_the_runs_over_seeds(tmp_path, capsys):
                    for name, values in rates.items()]  # fmt: skip
         folder = tmp_path / f"seed{seed}"
         folder.mkdir()
-        run = {"timesteps": 1000, "train_seconds": 60.0 + seed, "results": results}
+        run = {"timesteps": 1000, "train_seconds": 60.0 + seed, "results": results,
+               "env_id": "TetherNavigate-v0", "env_kwargs": {"task": "stop"}}  # fmt: skip
         (folder / summary.RESULTS).write_text(json.dumps(run))
         folders.append(str(folder))
     assert summary.main(folders) == 0
@@ -157,6 +159,12 @@ def test_the_summary_averages_the_runs_over_seeds(tmp_path, capsys):
     with pytest.raises(SystemExit):
         summary.main([str(tmp_path / "missing")])
     assert "cannot read the results of" in capsys.readouterr().err
+    other = tmp_path / "reach"
+    other.mkdir()
+    (other / summary.RESULTS).write_text(json.dumps({**run, "env_kwargs": {}}))
+    with pytest.raises(SystemExit):
+        summary.main([*folders, str(other)])
+    assert "summarize the seeds of one configuration" in capsys.readouterr().err
 
 
 class ZeroPolicy:

@@ -186,3 +186,30 @@ def test_resume_refuses_a_folder_without_a_sweep(tmp_path, capsys):
     with pytest.raises(SystemExit):
         sweep.main(["--resume", str(tmp_path), "--out", str(tmp_path)])
     assert "drop --out" in capsys.readouterr().err
+
+
+def test_a_sweep_on_tether_navigate_compares_with_the_greedy_planner(tmp_path):
+    data = {
+        "base": {
+            "env_id": "TetherNavigate-v0",
+            "env_kwargs": {"dynamics": "impulse"},
+            "n_envs": 8,
+            "timesteps": 512,
+            "eval_episodes": 20,
+            "eval_freq": 256,
+            "hyperparams": {
+                "n_steps": 64,
+                "batch_size": 256,
+                "policy_kwargs": "dict(net_arch=[16])",
+            },
+        },
+        "seeds": 1,
+        "max_failures": 0,
+    }
+    path = tmp_path / "navigate.yml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert sweep.main([str(path), "--out", str(out)]) == 0
+    (row,) = sweep.pd.read_csv(out / "summary.csv").to_dict("records")
+    assert row["oracle_success"] > 0.5, "the greedy planner's success on the test episodes"
+    assert "| greedy planner | train s |" in (out / "summary.md").read_text()

@@ -35,13 +35,22 @@ def t_interval(values: np.ndarray) -> tuple[float, float]:
 
 
 def load_runs(run_dirs: list[Path]) -> list[dict]:
-    """Each run's `results.json` (ValueError naming a folder without one)."""
+    """Each run's `results.json` (ValueError naming a folder without one, or one whose env or
+    env arguments differ from the first run's: seeds of one configuration only)."""
     runs = []
     for folder in run_dirs:
         try:
             runs.append(json.loads((folder / RESULTS).read_text()))
         except (OSError, json.JSONDecodeError) as error:
             raise ValueError(f"cannot read the results of {str(folder)!r}: {error}") from None
+        env, first = (
+            [run.get(key) for key in ("env_id", "env_kwargs")] for run in (runs[-1], runs[0])
+        )
+        if env != first:
+            raise ValueError(
+                f"{str(folder)!r} ran {env[0]} {env[1]}, {str(run_dirs[0])!r} {first[0]} "
+                f"{first[1]}: summarize the seeds of one configuration"
+            )
     return runs
 
 

@@ -92,6 +92,7 @@ from tether_gym.training.train import (
     load_hyperparams,
     make_config,
     train,
+    yardstick_name,
 )
 
 BASE_KEYS = (
@@ -427,7 +428,7 @@ def run_trial(params: dict[str, Any], base: dict[str, Any], seeds: list[int], ru
     final = {
         "timesteps": summary["timesteps"],
         "test_success": results[f"{label(config)} (best)"]["success_rate"],
-        "test_oracle_success": results["impulse oracle"]["success_rate"],
+        "test_oracle_success": results[yardstick_name(config["env_id"])]["success_rate"],
         "train_seconds": summary["train_seconds"],
         "numba_threads": numba.get_num_threads(),
         "torch_threads": torch.get_num_threads(),
@@ -544,11 +545,12 @@ def summarize(groups: list[list[Trial]]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def format_summary(table: pd.DataFrame) -> str:
-    """The summary as a Markdown table (success in percent)."""
+def format_summary(table: pd.DataFrame, yardstick: str = "impulse oracle") -> str:
+    """The summary as a Markdown table (success in percent; `oracle_success` is the runs'
+    `yardstick`'s, the greedy planner's on TetherNavigate)."""
     keys = [column for column in table.columns if column not in SUMMARY_COLUMNS]
     lines = [
-        "| configuration | seeds | success mean [95% CI] | worst | impulse oracle | train s |",
+        f"| configuration | seeds | success mean [95% CI] | worst | {yardstick} | train s |",
         "|---|---:|---|---:|---:|---:|",
     ]
     for _, row in table.iterrows():
@@ -564,9 +566,9 @@ def format_summary(table: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
-def plot_success(groups: list[list[Trial]], path: Path) -> None:
+def plot_success(groups: list[list[Trial]], path: Path, yardstick: str = "impulse oracle") -> None:
     """success.png: each configuration's periodic success rate against timesteps, the mean
-    over seeds and its 95% t band; the impulse oracle's on the same episodes dashed."""
+    over seeds and its 95% t band; the `yardstick`'s on the same episodes dashed."""
     figure = Figure(figsize=(7, 4.5), layout="constrained")
     FigureCanvasAgg(figure)
     axes = figure.add_subplot()
@@ -579,8 +581,9 @@ def plot_success(groups: list[list[Trial]], path: Path) -> None:
         (line,) = axes.plot(mean.index, mean, label=describe(members[0].params))
         axes.fill_between(mean.index, band[:, 0], band[:, 1], alpha=0.2, color=line.get_color())
     trials = [trial for members in groups for trial in members]
-    oracle = 100 * pd.concat([trial.history["oracle_success_rate"] for trial in trials]).mean()
-    axes.axhline(oracle, color="0.4", linestyle="--", label="impulse oracle")
+    key = "planner_success_rate" if yardstick == "greedy planner" else "oracle_success_rate"
+    oracle = 100 * pd.concat([trial.history[key] for trial in trials]).mean()
+    axes.axhline(oracle, color="0.4", linestyle="--", label=yardstick)
     axes.set(xlabel="timesteps", ylabel="success (%)", ylim=(-2, 102))
     axes.set_title("Periodic evaluations: mean and 95% interval over seeds")
     axes.legend(fontsize="small")
@@ -634,9 +637,10 @@ def write_results(results: tune.ResultGrid, sweep: Sweep, out: Path) -> Outcome:
     groups = group(trials)
     summary = summarize(groups).sort_values("success_mean", ascending=False, ignore_index=True)
     summary.to_csv(out / "summary.csv", index=False)
-    table = format_summary(summary)
+    yardstick = yardstick_name(sweep.base["env_id"])
+    table = format_summary(summary, yardstick)
     (out / "summary.md").write_text(table + "\n")
-    plot_success(groups, out / "success.png")
+    plot_success(groups, out / "success.png", yardstick)
     return Outcome(summary, table, trials, failed, unfinished)
 
 

@@ -372,12 +372,18 @@ def as_agent(model: BaseAlgorithm, config: dict[str, Any]):
     return with_planner(SB3Agent(model, model.get_vec_normalize_env()), config)
 
 
+def yardstick_name(env_id: str) -> str:
+    """The name of the `yardstick` of an env's runs in tables and plots."""
+    return "greedy planner" if navigates(env_id) else "impulse oracle"
+
+
 def yardstick(config: dict[str, Any]) -> tuple[str, object]:
     """The baseline the periodic evaluations compare with: TetherBounce's impulse oracle, or
     TetherNavigate's greedy planner (`navigates`)."""
+    name = yardstick_name(config["env_id"])
     if navigates(config["env_id"]):
-        return "greedy planner", GreedyPlanner(config["env_kwargs"])
-    return "impulse oracle", ImpulseOracle()
+        return name, GreedyPlanner(config["env_kwargs"])
+    return name, ImpulseOracle()
 
 
 def baselines(config: dict[str, Any]) -> dict[str, object]:
@@ -626,6 +632,8 @@ def train(
     (run_dir / "results.md").write_text(table + "\n")
     summary = {
         "run_dir": str(run_dir),
+        "env_id": config["env_id"],
+        "env_kwargs": config["env_kwargs"],
         "timesteps": int(model.num_timesteps),
         "train_seconds": elapsed,
         "best_eval_success_rate": callback.best,
