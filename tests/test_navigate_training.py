@@ -18,7 +18,7 @@ from stable_baselines3 import HerReplayBuffer
 
 from tether_gym.agents.evaluate import NavigationResult, evaluate, load_agent
 from tether_gym.envs.tether_navigate.kernel import MAX_ANCHORS, decode_observation
-from tether_gym.training import pretrain, residual, summary, train
+from tether_gym.training import pretrain, proposals, residual, summary, train
 from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.sb3 import make_sb3_vec_env
 
@@ -218,16 +218,25 @@ def test_a_zero_residual_plays_the_planner_through_the_vec_env_and_the_agent():
     np.testing.assert_array_equal(policy.seen[0]["base_action"], action)
 
 
-def test_a_residual_ppo_run_names_its_planner_and_loads_with_it(tmp_path, capsys):
-    tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY, "residual:greedy",
-            "residual_scale:0.2"]  # fmt: skip
+@pytest.mark.parametrize(
+    ("overrides", "name", "loaded"),
+    [(["residual:greedy", "residual_scale:0.2"], "PPO residual on greedy",
+      lambda agent: isinstance(agent, residual.ResidualAgent) and agent.scale == 0.2),
+     (["proposals:greedy", "proposals_k:4"], "PPO over greedy's proposals",
+      lambda agent: isinstance(agent, proposals.ProposalAgent) and agent.k == 4)],
+)  # fmt: skip
+def test_a_run_with_a_planner_names_it_and_loads_with_it(tmp_path, overrides, name, loaded):
+    tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY, *overrides]
     run = ["--timesteps", "512", "--eval-freq", "0", "--runs-dir", str(tmp_path), *OPTIONS]
-    argv = ["--env", "TetherNavigate-v0", "--name", "res", *run, "--hyperparams", *tiny]
+    argv = ["--env", "TetherNavigate-v0", "--name", "run", *run, "--hyperparams", *tiny]
     assert train.main(argv) == 0
-    table = (tmp_path / "res" / "results.md").read_text()
-    assert "| PPO residual on greedy (last) |" in table
-    agent = load_agent(tmp_path / "res" / "last" / "model.zip")
-    assert isinstance(agent, residual.ResidualAgent) and agent.scale == 0.2
+    table = (tmp_path / "run" / "results.md").read_text()
+    assert f"| {name} (last) |" in table
+    assert loaded(load_agent(tmp_path / "run" / "last" / "model.zip"))
+
+
+def test_a_residual_policy_needs_tether_navigate(tmp_path, capsys):
+    run = ["--timesteps", "512", "--runs-dir", str(tmp_path), *OPTIONS]
     with pytest.raises(SystemExit):
         train.main(["--env", "TetherBounce-v0", *run, "--hyperparams", "residual:greedy"])
     assert "the planners solve TetherNavigate" in capsys.readouterr().err

@@ -1,5 +1,5 @@
 """PPO over the greedy planner's proposals (tether_gym.training.proposals): what the policy
-sees and plays, and a training run that names its planner and reloads with it."""
+sees and plays, and the settings a run refuses (tests/test_navigate_training.py trains one)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from tether_gym.agents.evaluate import PROPOSALS_KEY, load_agent
+from tether_gym.agents.evaluate import PROPOSALS_KEY
 from tether_gym.agents.planners import KINDS, GreedyPlanner, observed_states
 from tether_gym.training import proposals, train
 from tether_gym.training.sb3 import make_sb3_vec_env
@@ -93,20 +93,6 @@ def test_the_vec_env_plays_the_picked_proposal_and_the_agent_plays_the_same():
     np.testing.assert_array_equal(agent.predict(ref)[0], actions[:, 2])
     single = {key: value[1] for key, value in ref.items()}
     np.testing.assert_array_equal(agent.predict(single)[0], actions[1, 2])
-
-
-def test_a_ppo_run_over_proposals_names_its_planner_and_loads_with_it(tmp_path, capsys):
-    policy = "policy_kwargs:dict(features_extractor_class=NavigateExtractor, net_arch=[16])"
-    tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", "proposals:greedy", "proposals_k:4",
-            policy]  # fmt: skip
-    run = ["--timesteps", "512", "--eval-freq", "0", "--runs-dir", str(tmp_path),
-           "--eval-episodes", "20", "--no-progress-bar", "--n-envs", "8"]  # fmt: skip
-    argv = ["--env", "TetherNavigate-v0", "--name", "picks", *run, "--hyperparams", *tiny]
-    assert train.main(argv) == 0
-    table = (tmp_path / "picks" / "results.md").read_text()
-    assert "| PPO over greedy's proposals (last) |" in table
-    agent = load_agent(tmp_path / "picks" / "last" / "model.zip")
-    assert isinstance(agent, proposals.ProposalAgent) and agent.k == 4
 
 
 @pytest.mark.parametrize(
