@@ -36,7 +36,8 @@ def t_interval(values: np.ndarray) -> tuple[float, float]:
 
 def load_runs(run_dirs: list[Path]) -> list[dict]:
     """Each run's `results.json` (ValueError naming a folder without one, or one whose env or
-    env arguments differ from the first run's: seeds of one configuration only)."""
+    env arguments differ from the first run's: seeds of one configuration only; runs written
+    before results.json recorded them are not checked)."""
     runs = []
     for folder in run_dirs:
         try:
@@ -46,7 +47,7 @@ def load_runs(run_dirs: list[Path]) -> list[dict]:
         env, first = (
             [run.get(key) for key in ("env_id", "env_kwargs")] for run in (runs[-1], runs[0])
         )
-        if env != first:
+        if None not in (env[0], first[0]) and env != first:  # older runs did not record it
             raise ValueError(
                 f"{str(folder)!r} ran {env[0]} {env[1]}, {str(run_dirs[0])!r} {first[0]} "
                 f"{first[1]}: summarize the seeds of one configuration"
