@@ -52,6 +52,12 @@ def check_depth(depth: Any) -> int:
     return depth
 
 
+def settings(params: dict[str, Any]) -> tuple[int, int]:
+    """A zoo entry's (proposals_k, proposals_depth), defaults filled in and checked."""
+    k = params.get("proposals_k", PROPOSALS_K)
+    return check_count(k), check_depth(params.get("proposals_depth", 1))
+
+
 def make_proposer(name: str, env_kwargs: dict[str, Any]) -> GreedyPlanner:
     """The planner that proposes (only "greedy": its one-maneuver ranking is what is learned
     past; ValueError otherwise)."""
@@ -148,8 +154,7 @@ def with_planner(agent, config: dict[str, Any]):
         return ResidualAgent(agent, planner, params.get("residual_scale", 1.0))
     if params.get("proposals") is not None:
         planner = make_proposer(params["proposals"], config["env_kwargs"])
-        k, depth = params.get("proposals_k", PROPOSALS_K), params.get("proposals_depth", 1)
-        return ProposalAgent(agent, planner, k, depth)
+        return ProposalAgent(agent, planner, *settings(params))
     return agent
 
 
@@ -207,9 +212,8 @@ __all__ = [
     "PROPOSAL_FEATURES",
     "ProposalAgent",
     "ProposalVecEnv",
-    "check_count",
-    "check_depth",
     "make_proposer",
     "propose",
+    "settings",
     "with_planner",
 ]

@@ -44,13 +44,12 @@ def load_runs(run_dirs: list[Path]) -> list[dict]:
             runs.append(json.loads((folder / RESULTS).read_text()))
         except (OSError, json.JSONDecodeError) as error:
             raise ValueError(f"cannot read the results of {str(folder)!r}: {error}") from None
-        env, first = (
-            [run.get(key) for key in ("env_id", "env_kwargs")] for run in (runs[-1], runs[0])
-        )
-        if None not in (env[0], first[0]) and env != first:  # older runs did not record it
+        env, first = (f"{run.get('env_id')} {run.get('env_kwargs')}" for run in (runs[-1], runs[0]))
+        recorded = "env_id" in runs[-1] and "env_id" in runs[0]  # older runs did not record it
+        if recorded and env != first:
             raise ValueError(
-                f"{str(folder)!r} ran {env[0]} {env[1]}, {str(run_dirs[0])!r} {first[0]} "
-                f"{first[1]}: summarize the seeds of one configuration"
+                f"{str(folder)!r} ran {env}, {str(run_dirs[0])!r} {first}: summarize the seeds "
+                "of one configuration"
             )
     return runs
 

@@ -581,7 +581,11 @@ def plot_success(groups: list[list[Trial]], path: Path, yardstick: str = "impuls
         (line,) = axes.plot(mean.index, mean, label=describe(members[0].params))
         axes.fill_between(mean.index, band[:, 0], band[:, 1], alpha=0.2, color=line.get_color())
     trials = [trial for members in groups for trial in members]
-    key = "planner_success_rate" if yardstick == "greedy planner" else "oracle_success_rate"
+    key = (
+        "oracle_success_rate"
+        if "oracle_success_rate" in trials[0].history
+        else "planner_success_rate"
+    )
     oracle = 100 * pd.concat([trial.history[key] for trial in trials]).mean()
     axes.axhline(oracle, color="0.4", linestyle="--", label=yardstick)
     axes.set(xlabel="timesteps", ylabel="success (%)", ylim=(-2, 102))

@@ -72,14 +72,8 @@ from tether_gym.cli import (
 )
 from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.pretrain import check_pretrain, clone_planner
-from tether_gym.training.proposals import (
-    PROPOSALS_K,
-    ProposalVecEnv,
-    check_count,
-    check_depth,
-    make_proposer,
-    with_planner,
-)
+from tether_gym.training.proposals import ProposalVecEnv, make_proposer, with_planner
+from tether_gym.training.proposals import settings as proposal_settings
 from tether_gym.training.residual import ResidualVecEnv, check_scale, make_planner
 from tether_gym.training.sb3 import make_sb3_vec_env
 from tether_gym.training.summary import RESULTS
@@ -244,8 +238,7 @@ def check_config(config: dict[str, Any]) -> None:
         if params.get("residual") is not None or params.get("pretrain") is not None:
             raise ValueError("proposals: not with residual or pretrain")
         make_proposer(params["proposals"], config["env_kwargs"])
-        check_count(params.get("proposals_k", PROPOSALS_K))
-        check_depth(params.get("proposals_depth", 1))
+        proposal_settings(params)
     if params.get("pretrain") is not None:
         if config["algo"] != "ppo" or not navigates(config["env_id"]) or params.get("normalize"):
             raise ValueError("pretrain: PPO on TetherNavigate without normalize only")
@@ -500,8 +493,7 @@ def make_venv(config: dict[str, Any]) -> VecMonitor:
         venv = ResidualVecEnv(venv, planner, params.get("residual_scale", 1.0))
     if params.get("proposals") is not None:
         planner = make_proposer(params["proposals"], env_kwargs)
-        k, depth = params.get("proposals_k", PROPOSALS_K), params.get("proposals_depth", 1)
-        venv = ProposalVecEnv(venv, planner, k, depth)
+        venv = ProposalVecEnv(venv, planner, *proposal_settings(params))
     return VecMonitor(venv)
 
 
