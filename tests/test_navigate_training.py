@@ -229,7 +229,10 @@ def test_a_zero_residual_plays_the_planner_through_the_vec_env_and_the_agent():
     [(["residual:greedy", "residual_scale:0.2"], "PPO residual on greedy",
       lambda agent: isinstance(agent, residual.ResidualAgent) and agent.scale == 0.2),
      (["proposals:greedy", "proposals_k:4"], "PPO over greedy's proposals",
-      lambda agent: isinstance(agent, proposals.ProposalAgent) and agent.k == 4)],
+      lambda agent: isinstance(agent, proposals.ProposalAgent) and agent.k == 4),
+     (["proposals:greedy", "proposals_k:4", "policy:ProposalPolicy"],
+      "PPO over greedy's proposals",
+      lambda agent: isinstance(agent.policy.model.policy, proposals.ProposalPolicy))],
 )  # fmt: skip
 def test_a_run_with_a_planner_names_it_and_loads_with_it(tmp_path, overrides, name, loaded):
     tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY, *overrides]

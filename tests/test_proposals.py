@@ -6,6 +6,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+import torch
 
 pytest.importorskip("stable_baselines3")
 
@@ -134,3 +135,49 @@ def test_depth_two_shows_the_best_next_maneuver_of_each_proposal():
     assert successes > 0, "some proposal must be followed by a predicted success"
     with pytest.raises(ValueError, match="proposals_depth must be 1 or 2"):
         proposals.ProposalAgent(None, planner, k, 3)
+
+
+def scorer_policy(k: int = 4):
+    """A `ProposalPolicy` on a proposals env's spaces, with the default features extractor."""
+    planner = GreedyPlanner(KWARGS)
+    env = proposals.ProposalVecEnv(
+        make_sb3_vec_env(2, seed=5, env_id="TetherNavigate-v0", **KWARGS), planner, k
+    )
+    policy = proposals.ProposalPolicy(
+        env.observation_space, env.action_space, lambda _: 1e-3, net_arch=dict(pi=[32], vf=[32])
+    )
+    return policy, env.reset()
+
+
+def test_the_scorer_scores_each_slot_alike_and_never_an_empty_one():
+    k = 4
+    policy, obs = scorer_policy(k)
+    for layer in policy.mlp_extractor.score:  # away from the near-equal start
+        if isinstance(layer, torch.nn.Linear):
+            torch.nn.init.normal_(layer.weight)
+    slots = obs[PROPOSALS_KEY].reshape(2, k, proposals.PROPOSAL_FEATURES)
+    slots[:, :, 0] = 1.0  # all present, and slot 1 unlike slot 2
+    slots[:, 1, 3:] += 0.5
+    order = [2, 0, 3, 1]
+
+    def logits(proposal_slots):
+        batch = {**obs, PROPOSALS_KEY: proposal_slots.reshape(2, -1)}
+        tensors, _ = policy.obs_to_tensor(batch)
+        with torch.no_grad():
+            return policy.get_distribution(tensors).distribution.logits.numpy()
+
+    scores = logits(slots)
+    assert np.ptp(scores, axis=1).min() > 1e-3, "the slots must score apart"
+    # a proposal scores by what it is, not by its slot: permuting the slots permutes the scores
+    np.testing.assert_allclose(logits(slots[:, order]), scores[:, order], rtol=1e-5, atol=1e-5)
+    slots[:, 1, 0] = 0.0
+    empty = logits(slots)
+    assert np.all(empty[:, 1] < -50), "an empty slot is never picked"
+    assert np.all(np.isfinite(empty))
+
+
+def test_the_scorer_policy_needs_proposals(tmp_path, capsys):
+    argv = ["--env", "TetherNavigate-v0", "--runs-dir", str(tmp_path)]
+    with pytest.raises(SystemExit):
+        train.main([*argv, "--hyperparams", "policy:ProposalPolicy"])
+    assert "policy ProposalPolicy scores a planner's proposals" in capsys.readouterr().err

@@ -8,7 +8,9 @@ state the best candidate of each (peg, kind) group, its `k` best-ranked in rank 
 policy (a `Discrete(k)` action) learns from the reward which one serves the episode, the
 multi-maneuver value the greedy ranking lacks. It sees each proposal's predicted outcome
 (`proposal_features`) as the observation's "proposals" entry. Slot 0 is the greedy planner's
-own choice; a slot without a proposal plays slot 0's.
+own choice; a slot without a proposal plays slot 0's. With `policy: ProposalPolicy` one
+network scores every slot alike (`ProposalScorer`), so what it learns of a proposal in one
+slot holds in all; SB3's default policy learns each slot apart.
 
 This is not plain RL: the planner is part of the agent, and tables name it so ("PPO over
 greedy's proposals").
@@ -20,8 +22,12 @@ import math
 from typing import Any
 
 import numpy as np
+import torch
 from gymnasium import spaces
+from stable_baselines3.common.policies import MultiInputActorCriticPolicy
+from stable_baselines3.common.torch_layers import create_mlp
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
+from torch import nn
 
 from tether_gym.agents.evaluate import PROPOSALS_KEY
 from tether_gym.agents.planners import FAIL, KINDS, GreedyPlanner, observed_states
@@ -207,10 +213,72 @@ class ProposalVecEnv(VecEnvWrapper):
         return obs, rewards, dones, infos
 
 
+class ProposalScorer(nn.Module):
+    """The policy's networks over the features `(context, proposals)` (the proposals last, k *
+    PROPOSAL_FEATURES, as SB3's extractors put the dict's "proposals" entry): one MLP scores
+    each proposal from its features and the context, the same weights for every slot, so what
+    it learns of one slot holds for all (a pointer network's bias, where a flat MLP must learn
+    each slot apart); an empty slot scores `EMPTY`. The value is an MLP over all features."""
+
+    def __init__(self, features_dim: int, k: int, net_arch: dict, activation_fn: type[nn.Module]):
+        super().__init__()
+        self.k, size = k, k * PROPOSAL_FEATURES
+        if features_dim <= size:
+            raise ValueError(f"the features ({features_dim}) hold no context besides {k} proposals")
+        context = features_dim - size
+        self.score = nn.Sequential(
+            *create_mlp(context + PROPOSAL_FEATURES, 1, net_arch["pi"], activation_fn)
+        )
+        self.value = nn.Sequential(*create_mlp(features_dim, -1, net_arch["vf"], activation_fn))
+        self.latent_dim_pi, self.latent_dim_vf = k, net_arch["vf"][-1]
+
+    def forward(self, features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        return self.forward_actor(features), self.forward_critic(features)
+
+    def forward_actor(self, features: torch.Tensor) -> torch.Tensor:
+        """The logits (n, k) of picking each slot."""
+        size = self.k * PROPOSAL_FEATURES
+        slots = features[:, -size:].reshape(-1, self.k, PROPOSAL_FEATURES)
+        context = features[:, None, :-size].expand(-1, self.k, -1)
+        scores = self.score(torch.cat([context, slots], dim=-1))[..., 0]
+        return torch.where(slots[..., 0] > 0.5, scores, torch.full_like(scores, EMPTY))
+
+    def forward_critic(self, features: torch.Tensor) -> torch.Tensor:
+        return self.value(features)
+
+
+EMPTY = -1e4
+"""The logit of an empty slot: never picked, and finite (no NaN in the entropy)."""
+
+
+class ProposalPolicy(MultiInputActorCriticPolicy):
+    """SB3's actor-critic over goal dicts with a `ProposalScorer`: its logits are the slots'
+    scores (no linear layer after them, which would tie the slots apart again); `net_arch`'s
+    "pi" is the scorer's hidden layers, "vf" the value's."""
+
+    def _build_mlp_extractor(self) -> None:
+        arch = self.net_arch if isinstance(self.net_arch, dict) else {"pi": self.net_arch}
+        arch = {"pi": arch.get("pi") or [64, 64], "vf": arch.get("vf") or [64, 64]}
+        self.mlp_extractor = ProposalScorer(
+            self.features_dim, self.action_space.n, arch, self.activation_fn
+        )
+
+    def _build(self, lr_schedule) -> None:
+        super()._build(lr_schedule)
+        self.action_net = nn.Identity()
+        if self.ortho_init:  # the scores start near equal, as SB3's action net would
+            self.init_weights(self.mlp_extractor.score[-1], gain=0.01)
+        self.optimizer = self.optimizer_class(
+            self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
+        )
+
+
 __all__ = [
     "PROPOSALS_K",
     "PROPOSAL_FEATURES",
     "ProposalAgent",
+    "ProposalPolicy",
+    "ProposalScorer",
     "ProposalVecEnv",
     "make_proposer",
     "propose",

@@ -72,7 +72,12 @@ from tether_gym.cli import (
 )
 from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.pretrain import check_pretrain, clone_planner
-from tether_gym.training.proposals import ProposalVecEnv, make_proposer, with_planner
+from tether_gym.training.proposals import (
+    ProposalPolicy,
+    ProposalVecEnv,
+    make_proposer,
+    with_planner,
+)
 from tether_gym.training.proposals import settings as proposal_settings
 from tether_gym.training.residual import ResidualVecEnv, check_scale, make_planner
 from tether_gym.training.sb3 import make_sb3_vec_env
@@ -116,6 +121,8 @@ REPLAY_BUFFERS = {"HerReplayBuffer": HerReplayBuffer}
 """`replay_buffer_class` names a zoo entry may give (hindsight relabeling for goal envs)."""
 EXPRESSION_NAMES = {"dict": dict, "nn": torch.nn, "NavigateExtractor": NavigateExtractor}
 """What a zoo expression (`policy_kwargs`, `replay_buffer_kwargs`) may name."""
+POLICIES = {"ProposalPolicy": ProposalPolicy}
+"""Policy names of ours a zoo entry's `policy` may give, besides SB3's ("MlpPolicy", ...)."""
 
 
 def parse_overrides(items: list[str]) -> dict[str, Any]:
@@ -239,6 +246,8 @@ def check_config(config: dict[str, Any]) -> None:
             raise ValueError("proposals: not with residual or pretrain")
         make_proposer(params["proposals"], config["env_kwargs"])
         proposal_settings(params)
+    elif params.get("policy") == "ProposalPolicy":
+        raise ValueError("policy ProposalPolicy scores a planner's proposals: give `proposals`")
     if params.get("pretrain") is not None:
         if config["algo"] != "ppo" or not navigates(config["env_id"]) or params.get("normalize"):
             raise ValueError("pretrain: PPO on TetherNavigate without normalize only")
@@ -525,7 +534,7 @@ def make_model(config: dict[str, Any], run_dir: Path, resume: bool) -> BaseAlgor
         options = expression(normalize) if isinstance(normalize, str) else {}
         venv = VecNormalize(venv, gamma=params.get("gamma", 0.99), **options)
     return ALGOS[config["algo"]](
-        params.get("policy", "MlpPolicy"),
+        POLICIES.get(params.get("policy"), params.get("policy", "MlpPolicy")),
         venv,
         seed=seed,
         device="cpu",
