@@ -19,6 +19,7 @@ from tether_gym.agents.evaluate import (
     load_agent,
     main,
     make_agent,
+    paired_table,
     wilson_interval,
 )
 from tether_gym.agents.oracle import ImpulseOracle
@@ -52,6 +53,29 @@ def test_wilson_interval():
     np.testing.assert_allclose(wilson_interval(50, 100), (0.4038, 0.5962), atol=1e-4)
     low, high = wilson_interval(100, 100)
     assert 0.96 < low < 1.0 and high == 1.0
+
+
+def test_the_paired_table_counts_wins_and_losses_and_the_exact_mcnemar_p():
+    """9 episodes won and 1 lost where the two differ: p = 2 (1 + 10) / 2^10 = 0.0215 (the
+    two-sided sign test); episodes both agents succeed or fail do not count."""
+    results = evaluate({"oracle": ImpulseOracle(), "random": RandomAgent()}, {}, 12)
+    results[0].success = np.array([1] * 9 + [0] + [1, 0], bool)
+    results[1].success = np.array([0] * 9 + [1] + [1, 0], bool)
+    rows = paired_table(results, "random").splitlines()
+    assert rows[0] == "| agent | success | random | wins | losses | McNemar p |"
+    assert rows[2].endswith("| 9 | 1 | 0.021 |") and len(rows) == 3
+    with pytest.raises(ValueError, match="reference must be one of"):
+        paired_table(results, "greedy")
+
+
+def test_cli_compares_with_a_named_agent_episode_by_episode(capsys):
+    args = ["--agents", "oracle", "random", "--episodes", "20", "--no-progress"]
+    main([*args, "--paired", "random"])
+    out = capsys.readouterr().out
+    assert "Episode by episode against random:" in out and "| oracle |" in out.split("against")[1]
+    with pytest.raises(SystemExit):
+        main([*args, "--paired", "greedy"])
+    assert "--paired must name one of the agents" in capsys.readouterr().err
 
 
 def test_random_agent_acts_in_the_action_space():
