@@ -14,6 +14,7 @@ import pytest
 
 import tether_gym  # noqa: F401
 from tether_gym.agents.evaluate import (
+    agent_names,
     evaluate,
     format_table,
     load_agent,
@@ -63,9 +64,21 @@ def test_the_paired_table_counts_wins_and_losses_and_the_exact_mcnemar_p():
     results[1].success = np.array([0] * 9 + [1] + [1, 0], bool)
     rows = paired_table(results, "random").splitlines()
     assert rows[0] == "| agent | success | random | wins | losses | McNemar p |"
-    assert rows[2].endswith("| 9 | 1 | 0.021 |") and len(rows) == 3
+    assert rows[2] == "| oracle | 83.3% | 16.7% | 9 | 1 | 0.021 |" and len(rows) == 3
     with pytest.raises(ValueError, match="reference must be one of"):
         paired_table(results, "greedy")
+    results[0].success = results[0].success[:-1]
+    with pytest.raises(ValueError, match="the same episodes"):
+        paired_table(results, "random")
+
+
+def test_saved_models_are_named_by_as_few_path_parts_as_tell_them_apart():
+    assert agent_names(["runs/a/best/model.zip", "greedy"]) == ["model", "greedy"]
+    seeds = ["runs/s0/best/model.zip", "runs/s1/best/model.zip", "runs/s1/last/model.zip"]
+    assert agent_names(seeds) == ["s0/best/model", "s1/best/model", "s1/last/model"]
+    assert agent_names(["greedy.zip", "greedy"]) == ["greedy.zip", "greedy"]
+    with pytest.raises(ValueError, match="lists an agent twice"):
+        agent_names(["random", "random"])
 
 
 def test_cli_compares_with_a_named_agent_episode_by_episode(capsys):
@@ -75,7 +88,7 @@ def test_cli_compares_with_a_named_agent_episode_by_episode(capsys):
     assert "Episode by episode against random:" in out and "| oracle |" in out.split("against")[1]
     with pytest.raises(SystemExit):
         main([*args, "--paired", "greedy"])
-    assert "--paired must name one of the agents" in capsys.readouterr().err
+    assert "--paired must be one of --agents" in capsys.readouterr().err
 
 
 def test_random_agent_acts_in_the_action_space():

@@ -232,7 +232,8 @@ def test_a_zero_residual_plays_the_planner_through_the_vec_env_and_the_agent():
       lambda agent: isinstance(agent, proposals.ProposalAgent) and agent.k == 4),
      (["proposals:greedy", "proposals_k:4", "policy:ProposalPolicy"],
       "PPO over greedy's proposals",
-      lambda agent: isinstance(agent.policy.model.policy, proposals.ProposalPolicy))],
+      lambda agent: isinstance(agent, proposals.ProposalAgent) and agent.k == 4
+      and isinstance(agent.policy.model.policy, proposals.ProposalPolicy))],
 )  # fmt: skip
 def test_a_run_with_a_planner_names_it_and_loads_with_it(tmp_path, overrides, name, loaded):
     tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY, *overrides]

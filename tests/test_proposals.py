@@ -6,13 +6,16 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
-import torch
 
 pytest.importorskip("stable_baselines3")
+
+import torch
+from stable_baselines3.common.torch_layers import CombinedExtractor
 
 from tether_gym.agents.evaluate import PROPOSALS_KEY
 from tether_gym.agents.planners import KINDS, GreedyPlanner, observed_states
 from tether_gym.training import proposals, train
+from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.sb3 import make_sb3_vec_env
 
 KWARGS = {"n_obstacles": 3, "dynamics": "impulse", "max_maneuvers": 2, "task": "stop"}
@@ -137,21 +140,24 @@ def test_depth_two_shows_the_best_next_maneuver_of_each_proposal():
         proposals.ProposalAgent(None, planner, k, 3)
 
 
-def scorer_policy(k: int = 4):
-    """A `ProposalPolicy` on a proposals env's spaces, with the default features extractor."""
+def scorer_policy(k: int = 4, **policy_kwargs):
+    """A `ProposalPolicy` on a proposals env's spaces, and the env's first observations."""
     planner = GreedyPlanner(KWARGS)
     env = proposals.ProposalVecEnv(
         make_sb3_vec_env(2, seed=5, env_id="TetherNavigate-v0", **KWARGS), planner, k
     )
     policy = proposals.ProposalPolicy(
-        env.observation_space, env.action_space, lambda _: 1e-3, net_arch=dict(pi=[32], vf=[32])
+        env.observation_space, env.action_space, lambda _: 1e-3, **policy_kwargs
     )
     return policy, env.reset()
 
 
-def test_the_scorer_scores_each_slot_alike_and_never_an_empty_one():
+@pytest.mark.parametrize("extractor", [CombinedExtractor, NavigateExtractor])
+def test_the_scorer_scores_each_slot_alike_and_never_an_empty_one(extractor):
     k = 4
-    policy, obs = scorer_policy(k)
+    policy, obs = scorer_policy(
+        k, net_arch=dict(pi=[32], vf=[32]), features_extractor_class=extractor
+    )
     for layer in policy.mlp_extractor.score:  # away from the near-equal start
         if isinstance(layer, torch.nn.Linear):
             torch.nn.init.normal_(layer.weight)
@@ -176,8 +182,31 @@ def test_the_scorer_scores_each_slot_alike_and_never_an_empty_one():
     assert np.all(np.isfinite(empty))
 
 
-def test_the_scorer_policy_needs_proposals(tmp_path, capsys):
+class ProposalsFirst(CombinedExtractor):
+    """The dict's entries in reverse order: the proposals first."""
+
+    def forward(self, observations):
+        flat = [observations[key].flatten(1) for key in sorted(observations, reverse=True)]
+        return torch.cat(flat, dim=1)
+
+
+def test_the_scorer_reads_net_arch_as_sb3_does_and_refuses_another_layout():
+    policy, _ = scorer_policy(net_arch=[16])  # a list: both networks
+    widths = [m.out_features for m in policy.mlp_extractor.value if isinstance(m, torch.nn.Linear)]
+    assert widths == [16] and policy.mlp_extractor.latent_dim_vf == 16
+    policy, _ = scorer_policy(net_arch=dict(pi=[8]))  # no "vf": the value net is linear
+    assert policy.mlp_extractor.latent_dim_vf == policy.features_dim
+    with pytest.raises(ValueError, match="must end its features with the 'proposals' entry"):
+        scorer_policy(features_extractor_class=ProposalsFirst)
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [([], "policy ProposalPolicy scores a planner's proposals"),
+     (["proposals:greedy", "normalize:true"], "not with normalize")],
+)  # fmt: skip
+def test_the_scorer_policy_needs_proposals_unnormalized(tmp_path, capsys, extra, message):
     argv = ["--env", "TetherNavigate-v0", "--runs-dir", str(tmp_path)]
     with pytest.raises(SystemExit):
-        train.main([*argv, "--hyperparams", "policy:ProposalPolicy"])
-    assert "policy ProposalPolicy scores a planner's proposals" in capsys.readouterr().err
+        train.main([*argv, "--hyperparams", "policy:ProposalPolicy", *extra])
+    assert message in capsys.readouterr().err

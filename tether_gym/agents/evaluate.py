@@ -342,6 +342,8 @@ def paired_table(results: list[EvalResult] | list[NavigationResult], reference: 
     if reference not in named:
         raise ValueError(f"reference must be one of {sorted(named)}, got {reference!r}")
     base = named[reference].success
+    if any(len(r.success) != len(base) for r in results):
+        raise ValueError("paired results must cover the same episodes")
     lines = [
         f"| agent | success | {reference} | wins | losses | McNemar p |",
         "|---|---:|---:|---:|---:|---:|",
@@ -352,7 +354,7 @@ def paired_table(results: list[EvalResult] | list[NavigationResult], reference: 
         wins, losses = int(np.sum(r.success & ~base)), int(np.sum(~r.success & base))
         p = binomtest(wins, wins + losses).pvalue if wins + losses else 1.0
         lines.append(
-            f"| {r.name} | {100 * r.success_rate:.1f}% | {100 * base.mean():.1f}% | {wins} | "
+            f"| {r.name} | {100 * r.success.mean():.1f}% | {100 * base.mean():.1f}% | {wins} | "
             f"{losses} | {p:.2g} |"
         )
     return "\n".join(lines)
@@ -476,6 +478,25 @@ def plot(results: list[EvalResult], path: Path, against: str = "rho") -> None:
     plt.close(fig)
 
 
+def agent_names(specs: list[str]) -> list[str]:
+    """The table's name of each `--agents` entry: a named agent's own; a saved model's path
+    without ".zip", its last parts only, as few as tell the agents apart ("model" alone,
+    "seed0/best/model" beside "seed1/best/model"). ValueError if an entry repeats."""
+    if len(set(specs)) < len(specs):
+        raise ValueError(f"--agents lists an agent twice: {specs}")
+    paths = [
+        Path(spec.removesuffix(".zip")).parts if spec.endswith(".zip") else None for spec in specs
+    ]
+    for depth in range(1, max((len(p) for p in paths if p), default=0) + 1):
+        names = [
+            spec if p is None else "/".join(p[-depth:])
+            for spec, p in zip(specs, paths, strict=True)
+        ]
+        if len(set(names)) == len(names):
+            return names
+    return list(specs)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="tether-evaluate",
@@ -521,23 +542,23 @@ def main(argv: list[str] | None = None) -> None:
         specs = args.agents or (
             ["greedy", "lookahead", "random"] if navigation else ["oracle", "shooting", "random"]
         )
+        names = agent_names(specs)
+        paired = args.paired and dict(zip(specs, names, strict=True)).get(args.paired, args.paired)
+        if paired and paired not in names:
+            raise ValueError(f"--paired must be one of --agents {specs}, got {args.paired!r}")
         agents = {
-            spec.removesuffix(".zip"): make_agent(  # a path as typed: runs' models differ
-                spec, env_kwargs, env_id=env_id
-            )
-            for spec in specs
+            name: make_agent(spec, env_kwargs, env_id=env_id)
+            for name, spec in zip(names, specs, strict=True)
         }
-        if args.paired is not None and args.paired not in agents:
-            raise ValueError(f"--paired must name one of the agents {sorted(agents)}")
         results = evaluate(
             agents, env_kwargs, args.episodes, args.seed, not args.no_progress, env_id
         )
     except (ValueError, ModuleNotFoundError) as error:
         parser.error(str(error))
     print(format_table(results))
-    if args.paired is not None:
-        print(f"\nEpisode by episode against {args.paired}:")
-        print(paired_table(results, args.paired))
+    if paired:
+        print(f"\nEpisode by episode against {paired}:")
+        print(paired_table(results, paired))
     if args.csv is not None:
         with args.csv.open("w", newline="") as handle:
             writer = csv.writer(handle)

@@ -214,13 +214,17 @@ class ProposalVecEnv(VecEnvWrapper):
 
 
 class ProposalScorer(nn.Module):
-    """The policy's networks over the features `(context, proposals)` (the proposals last, k *
-    PROPOSAL_FEATURES, as SB3's extractors put the dict's "proposals" entry): one MLP scores
-    each proposal from its features and the context, the same weights for every slot, so what
-    it learns of one slot holds for all (a pointer network's bias, where a flat MLP must learn
-    each slot apart); an empty slot scores `EMPTY`. The value is an MLP over all features."""
+    """The policy's networks over the features `(context, proposals)`, the proposals' k *
+    PROPOSAL_FEATURES columns last (where `NavigateExtractor` and SB3's `CombinedExtractor` put
+    the dict's "proposals" entry; `ProposalPolicy` checks it): one MLP scores each proposal from
+    its features and the context, the same weights for every slot, so what it learns of one
+    slot holds for all (a pointer network's bias, where a flat MLP must learn each slot apart);
+    an empty slot scores `EMPTY`. The value is an MLP over all features. `net_arch` gives the
+    hidden layers of both, "pi" and "vf"."""
 
-    def __init__(self, features_dim: int, k: int, net_arch: dict, activation_fn: type[nn.Module]):
+    def __init__(
+        self, features_dim: int, k: int, net_arch: dict[str, list[int]], activation_fn: type
+    ):
         super().__init__()
         self.k, size = k, k * PROPOSAL_FEATURES
         if features_dim <= size:
@@ -230,7 +234,8 @@ class ProposalScorer(nn.Module):
             *create_mlp(context + PROPOSAL_FEATURES, 1, net_arch["pi"], activation_fn)
         )
         self.value = nn.Sequential(*create_mlp(features_dim, -1, net_arch["vf"], activation_fn))
-        self.latent_dim_pi, self.latent_dim_vf = k, net_arch["vf"][-1]
+        self.latent_dim_pi = k
+        self.latent_dim_vf = net_arch["vf"][-1] if net_arch["vf"] else features_dim
 
     def forward(self, features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         return self.forward_actor(features), self.forward_critic(features)
@@ -253,15 +258,39 @@ EMPTY = -1e4
 
 class ProposalPolicy(MultiInputActorCriticPolicy):
     """SB3's actor-critic over goal dicts with a `ProposalScorer`: its logits are the slots'
-    scores (no linear layer after them, which would tie the slots apart again); `net_arch`'s
-    "pi" is the scorer's hidden layers, "vf" the value's."""
+    scores (no linear layer after them, which would tie the slots apart again). `net_arch` as
+    SB3 reads it: a list for both networks, or "pi" for the scorer's hidden layers and "vf" for
+    the value's. The observation must not be normalized: a slot's presence is its flag."""
 
     def _build_mlp_extractor(self) -> None:
-        arch = self.net_arch if isinstance(self.net_arch, dict) else {"pi": self.net_arch}
-        arch = {"pi": arch.get("pi") or [64, 64], "vf": arch.get("vf") or [64, 64]}
+        arch = (
+            self.net_arch
+            if isinstance(self.net_arch, dict)
+            else dict.fromkeys(("pi", "vf"), self.net_arch)
+        )
+        arch = {key: list(arch.get(key, [])) for key in ("pi", "vf")}
+        self._check_layout()
         self.mlp_extractor = ProposalScorer(
             self.features_dim, self.action_space.n, arch, self.activation_fn
         )
+
+    def _check_layout(self) -> None:
+        """ValueError unless the features end with the "proposals" entry as it is (the
+        scorer's assumption), checked on a sampled observation."""
+        rng = np.random.default_rng(0)
+        sample = {
+            key: rng.standard_normal(space.shape).astype(space.dtype)
+            for key, space in self.observation_space.spaces.items()
+        }
+        tensors, _ = self.obs_to_tensor(sample)
+        with torch.no_grad():
+            features = self.features_extractor(tensors)
+        proposals = tensors[PROPOSALS_KEY].flatten(1)
+        if not torch.equal(features[:, -proposals.shape[1] :], proposals):
+            raise ValueError(
+                f"ProposalPolicy: the features extractor {type(self.features_extractor).__name__} "
+                f"must end its features with the {PROPOSALS_KEY!r} entry unchanged"
+            )
 
     def _build(self, lr_schedule) -> None:
         super()._build(lr_schedule)

@@ -246,6 +246,8 @@ def check_config(config: dict[str, Any]) -> None:
             raise ValueError("proposals: not with residual or pretrain")
         make_proposer(params["proposals"], config["env_kwargs"])
         proposal_settings(params)
+        if params.get("policy") == "ProposalPolicy" and params.get("normalize"):
+            raise ValueError("policy ProposalPolicy: not with normalize (it reads slot flags)")
     elif params.get("policy") == "ProposalPolicy":
         raise ValueError("policy ProposalPolicy scores a planner's proposals: give `proposals`")
     if params.get("pretrain") is not None:
