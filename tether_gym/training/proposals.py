@@ -213,6 +213,10 @@ class ProposalVecEnv(VecEnvWrapper):
         return obs, rewards, dones, infos
 
 
+EMPTY = -1e4
+"""The logit of an empty slot: never picked, and finite (no NaN in the entropy)."""
+
+
 class ProposalScorer(nn.Module):
     """The policy's networks over the features `(context, proposals)`, the proposals' k *
     PROPOSAL_FEATURES columns last (where `NavigateExtractor` and SB3's `CombinedExtractor` put
@@ -252,10 +256,6 @@ class ProposalScorer(nn.Module):
         return self.value(features)
 
 
-EMPTY = -1e4
-"""The logit of an empty slot: never picked, and finite (no NaN in the entropy)."""
-
-
 class ProposalPolicy(MultiInputActorCriticPolicy):
     """SB3's actor-critic over goal dicts with a `ProposalScorer`: its logits are the slots'
     scores (no linear layer after them, which would tie the slots apart again). `net_arch` as
@@ -263,11 +263,9 @@ class ProposalPolicy(MultiInputActorCriticPolicy):
     the value's. The observation must not be normalized: a slot's presence is its flag."""
 
     def _build_mlp_extractor(self) -> None:
-        arch = (
-            self.net_arch
-            if isinstance(self.net_arch, dict)
-            else dict.fromkeys(("pi", "vf"), self.net_arch)
-        )
+        arch = self.net_arch
+        if not isinstance(arch, dict):  # a list: the same hidden layers for both
+            arch = {"pi": arch, "vf": arch}
         arch = {key: list(arch.get(key, [])) for key in ("pi", "vf")}
         self._check_layout()
         self.mlp_extractor = ProposalScorer(
@@ -276,7 +274,7 @@ class ProposalPolicy(MultiInputActorCriticPolicy):
 
     def _check_layout(self) -> None:
         """ValueError unless the features end with the "proposals" entry as it is (the
-        scorer's assumption), checked on a sampled observation."""
+        scorer's assumption), checked on a random observation."""
         rng = np.random.default_rng(0)
         sample = {
             key: rng.standard_normal(space.shape).astype(space.dtype)
