@@ -206,7 +206,9 @@ def test_the_scorer_reads_net_arch_as_sb3_does_and_refuses_another_layout():
      (["proposals:greedy", "normalize:true"], "not with normalize")],
 )  # fmt: skip
 def test_the_scorer_policy_needs_proposals_unnormalized(tmp_path, capsys, extra, message):
-    argv = ["--env", "TetherNavigate-v0", "--runs-dir", str(tmp_path)]
+    # a short run, so that a missing check fails the test rather than trains for long
+    argv = ["--env", "TetherNavigate-v0", "--runs-dir", str(tmp_path), "--timesteps", "64",
+            "--n-envs", "2", "--eval-freq", "0", "--eval-episodes", "2"]  # fmt: skip
     with pytest.raises(SystemExit):
         train.main([*argv, "--hyperparams", "policy:ProposalPolicy", *extra])
     assert message in capsys.readouterr().err
