@@ -174,10 +174,10 @@ def test_agents_and_plots_are_refused_on_the_wrong_env(tmp_path):
     with pytest.raises(ValueError, match="greedy"):
         make_agent("greedy", {})
     with pytest.raises(ValueError, match="oracle"):
-        make_agent("oracle", {}, env_id="TetherNavigate-v0")
+        make_agent("oracle", {}, env_id="TetherNavigate-v1")
     with pytest.raises(SystemExit):
-        main(["--env", "TetherNavigate-v0", "--agents", "shooting", "--episodes", "5",
+        main(["--env", "TetherNavigate-v1", "--agents", "shooting", "--episodes", "5",
               "--no-progress"])  # fmt: skip
     with pytest.raises(SystemExit):
-        main(["--env", "TetherNavigate-v0", "--agents", "random", "--episodes", "5",
+        main(["--env", "TetherNavigate-v1", "--agents", "random", "--episodes", "5",
               "--no-progress", "--plot", str(tmp_path / "p.png")])  # fmt: skip

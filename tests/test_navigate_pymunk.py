@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
-from tether_gym.envs.tether_navigate.kernel import (
+from tether_gym.envs.tether_navigate.config import (
     ARM,
     FLIGHT_HORIZON,
     INERTIA_RATIO,
@@ -81,7 +81,7 @@ class Episode:
 
 
 def make_env(**kwargs) -> gym.Env:
-    return gym.make("TetherNavigate-v0", max_maneuvers=MANEUVERS, **kwargs).unwrapped
+    return gym.make("TetherNavigate-v1", max_maneuvers=MANEUVERS, **kwargs).unwrapped
 
 
 def table(env) -> Table:

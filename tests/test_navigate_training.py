@@ -17,7 +17,8 @@ import torch
 from stable_baselines3 import HerReplayBuffer
 
 from tether_gym.agents.evaluate import NavigationResult, evaluate, load_agent
-from tether_gym.envs.tether_navigate.kernel import MAX_ANCHORS, decode_observation
+from tether_gym.envs.tether_navigate.config import MAX_ANCHORS
+from tether_gym.envs.tether_navigate.spaces import decode_observation
 from tether_gym.training import pretrain, proposals, residual, summary, train
 from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.sb3 import make_sb3_vec_env
@@ -35,13 +36,13 @@ def test_ppo_trains_on_navigate_with_env_kwargs_and_evaluates_against_the_planne
     tmp_path, capsys
 ):
     tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY]
-    argv = ["--env", "TetherNavigate-v0", "--env-kwargs", "n_obstacles:3", "task:stop",
+    argv = ["--env", "TetherNavigate-v1", "--env-kwargs", "n_obstacles:3", "task:stop",
             "--timesteps", "1024", "--eval-freq", "512", "--runs-dir", str(tmp_path),
             *OPTIONS, "--hyperparams", *tiny]  # fmt: skip
     assert train.main(argv) == 0
-    folder = tmp_path / "ppo_TetherNavigate-v0_stop_hybrid_nobstacles3_seed0"
+    folder = tmp_path / "ppo_TetherNavigate-v1_stop_hybrid_nobstacles3_seed0"
     config = yaml.safe_load((folder / "config.yaml").read_text())
-    assert config["env_id"] == "TetherNavigate-v0"
+    assert config["env_id"] == "TetherNavigate-v1"
     assert config["env_kwargs"] == {"n_obstacles": 3, "task": "stop"}
     assert config["hyperparams"]["policy"] == "MultiInputPolicy"
     for which in ("best", "last"):
@@ -54,16 +55,16 @@ def test_ppo_trains_on_navigate_with_env_kwargs_and_evaluates_against_the_planne
         assert f"| {name} |" in table
     assert "maneuvers to goal" in table
     saved = json.loads((folder / "results.json").read_text())
-    assert (saved["env_id"], saved["env_kwargs"]) == ("TetherNavigate-v0", config["env_kwargs"])
+    assert (saved["env_id"], saved["env_kwargs"]) == ("TetherNavigate-v1", config["env_kwargs"])
     assert [r["name"] for r in saved["results"]] == ["PPO (best)", "PPO (last)", *BASELINES]
     agent = load_agent(folder / "last" / "model.zip")  # tether-evaluate's loader
-    (result,) = evaluate({"ppo": agent}, config["env_kwargs"], 10, env_id="TetherNavigate-v0")
+    (result,) = evaluate({"ppo": agent}, config["env_kwargs"], 10, env_id="TetherNavigate-v1")
     assert isinstance(result, NavigationResult) and result.episodes == 10
 
 
 def test_sac_with_her_trains_on_the_sparse_env_and_resumes(tmp_path):
     tiny = ["learning_starts:128", "batch_size:64", "buffer_size:4096", TINY_POLICY]
-    argv = ["--algo", "sac", "--env", "TetherNavigateSparse-v0", "--timesteps", "512",
+    argv = ["--algo", "sac", "--env", "TetherNavigateSparse-v1", "--timesteps", "512",
             "--eval-freq", "256", "--name", "her", "--runs-dir", str(tmp_path), *OPTIONS,
             "--hyperparams", *tiny]  # fmt: skip
     assert train.main(argv) == 0
@@ -86,8 +87,8 @@ def test_sac_with_her_trains_on_the_sparse_env_and_resumes(tmp_path):
 
 
 def test_the_default_hyperparameters_have_navigate_entries():
-    ppo = train.load_hyperparams(train.default_conf("ppo"), env_id="TetherNavigate-v0")
-    sac = train.load_hyperparams(train.default_conf("sac"), env_id="TetherNavigateSparse-v0")
+    ppo = train.load_hyperparams(train.default_conf("ppo"), env_id="TetherNavigate-v1")
+    sac = train.load_hyperparams(train.default_conf("sac"), env_id="TetherNavigateSparse-v1")
     assert ppo["policy"] == sac["policy"] == "MultiInputPolicy"
     assert train.algo_kwargs(sac)["replay_buffer_class"] is HerReplayBuffer
     assert train.algo_kwargs(ppo)["policy_kwargs"]["features_extractor_class"] is NavigateExtractor
@@ -96,11 +97,11 @@ def test_the_default_hyperparameters_have_navigate_entries():
 
 
 def test_default_names_use_the_navigate_envs_defaults():
-    name = train.default_name("TetherNavigate-v0", {"n_obstacles": 3}, 1)
-    assert name == "ppo_TetherNavigate-v0_reach_hybrid_nobstacles3_seed1"
+    name = train.default_name("TetherNavigate-v1", {"n_obstacles": 3}, 1)
+    assert name == "ppo_TetherNavigate-v1_reach_hybrid_nobstacles3_seed1"
 
 
-EXTRACTOR = NavigateExtractor(gym.make("TetherNavigate-v0").observation_space)
+EXTRACTOR = NavigateExtractor(gym.make("TetherNavigate-v1").observation_space)
 
 
 def features(obs) -> np.ndarray:
@@ -110,9 +111,9 @@ def features(obs) -> np.ndarray:
 
 def test_a_pegs_bearing_feature_is_the_action_that_hooks_it():
     """The extractor's bearing of peg j (over pi), played as action 0, hooks peg j."""
-    env = gym.make("TetherNavigate-v0", n_anchors=8, dynamics="impulse")
+    env = gym.make("TetherNavigate-v1", n_anchors=8, dynamics="impulse")
     size = env.observation_space["observation"].shape[0]
-    bearings = slice(size + 9 + 4 + 3, size + 9 + 4 * (1 + MAX_ANCHORS), 4)
+    bearings = slice(size + 11 + 4 + 3, size + 11 + 4 * (1 + MAX_ANCHORS), 4)
     hooked = 0
     for seed in range(5):
         for j in range(8):
@@ -125,15 +126,19 @@ def test_a_pegs_bearing_feature_is_the_action_that_hooks_it():
 
 
 def test_the_goal_feature_follows_a_relabeled_desired_goal():
-    """Under HER the observation still shows the true goal: the extractor's goal relative to
-    the puck is desired - achieved, so a relabeled goal moves it and the true one does not."""
-    env = gym.make("TetherNavigate-v0")
+    """The extractor's goal relative to the puck is desired - achieved: a relabeled goal moves
+    it, and the rest of the features (the observation holds no goal) stay."""
+    env = gym.make("TetherNavigate-v1")
     obs, _ = env.reset(seed=0)
     relabeled = {**obs, "desired_goal": obs["desired_goal"] + np.array([0.3, -0.2])}
     before, after = features(obs)[0], features(relabeled)[0]
-    goal_columns = slice(5, 7)  # goal_dx, goal_dy in the observation's layout
-    np.testing.assert_allclose(before[goal_columns], obs["observation"][5:7], atol=1e-6)
+    size = len(obs["observation"])
+    goal_columns = slice(size, size + 2)  # right after the observation
+    np.testing.assert_allclose(
+        before[goal_columns], obs["desired_goal"] - obs["achieved_goal"], atol=1e-6
+    )
     np.testing.assert_allclose(after[goal_columns] - before[goal_columns], [0.3, -0.2], atol=1e-6)
+    np.testing.assert_array_equal(before[:size], after[:size])
 
 
 def test_the_summary_averages_the_runs_over_seeds(tmp_path, capsys):
@@ -145,7 +150,7 @@ def test_the_summary_averages_the_runs_over_seeds(tmp_path, capsys):
         folder = tmp_path / f"seed{seed}"
         folder.mkdir()
         run = {"timesteps": 1000, "train_seconds": 60.0 + seed, "results": results,
-               "env_id": "TetherNavigate-v0", "env_kwargs": {"task": "stop"}}  # fmt: skip
+               "env_id": "TetherNavigate-v1", "env_kwargs": {"task": "stop"}}  # fmt: skip
         (folder / summary.RESULTS).write_text(json.dumps(run))
         folders.append(str(folder))
     assert summary.main(folders) == 0
@@ -198,10 +203,10 @@ def test_a_zero_residual_plays_the_planner_through_the_vec_env_and_the_agent():
     kwargs = {"n_obstacles": 3, "dynamics": "impulse", "max_maneuvers": 2, "task": "stop"}
     planner = residual.make_planner("greedy", kwargs)
     env = residual.ResidualVecEnv(
-        make_sb3_vec_env(4, seed=7, env_id="TetherNavigate-v0", **kwargs), planner, 0.3
+        make_sb3_vec_env(4, seed=7, env_id="TetherNavigate-v1", **kwargs), planner, 0.3
     )
     native = gym.make_vec(
-        "TetherNavigate-v0", num_envs=4, vectorization_mode="vector_entry_point", **kwargs
+        "TetherNavigate-v1", num_envs=4, vectorization_mode="vector_entry_point", **kwargs
     )
     obs = env.reset()
     ref, _ = native.reset(seed=7)
@@ -238,7 +243,7 @@ def test_a_zero_residual_plays_the_planner_through_the_vec_env_and_the_agent():
 def test_a_run_with_a_planner_names_it_and_loads_with_it(tmp_path, overrides, name, loaded):
     tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY, *overrides]
     run = ["--timesteps", "512", "--eval-freq", "0", "--runs-dir", str(tmp_path), *OPTIONS]
-    argv = ["--env", "TetherNavigate-v0", "--name", "run", *run, "--hyperparams", *tiny]
+    argv = ["--env", "TetherNavigate-v1", "--name", "run", *run, "--hyperparams", *tiny]
     assert train.main(argv) == 0
     table = (tmp_path / "run" / "results.md").read_text()
     assert f"| {name} (last) |" in table
@@ -256,10 +261,10 @@ def test_demonstrations_hold_the_planners_actions_and_discounted_returns():
     kwargs = {"n_obstacles": 2, "dynamics": "impulse"}
     planner = residual.make_planner("greedy", kwargs)
     obs, actions, returns = pretrain.demonstrations(
-        planner, "TetherNavigate-v0", kwargs, n_envs=3, decisions=30, gamma=0.9
+        planner, "TetherNavigate-v1", kwargs, n_envs=3, decisions=30, gamma=0.9
     )
     assert obs["observation"].shape == (30, 56) and actions.shape == (30, 4)
-    env = gym.make("TetherNavigate-v0", **kwargs)  # copy 0 alone, seeded as the vector env
+    env = gym.make("TetherNavigate-v1", **kwargs)  # copy 0 alone, seeded as the vector env
     first, _ = env.reset(seed=pretrain.PRETRAIN_SEED)
     np.testing.assert_array_equal(obs["observation"][0], first["observation"])
     np.testing.assert_array_equal(actions[0], planner.predict(first)[0])
@@ -288,7 +293,7 @@ def test_a_ppo_run_cloned_from_the_planner_names_it(tmp_path, capsys):
     tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY,
             "pretrain:{planner: greedy, decisions: 256, epochs: 2}"]  # fmt: skip
     run = ["--timesteps", "512", "--eval-freq", "0", "--runs-dir", str(tmp_path), *OPTIONS]
-    argv = ["--env", "TetherNavigate-v0", "--name", "bc", *run, "--hyperparams", *tiny]
+    argv = ["--env", "TetherNavigate-v1", "--name", "bc", *run, "--hyperparams", *tiny]
     assert train.main(argv) == 0
     assert "[pretrain] cloned in" in capsys.readouterr().out
     assert "| PPO from greedy demos (last) |" in (tmp_path / "bc" / "results.md").read_text()

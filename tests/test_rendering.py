@@ -19,8 +19,9 @@ from tether_gym.agents import record
 from tether_gym.envs import drawing
 from tether_gym.envs.tether_bounce import kernel
 from tether_gym.envs.tether_bounce.rendering import CONTACT_FRAMES, SIZE
-from tether_gym.envs.tether_navigate import kernel as navigate_kernel
+from tether_gym.envs.tether_navigate import config as navigate_config
 from tether_gym.envs.tether_navigate import rendering as navigate_rendering
+from tether_gym.envs.tether_navigate.controls.setup import ACTION as SETUP_ACTION
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
@@ -162,7 +163,7 @@ def test_gif_command_writes_an_animation_and_keeps_existing_files(tmp_path, caps
     assert gif.read_bytes() != written
 
 
-# ---- TetherNavigate-v0 -----------------------------------------------------------------------
+# ---- TetherNavigate-v1 -----------------------------------------------------------------------
 
 TABLE = {
     "start": (1.2, 0.5),
@@ -173,14 +174,14 @@ TABLE = {
 }
 """One peg (the one hooked): the puck hits the right wall, then the top wall, then the tether
 (0.8 m) goes taut after 1.8 s."""
-LONG_TETHER = navigate_kernel.ACTION.normalize([0.0, 0.8, 0.0, 1.0]).astype(np.float32)
+LONG_TETHER = SETUP_ACTION.normalize([0.0, 0.8, 0.0, 1.0]).astype(np.float32)
 POST_IN_THE_WAY = [(1.45, 0.56)]
 """A post the puck hits before its tether goes taut."""
 PER_METRE = navigate_rendering.SCALE
 
 
 def maneuver_frames(render_mode="rgb_array_list", **options):
-    env = gym.make("TetherNavigate-v0", render_mode=render_mode)
+    env = gym.make("TetherNavigate-v1", render_mode=render_mode)
     env.reset(seed=0, options={**TABLE, **options})
     _, _, _, _, info = env.step(LONG_TETHER)
     return env, env.render(), info
@@ -191,7 +192,7 @@ def table_point(pixel: np.ndarray) -> np.ndarray:
     column, row = pixel
     x = (column - navigate_rendering.MARGIN) / PER_METRE
     return np.array(
-        [x, navigate_kernel.TABLE_HEIGHT - (row - navigate_rendering.STRIP) / PER_METRE]
+        [x, navigate_config.TABLE_HEIGHT - (row - navigate_rendering.STRIP) / PER_METRE]
     )
 
 
@@ -200,7 +201,7 @@ def taut_tether(frame: np.ndarray, anchor) -> int:
     red = has(frame, drawing.TAUT)
     red[: navigate_rendering.STRIP] = False  # the text
     column = round(navigate_rendering.MARGIN + anchor[0] * PER_METRE)
-    row = round(navigate_rendering.STRIP + (navigate_kernel.TABLE_HEIGHT - anchor[1]) * PER_METRE)
+    row = round(navigate_rendering.STRIP + (navigate_config.TABLE_HEIGHT - anchor[1]) * PER_METRE)
     red[row - 6 : row + 7, column - 6 : column + 7] = False
     return int(red.sum())
 
@@ -218,8 +219,8 @@ def test_a_maneuver_is_drawn_over_time_along_its_path():
     assert all(np.any(a != b) for a, b in itertools.pairwise(flight))
     # where the puck should be: uniform motion, the wall law with restitution 0.9
     x0, y0, vx, vy = 1.2, 0.5, 1.2, 0.3
-    right = (navigate_kernel.TABLE_WIDTH - navigate_kernel.PUCK_RADIUS - x0) / vx
-    top = right + (navigate_kernel.TABLE_HEIGHT - navigate_kernel.PUCK_RADIUS - path[1, 1]) / vy
+    right = (navigate_config.TABLE_WIDTH - navigate_config.PUCK_RADIUS - x0) / vx
+    top = right + (navigate_config.TABLE_HEIGHT - navigate_config.PUCK_RADIUS - path[1, 1]) / vy
     hits = np.array([0.0, right, top, info["flight_time"]])
     np.testing.assert_allclose(path[1], (x0 + vx * right, y0 + vy * right))
     t = np.arange(len(flight)) * info["flight_time"] / len(flight)
@@ -248,7 +249,7 @@ def test_a_tether_that_never_goes_taut_is_never_drawn_taut():
 
 
 def test_navigate_rgb_array_is_the_latest_frame():
-    env = gym.make("TetherNavigate-v0", render_mode="rgb_array")
+    env = gym.make("TetherNavigate-v1", render_mode="rgb_array")
     env.reset(seed=0, options=TABLE)
     reset_frame = env.render()
     env.step(LONG_TETHER)
@@ -260,7 +261,7 @@ def test_navigate_rgb_array_is_the_latest_frame():
 
 
 def test_navigate_human_mode_plays_the_maneuver():
-    env = gym.make("TetherNavigate-v0", render_mode="human")
+    env = gym.make("TetherNavigate-v1", render_mode="human")
     env.reset(seed=0, options=TABLE)
     start = time.perf_counter()
     env.step(LONG_TETHER)
@@ -274,9 +275,9 @@ def test_navigate_human_mode_plays_the_maneuver():
 def test_navigate_passes_check_env_with_rendering():
     from gymnasium.utils.env_checker import check_env
 
-    check_env(gym.make("TetherNavigate-v0", render_mode="rgb_array").unwrapped)
+    check_env(gym.make("TetherNavigate-v1", render_mode="rgb_array").unwrapped)
     with pytest.raises(ValueError, match="render_mode"):
-        gym.make_vec("TetherNavigate-v0", 2, "vector_entry_point", render_mode="rgb_array")
+        gym.make_vec("TetherNavigate-v1", 2, "vector_entry_point", render_mode="rgb_array")
 
 
 @pytest.mark.parametrize("agent", ["random", "greedy"])
@@ -284,7 +285,7 @@ def test_gif_command_records_tether_navigate(tmp_path, agent):
     from PIL import Image
 
     gif = tmp_path / "navigate.gif"
-    args = ["--env", "TetherNavigate-v0", "--agent", agent, "--episodes", "1"]
+    args = ["--env", "TetherNavigate-v1", "--agent", agent, "--episodes", "1"]
     record.main([*args, "--out", str(gif), "--size", "96", "--fps", "10"])
     with Image.open(gif) as image:
         assert image.size == (96, 60) and image.n_frames > 5

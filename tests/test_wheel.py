@@ -29,6 +29,7 @@ PACKAGED = [
     "tether_gym/training/sweep.py",
     "tether_gym/agents/record.py",
     "tether_gym/envs/tether_navigate/kernel.py",
+    "tether_gym/envs/tether_navigate/controls/setup.py",
     "tether_gym/tasks/navigate.py",
     "tether_gym/agents/pretrained/__init__.py",
     "tether_gym/agents/pretrained/default.pt",

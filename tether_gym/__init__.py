@@ -1,11 +1,14 @@
 """tether_gym: a Gymnasium workbench for bouncing a tethered planar puck.
 
-Importing the package registers `TetherBounce-v0` (one bounce per episode) and
-`TetherNavigate-v0` / `TetherNavigateSparse-v0` (maneuvering to a goal), each with a native
-vector env.
+Importing the package registers `TetherBounce-v0` (one bounce per episode),
+`TetherNavigate-v1` / `TetherNavigateSparse-v1` (maneuvering to a goal) and the navigation
+ladder's `TetherNavigate_{Open,Posts,Wall}{Reach,Stop}[Sparse]-v1`
+(`tether_gym.ladder`), each with a native vector env.
 """
 
 from gymnasium.envs.registration import register
+
+from tether_gym import ladder
 
 __version__ = "0.1.0"
 
@@ -14,10 +17,15 @@ register(
     entry_point="tether_gym.envs:TetherBounceEnv",
     vector_entry_point="tether_gym.envs:TetherBounceVectorEnv",
 )
-for suffix, reward_type in (("", "dense"), ("Sparse", "sparse")):
+NAVIGATE_IDS = {
+    "TetherNavigate-v1": {"reward_type": "dense"},
+    "TetherNavigateSparse-v1": {"reward_type": "sparse"},
+    **ladder.ids(),
+}
+for env_id, kwargs in NAVIGATE_IDS.items():
     register(
-        id=f"TetherNavigate{suffix}-v0",
+        id=env_id,
         entry_point="tether_gym.envs.tether_navigate:TetherNavigateEnv",
         vector_entry_point="tether_gym.envs.tether_navigate:TetherNavigateVectorEnv",
-        kwargs={"reward_type": reward_type},
+        kwargs=kwargs,
     )

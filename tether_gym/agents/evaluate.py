@@ -1,7 +1,7 @@
 """Evaluate agents on the same fixed, seeded episodes and tabulate the results.
 
     tether-evaluate --agents oracle shooting random --episodes 1000 --rho 5 100
-    tether-evaluate --env TetherNavigate-v0 --agents greedy lookahead random --episodes 1000
+    tether-evaluate --env TetherNavigate-v1 --agents greedy lookahead random --episodes 1000
 
 Every agent sees the same episodes: the native vector env (`BATCH` copies) with copy i seeded
 BATCH * seed + i, so the first k episodes of an evaluation do not depend on its length, and
@@ -172,9 +172,12 @@ def _run_navigation(
 ) -> dict[str, np.ndarray]:
     """Per-episode outcomes of one agent on a navigation env, and its wall time. Copy i plays
     its first episodes in turn (`episodes` shared out among the copies), the same ones for
-    every agent, listed round by round."""
+    every agent, listed round by round. An agent with a `control` mode of its own (a planner's
+    set-ups) plays in it: the episodes do not depend on the control mode."""
     copies = min(episodes, BATCH)
     quota = episodes // copies + (np.arange(copies) < episodes % copies)
+    if hasattr(agent, "control"):
+        env_kwargs = {**env_kwargs, "control": agent.control}
     env = gym.make_vec(
         env_id, num_envs=copies, vectorization_mode="vector_entry_point", **env_kwargs
     )
@@ -442,9 +445,9 @@ def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT
     if spec == "shooting":
         return ShootingOracle(env_kwargs)
     if spec == "greedy":
-        return GreedyPlanner(env_kwargs)
+        return GreedyPlanner(env_kwargs, env_id)
     if spec == "lookahead":
-        return LookaheadPlanner(env_kwargs)
+        return LookaheadPlanner(env_kwargs, env_id)
     if spec == "random":
         return RandomAgent(seed)
     require_extra(f"the model {spec!r}", ("stable_baselines3", "torch"))

@@ -1,4 +1,4 @@
-"""Model-based planners for TetherNavigate-v0: the analytic yardstick of the navigation tasks.
+"""Model-based planners for TetherNavigate-v1: the analytic yardstick of the navigation tasks.
 
 Both plan with the env's own kernel built with `dynamics="impulse"`: its flight is exact
 (straight lines, wall reflections, the reaction wheel's plan and the first tautening of the
@@ -11,10 +11,7 @@ the bounce (`GreedyPlanner.candidates`); the planners rank their predicted outco
 - `LookaheadPlanner`: beam search over `depth` maneuvers, each node expanded by the same
   candidates and kernel step: the first maneuver of the best plan.
 
-The state is rebuilt from the observation (`decode_observation`). The speed the episode
-started with, whose `tasks.navigate.REST_FRACTION` is "at rest", is not observed: the planners
-take the bound that never predicts a rest in their favour, the slowest start for "stop" (where
-rest on the goal is success) and the fastest for "reach" (where rest is failure).
+The state is rebuilt from the observation (`decode_observation`).
 """
 
 from __future__ import annotations
@@ -22,28 +19,27 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+import gymnasium as gym
 import numpy as np
 from scipy.optimize import elementwise
 
-from tether_gym.envs.tether_navigate.kernel import (
-    ACTION,
+from tether_gym.envs.tether_navigate.config import (
     ARM,
     FLIGHT_HORIZON,
     INERTIA_RATIO,
     MAX_ANCHORS,
     MAX_POSTS,
     MAX_SPEED,
-    OUT,
     POST_RADIUS,
     PUCK_RADIUS,
-    START_SPEED,
     STATE,
     TABLE_HEIGHT,
     TABLE_WIDTH,
     NavigateConfig,
-    NavigateKernel,
-    decode_observation,
 )
+from tether_gym.envs.tether_navigate.controls.setup import ACTION
+from tether_gym.envs.tether_navigate.kernel import NavigateKernel
+from tether_gym.envs.tether_navigate.spaces import OUT, decode_observation
 from tether_gym.physics import PUCK_STATE, free_flight, time_to_wall, wall_bounce, wrap_angle
 from tether_gym.tasks.navigate import GOAL_RADIUS, STOP, TASKS
 
@@ -71,8 +67,7 @@ AIM, DUMP, EXTREME, LINE_UP = range(len(KINDS))
 
 
 def observed_states(obs, config: NavigateConfig) -> np.ndarray:
-    """The kernel's `STATE` records an observation (one goal dict or a batch) shows, (n,); the
-    start speed, which it does not show, is the task's bound (see the module docstring)."""
+    """The kernel's `STATE` records an observation (one goal dict or a batch) shows, (n,)."""
     o = decode_observation(obs)
     position = np.atleast_2d(o["position"])
     n = len(position)
@@ -81,7 +76,6 @@ def observed_states(obs, config: NavigateConfig) -> np.ndarray:
     states["vx"], states["vy"] = o["velocity"].reshape(n, 2).T
     states["angle"], states["spin"] = o["angle"].reshape(n), o["spin"].reshape(n)
     states["goal_x"], states["goal_y"] = o["goal"].reshape(n, 2).T
-    states["start_speed"] = START_SPEED[0] if config.task == TASKS[STOP] else START_SPEED[1]
     states["maneuvers_left"] = np.rint(o["maneuvers_left"].reshape(n) * config.max_maneuvers)
     for name, present in (("anchors", "anchor_present"), ("posts", "post_present")):
         mask = o[present].reshape(n, -1)
@@ -467,9 +461,15 @@ class GreedyPlanner:
     (`spin_weight`), else its distance), worse if it ends on a post, then failures.
     """
 
-    def __init__(self, env_kwargs: dict | None = None):
-        kwargs = {k: v for k, v in (env_kwargs or {}).items() if k in NavigateConfig.names()}
-        self.config = NavigateConfig(**{**kwargs, "dynamics": "impulse"})
+    control = "setup"
+    """The control mode the planner acts in: its actions are set-ups, in any env's episodes."""
+
+    def __init__(self, env_kwargs: dict | None = None, env_id: str | None = None):
+        """`env_kwargs`: the env's arguments, over those its registered `env_id` fixes (the
+        ladder's tasks and tables)."""
+        given = {**(gym.spec(env_id).kwargs if env_id else {}), **(env_kwargs or {})}
+        kwargs = {k: v for k, v in given.items() if k in NavigateConfig.names()}
+        self.config = NavigateConfig(**{**kwargs, "dynamics": "impulse", "control": "setup"})
         self.kernel = NavigateKernel(self.config)
         self.stop = TASKS.index(self.config.task) == STOP
         # a finite-stiffness tether turns a spinning puck during the contact: unless the env
@@ -546,8 +546,14 @@ class LookaheadPlanner(GreedyPlanner):
     The model-based upper bound: each decision predicts about C (1 + beam (depth - 1))
     maneuvers, C the candidates per state (tens per peg with several segments)."""
 
-    def __init__(self, env_kwargs: dict | None = None, depth: int = 2, beam: int = 4):
-        super().__init__(env_kwargs)
+    def __init__(
+        self,
+        env_kwargs: dict | None = None,
+        env_id: str | None = None,
+        depth: int = 2,
+        beam: int = 4,
+    ):
+        super().__init__(env_kwargs, env_id)
         if not 1 <= depth <= 3 or not 1 <= beam:
             raise ValueError(f"depth must be in [1, 3] and beam >= 1, got {depth}, {beam}")
         self.depth, self.beam = depth, beam

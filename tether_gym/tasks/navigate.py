@@ -8,8 +8,8 @@ reward of a relabeled goal (hindsight experience replay) is computed exactly as 
 the true one: the kernels and `compute_reward` call the same row functions.
 
 - "reach": success when the centre of mass enters the disc, anywhere along the path.
-- "stop": success when the puck comes to rest (translational speed under `REST_FRACTION` of its
-  starting speed: a deadspin or a braked stop) with its centre in the disc.
+- "stop": success when the puck comes to rest (translational speed under `REST_SPEED`: a
+  deadspin or a braked stop) with its centre in the disc.
 
 The episode ends on success, on coming to rest elsewhere, or on a post (failure). Rewards:
 "sparse" is 0 on success, else -1; "dense" sums named terms: `progress` (the distance to the
@@ -31,8 +31,8 @@ REWARD_TERMS = ("progress", "success", "maneuver", "post")
 
 GOAL_RADIUS = 0.1
 """m: the goal disc's radius."""
-REST_FRACTION = 0.02
-"""At rest: translational speed under this fraction of the episode's starting speed."""
+REST_SPEED = 0.02
+"""m/s: at rest below this translational speed (2% of the middle start speed)."""
 SUCCESS_BONUS = 1.0
 MANEUVER_COST = 0.05
 POST_PENALTY = 1.0
@@ -94,15 +94,31 @@ def rewards(task, reward_type, path, desired, at_rest, hit_post, out_reward, out
         out_reward[i], out_success[i] = reward, met
 
 
+INFO_KEYS = ("path", "at_rest", "hit_post")
+"""What a reward needs of a step's `info` besides the goals."""
+
+
+def _check_info(info) -> None:
+    if not isinstance(info, dict) or any(key not in info for key in INFO_KEYS):
+        raise ValueError(
+            f"compute_reward needs each step's info with {list(INFO_KEYS)} (the maneuver's "
+            "path and end); with SB3's HerReplayBuffer pass "
+            "replay_buffer_kwargs=dict(copy_info_dict=True)"
+        )
+
+
 def compute(task: int, reward_type: int, desired_goal, info) -> tuple[np.ndarray, np.ndarray]:
     """(reward, success) of maneuvers for the desired goals `desired_goal` (..., 2): the
     numbers `step` gives for them. `info` is one step's info, a vector env's, or a sequence of
     single infos (as SB3's hindsight replay buffer passes them); it supplies "path", "at_rest"
     and "hit_post"."""
     if isinstance(info, dict):
+        _check_info(info)
         path, at_rest, hit_post = info["path"], info["at_rest"], info["hit_post"]
     else:
         infos = list(np.ravel(info))
+        for entry in infos[:1]:
+            _check_info(entry)
         path = np.stack([i["path"] for i in infos])
         at_rest = np.array([i["at_rest"] for i in infos])
         hit_post = np.array([i["hit_post"] for i in infos])

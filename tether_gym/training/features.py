@@ -7,10 +7,9 @@ the pegs, the posts and the goal in the table's frame; turning them into the vel
 is an atan2 of a rotated vector, which a small MLP learns only roughly. `NavigateExtractor`
 computes it exactly, from the observation alone (no physics, nothing the env does not show):
 
-- the observation as the env gives it, with the goal relative to the puck recomputed as
-  `desired_goal - achieved_goal` (under hindsight relabeling the `observation` entry still
-  shows the episode's true goal, the desired goal the relabeled one: the policy sees the one
-  its reward is for);
+- the observation as the env gives it (nothing in it depends on the goal) and the goal
+  relative to the puck, `desired_goal - achieved_goal` (under hindsight relabeling, the
+  relabeled goal: the one the reward is for);
 - the achieved and desired goals, the speed, the velocity's direction, and the orientation
   relative to it;
 - the goal, each peg and each post in the frame of flight: along and across the velocity, the
@@ -27,9 +26,9 @@ import torch
 from gymnasium import spaces
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
-from tether_gym.envs.tether_navigate.kernel import GOAL_KEYS, MAX_ANCHORS, MAX_POSTS, OBS
+from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_POSTS
+from tether_gym.envs.tether_navigate.spaces import GOAL_KEYS, OBS
 
-GOAL = slice(OBS.goal_dx, OBS.goal_dy + 1)
 ANCHORS = slice(OBS.anchor0_present, OBS.anchor0_present + 3 * MAX_ANCHORS)
 POSTS = slice(OBS.post0_present, OBS.post0_present + 3 * MAX_POSTS)
 POINT_FEATURES = 4
@@ -56,7 +55,7 @@ class NavigateExtractor(BaseFeaturesExtractor):
         points = 1 + MAX_ANCHORS + MAX_POSTS
         self.extra = sorted(set(observation_space) - set(GOAL_KEYS))
         extra = sum(int(np.prod(observation_space[key].shape)) for key in self.extra)
-        dim = size + 4 + 5 + POINT_FEATURES * points + extra
+        dim = size + 2 + 4 + 5 + POINT_FEATURES * points + extra
         super().__init__(observation_space, features_dim=dim)
 
     def forward(self, observations: dict[str, torch.Tensor]) -> torch.Tensor:
@@ -77,10 +76,9 @@ class NavigateExtractor(BaseFeaturesExtractor):
         distance = offsets.norm(dim=-1)
         points = torch.cat([local, distance[..., None], bearing[..., None]], dim=-1)
         points = points * present[..., None]
-        flat = torch.cat([obs[:, : GOAL.start], goal, obs[:, GOAL.stop :]], dim=-1)
         extra = [observations[key].flatten(1) for key in self.extra]
         return torch.cat(
-            [flat, achieved, desired, speed, heading, orientation, points.flatten(1), *extra],
+            [obs, goal, achieved, desired, speed, heading, orientation, points.flatten(1), *extra],
             dim=-1,
         )
 

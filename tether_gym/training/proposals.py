@@ -31,7 +31,7 @@ from torch import nn
 
 from tether_gym.agents.evaluate import PROPOSALS_KEY
 from tether_gym.agents.planners import FAIL, KINDS, GreedyPlanner, observed_states
-from tether_gym.envs.tether_navigate.kernel import MAX_ANCHORS, MAX_SPEED, PUCK_RADIUS
+from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_SPEED, PUCK_RADIUS
 from tether_gym.training.residual import ResidualAgent, make_planner
 
 PROPOSAL_FEATURES = 13 + len(KINDS) + 4
@@ -135,6 +135,8 @@ def _batched(obs: dict) -> tuple[dict, bool]:
 
 class ProposalAgent:
     """A policy over a planner's proposals with its planner as one agent (SB3's `predict`)."""
+
+    control = "setup"
 
     def __init__(self, policy, planner: GreedyPlanner, k: int, depth: int = 1):
         self.policy, self.planner = policy, planner

@@ -53,6 +53,8 @@ def check_scale(scale: Any) -> float:
 class ResidualAgent:
     """A residual policy with its planner as one agent (SB3's `predict`)."""
 
+    control = "setup"
+
     def __init__(self, policy, base, scale: float):
         self.policy, self.base, self.scale = policy, base, check_scale(scale)
 

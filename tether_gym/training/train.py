@@ -3,8 +3,8 @@
     tether-train                                     # the default run (`make train`)
     tether-train --rho 5 100                         # the low-stiffness configuration
     tether-train --algo sac                          # SAC instead of PPO
-    tether-train --env TetherNavigate-v0 --env-kwargs n_obstacles:3   # maneuvering
-    tether-train --algo sac --env TetherNavigateSparse-v0             # SAC + HER
+    tether-train --env TetherNavigate-v1 --env-kwargs n_obstacles:3   # maneuvering
+    tether-train --algo sac --env TetherNavigateSparse-v1             # SAC + HER
     tether-train --resume runs/<name>                # continue an interrupted run
 
 (`python train.py ...` from a clone's root is the same command.) `--algo` picks the algorithm
@@ -234,6 +234,9 @@ def check_config(config: dict[str, Any]) -> None:
     if unknown:
         raise ValueError(f"unknown {label(config)} hyperparameters {sorted(unknown)}")
     algo_kwargs(params)
+    planned = [key for key in ("residual", "proposals", "pretrain") if params.get(key) is not None]
+    if planned and config["env_kwargs"].get("control", "setup") != "setup":
+        raise ValueError(f"{planned[0]}: the planners act in control='setup', not velocity")
     if params.get("residual") is not None:
         if not navigates(config["env_id"]):
             raise ValueError(f"residual: the planners solve TetherNavigate, not {config['env_id']}")
@@ -386,7 +389,7 @@ def yardstick(config: dict[str, Any]) -> tuple[str, object]:
     TetherNavigate's greedy planner (`navigates`)."""
     name = yardstick_name(config["env_id"])
     if navigates(config["env_id"]):
-        return name, GreedyPlanner(config["env_kwargs"])
+        return name, GreedyPlanner(config["env_kwargs"], config["env_id"])
     return name, ImpulseOracle()
 
 
@@ -395,8 +398,8 @@ def baselines(config: dict[str, Any]) -> dict[str, object]:
     planners (TetherNavigate), and random."""
     env_kwargs = config["env_kwargs"]
     if navigates(config["env_id"]):
-        agents = {"greedy planner": GreedyPlanner(env_kwargs)}
-        agents["lookahead planner"] = LookaheadPlanner(env_kwargs)
+        agents = {"greedy planner": GreedyPlanner(env_kwargs, config["env_id"])}
+        agents["lookahead planner"] = LookaheadPlanner(env_kwargs, config["env_id"])
     else:
         agents = {"impulse oracle": ImpulseOracle()}
         agents["shooting oracle"] = ShootingOracle(env_kwargs)

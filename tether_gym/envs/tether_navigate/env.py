@@ -1,11 +1,12 @@
-"""TetherNavigate-v0: maneuver a puck to a goal through a sequence of tether bounces."""
+"""TetherNavigate-v1: maneuver a puck to a goal through a sequence of tether bounces."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from tether_gym.envs.base import KernelEnv, KernelVectorEnv
-from tether_gym.envs.tether_navigate.kernel import NavigateConfig, NavigateKernel
+from tether_gym.envs.tether_navigate.config import NavigateConfig
+from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.tasks import navigate as task
 
 
@@ -63,8 +64,10 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
 
     ## Action Space
 
-    `Box(-1, 1, (4,), float32)`, mapped linearly; values outside [-1, 1] are clipped, NaN or
-    infinite values raise `ValueError`.
+    `Box(-1, 1, (4,), float32)` in both control modes, mapped linearly; values outside [-1, 1]
+    are clipped, NaN or infinite values raise `ValueError`.
+
+    `control="setup"` (default): the maneuver's set-up.
 
     | Num | Action        | -1 maps to | +1 maps to | Unit | Meaning                           |
     |-----|---------------|------------|------------|------|-----------------------------------|
@@ -73,6 +76,26 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     | 1   | tether length | 0.1        | 0.8        | m    | raised to the peg's distance      |
     | 2   | offset angle  | -pi/2      | pi/2       | rad  | the paper's alpha at tautening    |
     | 3   | brake         | 0.2        | 1.0        |      | this bounce's restitution e       |
+
+    `control="velocity"` (operational space): the peg and the motion after the bounce; the env
+    finds the set-up by the closed-form inverse of the (impulse) bounce on the puck's own
+    flight, choosing where along it the tether goes taut (`controls.velocity`).
+
+    | Num | Action | -1 maps to | +1 maps to | Unit | Meaning                                 |
+    |-----|--------|------------|------------|------|-----------------------------------------|
+    | 0   | peg    | nearest    | farthest   |      | the peg by rank in distance from the    |
+    |     |        |            |            |      | puck (the observation's order), [-1, 1] |
+    |     |        |            |            |      | cut into `n_anchors` equal bins         |
+    | 1   | aim_x  | 0          | 2          | m    | a point the path after the bounce       |
+    | 2   | aim_y  | 0          | 1          | m    | passes through (the goal, to reach it)  |
+    | 3   | speed  | 0          | 1          |      | after the bounce, over the speed at     |
+    |     |        |            |            |      | tautening; 0 asks for a dead stop there |
+
+    The set-up is the one whose predicted bounce misses the command least (the aim's distance
+    from the path after the bounce plus 1 s times the speed error), searched over the
+    tautening points of the flight up to its second wall bounce; `info["command_met"]` says
+    whether it meets the command, `info["command_error"]` (m) by how much it misses. The
+    configured dynamics then play that set-up like any other.
 
     The reaction wheel turns the body relative to its free spin, at a constant rate of at most
     `wheel_rate` from the decision, and stops at tautening, so the spin at tautening is the free
@@ -101,14 +124,17 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     | Key             | Shape | Content                                                     |
     |-----------------|-------|-------------------------------------------------------------|
     | `observation`   | (56,) | velocity / 3 m/s (2); cos, sin of the orientation (2);      |
-    |                 |       | spin x R / 3 m/s; the goal relative to the puck, m (2);     |
-    |                 |       | 12 pegs relative to the puck, nearest first, as (present,   |
-    |                 |       | dx, dy), padded (HighwayEnv's convention) (36); 4 posts     |
-    |                 |       | likewise (12); maneuvers left / `max_maneuvers`             |
+    |                 |       | spin x R / 3 m/s; 12 pegs relative to the puck, nearest     |
+    |                 |       | first, as (present, dx, dy), padded (HighwayEnv's           |
+    |                 |       | convention) (36); 4 posts likewise (12); maneuvers left /   |
+    |                 |       | `max_maneuvers`; the puck's position, m (2)                 |
     | `achieved_goal` | (2,)  | the puck's position, m                                      |
     | `desired_goal`  | (2,)  | the goal's centre, m                                        |
 
-    The configuration is fixed per env, so no physical parameter varies between episodes.
+    Nothing in `observation` depends on the desired goal (Gymnasium-Robotics' convention), so a
+    relabeled goal leaves a transition consistent: a policy sees the goal only through
+    `desired_goal`. The configuration is fixed per env, so no physical parameter varies
+    between episodes.
 
     ## Rewards
 
@@ -117,7 +143,9 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     `post` (-1 for touching a post). `"sparse"`: 0 on success, else -1.
     `compute_reward(achieved_goal, desired_goal, info)` gives the same for any goals, from the
     maneuver's path in `info` (so hindsight relabeling is exact), as do `compute_terminated`
-    and `compute_truncated`.
+    and `compute_truncated`. They need each step's `info` (its `path`, `at_rest` and
+    `hit_post`): SB3's `HerReplayBuffer` must keep them, `copy_info_dict=True`; without them
+    `compute_reward` raises a `ValueError` that says so.
 
     ## Starting State
 
@@ -125,19 +153,20 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     jittered (pegs and posts at least 0.16 m apart and off the walls), or fixed by a `layout`.
     The puck starts in free flight: heading uniform, speed in [0.5, 1.5] m/s, orientation
     uniform, no spin. `reset(options=...)` fixes any of `goal` (x, y), `start` (x, y),
-    `start_velocity` (vx, vy), `start_angle`, `anchors` (k, 2), `posts` (k, 2).
+    `start_velocity` (vx, vy), `start_angle`, `start_spin`, `anchors` (k, 2), `posts` (k, 2).
 
     ## Episode End
 
-    Terminated on success, when the puck comes to rest (speed under 2% of its starting
-    speed) elsewhere, or touches a post; truncated after `max_maneuvers` maneuvers.
+    Terminated on success, when the puck comes to rest (speed under 0.02 m/s) elsewhere, or
+    touches a post; truncated after `max_maneuvers` maneuvers.
 
     `info` after each step: `is_success`, `position` (2,), `velocity` (2,), `angle`, `spin`
     (the puck after the maneuver), `anchor` (2,) (the hooked peg), `taut_velocity` (2,),
     `taut_angle`, `taut_spin` (the puck at tautening, or where the flight ended), `bounced`,
     `completed`, `tether_length`, `tether_angle` and `offset_angle` met at tautening (the
     paper's beta from the incoming velocity, and alpha), `offset_angle_met`, `wheel_target`
-    (rad), `wheel_target_time` (s), `wheel_turn` (rad), `restitution`, `flight_time` (s),
+    (rad), `wheel_target_time` (s), `wheel_turn` (rad), `restitution`, `command_met` and
+    `command_error` (m) (velocity control; 1 and 0 under setup control), `flight_time` (s),
     `wall_hits`, `at_rest`, `hit_post`, `maneuvers_left`, `path` (11, 2) (start, wall hits,
     tautening, slack instant, padded with the last point) and `reward_terms`.
 
@@ -159,12 +188,31 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     | `reaction_wheel`   | `True`     | the wheel sets the orientation at tautening              |
     | `wheel_rate`       | `20.0`     | rad/s, the wheel's turn rate relative to the free spin   |
     | `max_maneuvers`    | `6`        | maneuvers per episode                                    |
+    | `control`          | `"setup"`  | `"setup"` or `"velocity"` (see Action Space)             |
     | `render_mode`      | `None`     | `"rgb_array"`, `"rgb_array_list"` or `"human"`           |
 
     Bad arguments raise `ValueError` naming the argument.
 
+    ## Difficulty Ladder
+
+    Registered ids `TetherNavigate_{rung}{task}-v1` (dense) and
+    `TetherNavigate_{rung}{task}Sparse-v1`, task `Reach` or `Stop` (`tether_gym.ladder`):
+
+    | Rung    | Table                                                    | Arguments         |
+    |---------|----------------------------------------------------------|-------------------|
+    | `Open`  | 6 pegs drawn, no post                                    | `n_obstacles=0`   |
+    | `Posts` | 6 pegs and 3 posts drawn                                 | `n_obstacles=3`   |
+    | `Wall`  | a fixed table: 4 posts from the bottom wall, gaps        | `layout=WALL`     |
+    |         | narrower than the puck, the start left of them and the   |                   |
+    |         | goal right: no straight flight joins them                |                   |
+
     ## Version History
 
+    * v1: `observation` no longer holds the goal relative to the puck (it holds the puck's
+      position): hindsight relabeling leaves it valid; at rest is an absolute speed
+      (0.02 m/s), not 2% of an unobserved start speed; `control="velocity"`;
+      `compute_reward` refuses an `info` without the maneuver's path; `start_spin` reset
+      option; the difficulty ladder's ids.
     * v0: initial version.
     """
 
@@ -184,11 +232,12 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
         reaction_wheel: bool = True,
         wheel_rate: float = 20.0,
         max_maneuvers: int = 6,
+        control: str = "setup",
         render_mode: str | None = None,
     ):
         self.config = NavigateConfig(
             task, reward_type, dynamics, rho, stiffness, n_anchors, n_obstacles, layout,
-            wall_restitution, reaction_wheel, wheel_rate, max_maneuvers,
+            wall_restitution, reaction_wheel, wheel_rate, max_maneuvers, control,
         )  # fmt: skip
         super().__init__(NavigateKernel(self.config), render_mode)
 

@@ -48,9 +48,8 @@ from tether_gym.envs.drawing import (
     SceneRenderer,
     Still,
 )
-from tether_gym.envs.tether_navigate.kernel import (
+from tether_gym.envs.tether_navigate.config import (
     ARM,
-    OUT,
     PATH_POINTS,
     POST_RADIUS,
     PUCK_RADIUS,
@@ -58,6 +57,7 @@ from tether_gym.envs.tether_navigate.kernel import (
     TABLE_WIDTH,
     NavigateConfig,
 )
+from tether_gym.envs.tether_navigate.spaces import OUT
 from tether_gym.physics.events import time_to_wall_row, wall_bounce_row
 from tether_gym.physics.geometry import fold_angle
 from tether_gym.physics.state import PuckState
@@ -87,7 +87,7 @@ class Renderer(SceneRenderer):
     """TetherNavigate's scenes for `drawing.SceneRenderer`'s render modes."""
 
     def __init__(self, render_mode: str, fps: float, config: NavigateConfig) -> None:
-        super().__init__(render_mode, fps, "TetherNavigate-v0", Canvas(SIZE, SIZE[1] / SCALE))
+        super().__init__(render_mode, fps, "TetherNavigate-v1", Canvas(SIZE, SIZE[1] / SCALE))
         self.canvas.look_at(CENTRE)
         self.config = config
         self._before: np.void | None = None

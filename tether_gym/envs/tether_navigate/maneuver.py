@@ -1,0 +1,79 @@
+"""One maneuver of one episode, from its set-up: hook the peg, fly (`flight`), bounce with the
+configured dynamics, release the tether at its slack instant and score it with the episode's
+task (`tasks.navigate`). The control modes (`controls`) turn an action into the set-up."""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+from tether_gym.envs.tether_navigate.config import (
+    ARM,
+    IMPULSE,
+    INERTIA_RATIO,
+    OFFSET,
+    PATH_POINTS,
+    PUCK_MASS,
+    PUCK_RADIUS,
+)
+from tether_gym.envs.tether_navigate.flight import fly, path_point
+from tether_gym.envs.tether_navigate.spaces import OUT
+from tether_gym.physics.geometry import fold_angle
+from tether_gym.physics.hybrid import damping_ratio, hybrid_contact_row
+from tether_gym.physics.impulse import impulse_contact_row
+from tether_gym.tasks import navigate as task
+
+
+@numba.njit(cache=True, inline="always")
+def maneuver(s, p, anchor, length, alpha, e, out):
+    """Play the set-up (peg `anchor`, tether `length` in m, offset angle `alpha` to meet at
+    tautening, restitution `e`) from episode state `s`, advancing it, into outcome row
+    `out`."""
+    ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
+    reach = math.hypot(s.x + ARM * math.cos(s.angle) - ax, s.y + ARM * math.sin(s.angle) - ay)
+    length = max(length, reach)  # a tether cannot start stretched
+    puck, taut, met, flight_time, hits, hit_post, n = fly(s, p, ax, ay, length, alpha, out)
+    bounced, completed = False, True
+    beta = 0.0
+    out[OUT.taut_velocity], out[OUT.taut_velocity + 1] = puck.vx, puck.vy
+    out[OUT.taut_angle], out[OUT.taut_spin] = puck.angle, puck.spin
+    if taut:
+        heading = math.atan2(puck.vy, puck.vx)
+        rx, ry = ARM * math.cos(puck.angle), ARM * math.sin(puck.angle)
+        beta = fold_angle(math.atan2(puck.y + ry - ay, puck.x + rx - ax) - heading + 0.5 * math.pi)
+        if p.dynamics == IMPULSE:
+            puck, bounced, completed, _ = impulse_contact_row(
+                puck, ax, ay, PUCK_RADIUS, INERTIA_RATIO, OFFSET, e
+            )
+        else:
+            puck, bounced, completed, _ = hybrid_contact_row(
+                puck, ax, ay, PUCK_MASS, PUCK_RADIUS, INERTIA_RATIO, OFFSET, length,
+                p.stiffness, damping_ratio(e),
+            )  # fmt: skip
+        n = path_point(out, n, puck.x, puck.y)
+    for m in range(n, PATH_POINTS):  # pad with the last point
+        path_point(out, m, puck.x, puck.y)
+    s.x, s.y, s.vx, s.vy, s.angle, s.spin = puck
+    s.maneuvers_left -= 1
+    at_rest = math.hypot(puck.vx, puck.vy) < task.REST_SPEED
+    path = out[OUT.path : OUT.path + 2 * PATH_POINTS].reshape(PATH_POINTS, 2)
+    reward, success, progress, term_success, term_maneuver, term_post = task.terms(
+        p.task, p.reward_type, path, s.goal_x, s.goal_y, at_rest, hit_post
+    )
+    terminated = success or at_rest or hit_post
+    out[OUT.reward], out[OUT.terminated] = reward, terminated
+    out[OUT.truncated] = (not terminated) and s.maneuvers_left <= 0
+    out[OUT.is_success] = success
+    out[OUT.position], out[OUT.position + 1] = puck.x, puck.y
+    out[OUT.velocity], out[OUT.velocity + 1] = puck.vx, puck.vy
+    out[OUT.angle], out[OUT.spin] = puck.angle, puck.spin
+    out[OUT.anchor], out[OUT.anchor + 1] = ax, ay
+    out[OUT.bounced], out[OUT.completed] = bounced, completed
+    out[OUT.tether_length], out[OUT.tether_angle] = length, beta
+    out[OUT.offset_angle], out[OUT.offset_angle_met] = met, met == alpha
+    out[OUT.restitution], out[OUT.flight_time] = e, flight_time
+    out[OUT.wall_hits], out[OUT.at_rest], out[OUT.hit_post] = hits, at_rest, hit_post
+    out[OUT.maneuvers_left] = s.maneuvers_left
+    out[OUT.term_progress], out[OUT.term_success] = progress, term_success
+    out[OUT.term_maneuver], out[OUT.term_post] = term_maneuver, term_post
