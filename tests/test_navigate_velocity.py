@@ -11,18 +11,21 @@ import pytest
 import tether_gym  # noqa: F401
 from tether_gym.envs.tether_navigate.controls.velocity import (
     ACTION,
-    COMMAND_TIME,
     COMMAND_TOLERANCE,
+    PATH_TIME,
+    speed_weight,
 )
 
 
-def _miss(info, aim, speed):
-    """The command's miss by a maneuver's outcome: the aim's distance from the ray the puck
-    leaves on, plus COMMAND_TIME times the speed error (the env's definition)."""
+def _miss(info, aim, speed, fraction):
+    """The command's miss by a maneuver's outcome: the aim's distance from the path the puck
+    leaves on over PATH_TIME, plus the speed error weighed by the commanded fraction (the
+    env's definition)."""
     position, velocity = info["position"], info["velocity"]
     gap = aim - position
-    t = max(gap @ velocity / (velocity @ velocity), 0.0) if velocity @ velocity > 0 else 0.0
-    return np.hypot(*(gap - t * velocity)) + COMMAND_TIME * abs(np.hypot(*velocity) - speed)
+    v2 = velocity @ velocity
+    t = min(max(gap @ velocity / v2, 0.0), PATH_TIME) if v2 > 0 else 0.0
+    return np.hypot(*(gap - t * velocity)) + speed_weight(fraction) * abs(np.sqrt(v2) - speed)
 
 
 def _rank_action(obs, peg) -> float:
@@ -37,7 +40,7 @@ def _rank_action(obs, peg) -> float:
 def _round_trips(dynamics: str, episodes: int, **kwargs):
     """Commands that the forward model can meet: a random set-up's impulse outcome, commanded
     back as (its peg, a point on its path after the bounce, its speed fraction). Yields
-    (command info, the set-up's info, aim, speed)."""
+    (the command's info, aim, speed, fraction)."""
     setup = gym.make("TetherNavigate-v1", dynamics="impulse", n_obstacles=2, **kwargs)
     velocity = gym.make(
         "TetherNavigate-v1", dynamics=dynamics, n_obstacles=2, control="velocity", **kwargs
@@ -57,19 +60,20 @@ def _round_trips(dynamics: str, episodes: int, **kwargs):
         command = np.array([_rank_action(obs, info["anchor"]), *ACTION.normalize([0, *aim, 0])[1:3],
                             2 * fraction - 1], dtype=np.float32)  # fmt: skip
         _, _, _, _, done = velocity.step(command)
-        yield done, info, aim, fraction * np.hypot(*info["taut_velocity"])
+        yield done, aim, fraction * np.hypot(*info["taut_velocity"]), fraction
 
 
 def test_the_inverse_meets_commands_the_forward_model_can_meet():
     """Round trips through the impulse model: most commands made from a random set-up's own
-    outcome are met (a tautening beyond the second wall bounce is not searched), and where
-    one is met the impulse outcome meets it to the tolerance."""
+    outcome are met (not all: the search runs up to the second wall bounce, after the flight's
+    closest approach to the aim, and it keeps tethers that cannot have gone taut earlier), and
+    where one is met the impulse outcome meets it to the tolerance."""
     trips = list(_round_trips("impulse", 300))
-    met = [(done, aim, speed) for done, _, aim, speed in trips if done["command_met"]]
+    met = [trip for trip in trips if trip[0]["command_met"]]
     assert len(trips) >= 60
-    assert len(met) >= 0.7 * len(trips)
-    for done, aim, speed in met:
-        assert _miss(done, aim, speed) < 10 * COMMAND_TOLERANCE
+    assert len(met) >= 0.6 * len(trips)
+    for done, aim, speed, fraction in met:
+        assert _miss(done, aim, speed, fraction) < 10 * COMMAND_TOLERANCE
 
 
 def test_the_reported_error_is_the_impulse_outcome_s_miss():
@@ -85,8 +89,10 @@ def test_the_reported_error_is_the_impulse_outcome_s_miss():
             aim = ACTION.denormalize(command)[1:3]
             _, _, terminated, truncated, info = env.step(command)
             if info["bounced"] and info["offset_angle_met"] and np.isfinite(info["command_error"]):
-                speed = ACTION.denormalize(command)[3] * np.hypot(*info["taut_velocity"])
-                assert _miss(info, aim, speed) == pytest.approx(info["command_error"], abs=1e-6)
+                fraction = ACTION.denormalize(command)[3]
+                speed = fraction * np.hypot(*info["taut_velocity"])
+                miss = _miss(info, aim, speed, fraction)
+                assert miss == pytest.approx(info["command_error"], abs=1e-6)
                 compared += 1
             if terminated or truncated:
                 break
@@ -98,7 +104,7 @@ def test_the_hybrid_tether_plays_the_set_up_and_converges_to_the_command():
     converged regime) the outcome of a met command is within a few millimetres of it."""
     trips = [t for t in _round_trips("hybrid", 200, rho=1e5) if t[0]["command_met"]]
     assert len(trips) >= 40
-    misses = [_miss(done, aim, speed) for done, _, aim, speed in trips]
+    misses = [_miss(*trip) for trip in trips]
     assert np.median(misses) < 5e-3
 
 
@@ -149,3 +155,31 @@ def test_velocity_control_single_and_vector_envs_agree():
             if te or tr:
                 one, _ = env.reset()
             np.testing.assert_array_equal(one["observation"], obs["observation"][i])
+
+
+def test_aim_control_picks_the_peg_that_misses_the_command_least():
+    """`control="aim"` (no peg in the action) plays the peg the env finds best: the set-up it
+    plays is the one a velocity command naming that peg plays, and its miss is the least over
+    the pegs in most states (the env ranks the pegs by score: the miss, plus a penalty where
+    the reaction wheel cannot meet the offset angle, plus the offset's small weight)."""
+    kwargs = {"n_obstacles": 2, "dynamics": "impulse"}
+    aim = gym.make("TetherNavigate-v1", control="aim", **kwargs)
+    velocity = gym.make("TetherNavigate-v1", control="velocity", **kwargs)
+    assert aim.action_space.shape == (3,)
+    rng = np.random.default_rng(3)
+    least = []
+    for seed in range(100):
+        command = rng.uniform(-1, 1, 3).astype(np.float32)
+        aim.reset(seed=seed)
+        _, _, _, _, chosen = aim.step(command)
+        errors = []
+        for rank in range(6):
+            velocity.reset(seed=seed)
+            peg = np.float32(-1 + (2 * rank + 1) / 6)
+            _, _, _, _, info = velocity.step(np.array([peg, *command], dtype=np.float32))
+            errors.append(info["command_error"])
+            if np.array_equal(info["anchor"], chosen["anchor"]):
+                np.testing.assert_array_equal(info["path"], chosen["path"])
+                assert info["command_error"] == chosen["command_error"]
+        least.append(chosen["command_error"] <= min(errors) + 1e-6)
+    assert np.mean(least) >= 0.75

@@ -425,6 +425,14 @@ def load_agent(path: str | Path):
     return agent
 
 
+def action_size(env_id: str, env_kwargs: dict) -> int:
+    """The length of the env's (Box) action: TetherNavigate's depends on its control mode."""
+    env = gym.make(env_id, **env_kwargs)
+    size = int(env.action_space.shape[0])
+    env.close()
+    return size
+
+
 def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT_ENV_ID):
     """ "oracle", "shooting", a pretrained agent ("pretrained", "pretrained-low-stiffness":
     `pretrained.AGENTS`; TetherBounce-v0), "greedy", "lookahead" (TetherNavigate), "random" or
@@ -449,7 +457,7 @@ def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT
     if spec == "lookahead":
         return LookaheadPlanner(env_kwargs, env_id)
     if spec == "random":
-        return RandomAgent(seed)
+        return RandomAgent(seed, action_size(env_id, env_kwargs))
     require_extra(f"the model {spec!r}", ("stable_baselines3", "torch"))
     return load_agent(spec)
 

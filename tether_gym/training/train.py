@@ -55,6 +55,7 @@ from tether_gym.agents.evaluate import (
     EvalResult,
     NavigationResult,
     SB3Agent,
+    action_size,
     evaluate,
     format_table,
     navigates,
@@ -403,7 +404,8 @@ def baselines(config: dict[str, Any]) -> dict[str, object]:
     else:
         agents = {"impulse oracle": ImpulseOracle()}
         agents["shooting oracle"] = ShootingOracle(env_kwargs)
-    return {**agents, "random": RandomAgent(config["seed"])}
+    size = action_size(config["env_id"], env_kwargs)
+    return {**agents, "random": RandomAgent(config["seed"], size)}
 
 
 class OracleEvalCallback(BaseCallback):

@@ -43,9 +43,9 @@ start: shorter tethers and slower pucks meet a lower rho."""
 RHO_RANGE = (10.0, 1e6)
 DYNAMICS = ("hybrid", "impulse")
 HYBRID, IMPULSE = range(len(DYNAMICS))
-CONTROLS = ("setup", "velocity")
+CONTROLS = ("setup", "velocity", "aim")
 """The control modes (`controls`): what an action commands."""
-SETUP, VELOCITY = range(len(CONTROLS))
+SETUP, VELOCITY, AIM = range(len(CONTROLS))
 
 STATE = np.dtype(
     [("x", np.float64), ("y", np.float64), ("vx", np.float64), ("vy", np.float64),
@@ -167,8 +167,8 @@ class NavigateConfig:
              check_float("wall_restitution", self.wall_restitution, 0.0, 1.0))  # fmt: skip
         if not isinstance(self.reaction_wheel, (bool, np.bool_)):
             raise ValueError(f"reaction_wheel must be True or False, got {self.reaction_wheel!r}")
-        if self.control == "velocity" and not self.reaction_wheel:
-            raise ValueError("control='velocity' needs reaction_wheel=True (it sets the offset)")
+        if self.control != "setup" and not self.reaction_wheel:
+            raise ValueError(f"control={self.control!r} needs reaction_wheel=True (the offset)")
         set_(self, "wheel_rate", check_float("wheel_rate", self.wheel_rate, 0.0, 1e4))
         if self.layout is not None and not isinstance(self.layout, str):
             raise ValueError(f"layout must be a text map (str) or None, got {self.layout!r}")

@@ -64,8 +64,8 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
 
     ## Action Space
 
-    `Box(-1, 1, (4,), float32)` in both control modes, mapped linearly; values outside [-1, 1]
-    are clipped, NaN or infinite values raise `ValueError`.
+    `Box(-1, 1, (4,), float32)` (`(3,)` with `control="aim"`), mapped linearly; values outside
+    [-1, 1] are clipped, NaN or infinite values raise `ValueError`.
 
     `control="setup"` (default): the maneuver's set-up.
 
@@ -91,11 +91,17 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     | 3   | speed  | 0          | 1          |      | after the bounce, over the speed at     |
     |     |        |            |            |      | tautening; 0 asks for a dead stop there |
 
-    The set-up is the one whose predicted bounce misses the command least (the aim's distance
-    from the path after the bounce plus 1 s times the speed error), searched over the
-    tautening points of the flight up to its second wall bounce; `info["command_met"]` says
-    whether it meets the command, `info["command_error"]` (m) by how much it misses. The
-    configured dynamics then play that set-up like any other.
+    `control="aim"`: the same without the peg (`Box(-1, 1, (3,))`: aim_x, aim_y, speed); the
+    env also picks the peg, the one whose set-up misses the command least.
+
+    The tautening comes after the flight's closest approach to the aim (a flight through the
+    aim reaches it first), where the flight allows one, up to its second wall bounce; there the
+    set-up is the one whose predicted bounce misses the command least: the aim's distance from
+    the path over the next 2 s plus a weight times the speed error (1 s for a stop, falling to
+    0.05 s at full speed: slow commands are about the speed, fast ones about the aim), the
+    offset angles that the reaction wheel meets first. `info["command_met"]` says whether it
+    meets the command, `info["command_error"]` (m) by how much it misses. The configured
+    dynamics then play that set-up like any other.
 
     The reaction wheel turns the body relative to its free spin, at a constant rate of at most
     `wheel_rate` from the decision, and stops at tautening, so the spin at tautening is the free
@@ -166,7 +172,8 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     `completed`, `tether_length`, `tether_angle` and `offset_angle` met at tautening (the
     paper's beta from the incoming velocity, and alpha), `offset_angle_met`, `wheel_target`
     (rad), `wheel_target_time` (s), `wheel_turn` (rad), `restitution`, `command_met` and
-    `command_error` (m) (velocity control; 1 and 0 under setup control), `flight_time` (s),
+    `command_error` (m) (velocity and aim control; 1 and 0 under setup control),
+    `flight_time` (s),
     `wall_hits`, `at_rest`, `hit_post`, `maneuvers_left`, `path` (11, 2) (start, wall hits,
     tautening, slack instant, padded with the last point) and `reward_terms`.
 
@@ -188,7 +195,7 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     | `reaction_wheel`   | `True`     | the wheel sets the orientation at tautening              |
     | `wheel_rate`       | `20.0`     | rad/s, the wheel's turn rate relative to the free spin   |
     | `max_maneuvers`    | `6`        | maneuvers per episode                                    |
-    | `control`          | `"setup"`  | `"setup"` or `"velocity"` (see Action Space)             |
+    | `control`          | `"setup"`  | `"setup"`, `"velocity"` or `"aim"` (see Action Space)    |
     | `render_mode`      | `None`     | `"rgb_array"`, `"rgb_array_list"` or `"human"`           |
 
     Bad arguments raise `ValueError` naming the argument.
@@ -210,7 +217,7 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
 
     * v1: `observation` no longer holds the goal relative to the puck (it holds the puck's
       position): hindsight relabeling leaves it valid; at rest is an absolute speed
-      (0.02 m/s), not 2% of an unobserved start speed; `control="velocity"`;
+      (0.02 m/s), not 2% of an unobserved start speed; `control="velocity"` and `"aim"`;
       `compute_reward` refuses an `info` without the maneuver's path; `start_spin` reset
       option; the difficulty ladder's ids.
     * v0: initial version.

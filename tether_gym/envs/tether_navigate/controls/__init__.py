@@ -3,6 +3,7 @@
 - `setup`: the set-up itself (`controls.setup`).
 - `velocity`: the peg and the motion after the bounce, turned into the set-up by the inverse of
   the bounce (`controls.velocity`).
+- `aim`: the motion after the bounce alone; the peg is the environment's choice too.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from tether_gym.envs.tether_navigate.controls import setup, velocity
 from tether_gym.envs.tether_navigate.maneuver import maneuver
 from tether_gym.envs.tether_navigate.spaces import OUT
 
-ACTIONS = {"setup": setup.ACTION, "velocity": velocity.ACTION}
+ACTIONS = {"setup": setup.ACTION, "velocity": velocity.ACTION, "aim": velocity.AIM_ACTION}
 """Each control mode's action fields: the physical ranges [-1, 1] maps onto."""
 
 

@@ -1,8 +1,9 @@
-"""`control="velocity"`: operational-space control. The action commands the peg to hook and the
-puck's motion after the bounce: a point its path should pass through (the aim) and its speed as
-a fraction of its speed at tautening (0 asks for a dead stop); the environment finds the set-up
-(tether length, offset angle, brake) on the puck's own flight, and the configured dynamics
-then play it as they play any set-up.
+"""Operational-space control: the action commands the puck's motion after the bounce, a point
+its path should pass through (the aim) and its speed as a fraction of its speed at tautening (0
+asks for a dead stop), and the environment finds the set-up (tether length, offset angle, brake)
+on the puck's own flight; the configured dynamics then play it as they play any set-up.
+`control="velocity"` also commands the peg (by rank in distance); `control="aim"` leaves the
+peg to the environment too: the one whose set-up misses the command least.
 
 The inverse is the impulse model's, in closed form at each tautening point. The impulse lies
 along the change of velocity: a tether from the peg, taut with the centre of mass at distance r
@@ -11,18 +12,22 @@ from it, changes the velocity by -k u, u the unit vector from the peg to the att
     k = (1 + e) (v . u + spin s) / (1 + s^2 / (I/m)),   s = R sin(alpha) the moment arm,
 
 and u is the centre's direction from the peg turned back by asin(s / r). So the velocity the
-command asks for, v', fixes u along v - v' (hence s = r sin of the angle between them), then k
-= |v - v'| (hence the brake e). Where s or e falls out of range the nearest set-up is clipped
-into it, with the change along u that misses the command least (`_wanted`). Where the bounce
-happens is the environment's choice: the tautening points of the first `SEGMENTS` straight
-stretches of the flight (wall bounces between them), where a tether of the allowed lengths
-goes taut pulling, are sampled on a grid and the best refined by golden-section search. The
-score is the command's miss (the aim's distance from the path after the bounce, plus
-`COMMAND_TIME` times the speed's error) plus `ARM_WEIGHT` |s|: among the set-ups that meet
-the command, the one nearest a line of action through the centre of mass (the least spin).
-A set-up whose offset angle the reaction wheel cannot meet there scores `WHEEL_PENALTY` more.
-`info` reports `command_met` (a miss under `COMMAND_TOLERANCE` that the wheel can meet) and
-`command_error` (the miss, m, in the impulse model, the set-up played as planned).
+command asks for, v', fixes u along v - v' (hence s = r sin of the angle between them), then
+k = |v - v'| (hence the brake e). Where s or e falls out of range the nearest set-up is clipped
+into it, with the change along u that misses the command least (`_wanted`).
+
+Where the bounce happens is the environment's choice, after the flight's closest approach to the
+aim (so that a flight through the aim reaches it first; anywhere on the flight if no tautening
+comes after): the tautening points of the first `SEGMENTS` straight stretches of the flight
+(wall bounces between them), where a tether of the allowed lengths goes taut pulling, are
+sampled on a grid and the best is refined by golden-section search. The score is the command's
+miss (the aim's distance from the path over the `PATH_TIME` after the bounce, plus
+`speed_weight` times the speed's error: much for a stop, little at full speed) plus
+`ARM_WEIGHT` |s| (among the set-ups that meet the command, the one nearest a line of action
+through the centre of mass, the least spin), plus `WHEEL_PENALTY` where the reaction wheel
+cannot meet the offset angle. `info` reports `command_met` (a miss under `COMMAND_TOLERANCE`
+that the wheel can meet) and `command_error` (the miss, m, in the impulse model, the set-up
+played as planned).
 """
 
 from __future__ import annotations
@@ -40,6 +45,7 @@ from tether_gym.envs.tether_navigate.config import (
     PUCK_RADIUS,
     TABLE_HEIGHT,
     TABLE_WIDTH,
+    VELOCITY,
 )
 from tether_gym.envs.tether_navigate.controls.setup import ACTION as SETUP_ACTION
 from tether_gym.envs.tether_navigate.flight import contact_clearance, stretch_end, wheel_crossing
@@ -53,6 +59,8 @@ ACTION = Fields(
     Field("aim_y", 0.0, TABLE_HEIGHT, "m"),
     Field("speed", 0.0, 1.0, "after the bounce, over the speed at tautening (0: a dead stop)"),
 )
+AIM_ACTION = Fields(*ACTION.fields[1:])
+"""`control="aim"`: the same without the peg."""
 ACTION_LOW, ACTION_HIGH = ACTION.low, ACTION.high
 LENGTH_LOW, LENGTH_HIGH = SETUP_ACTION["tether_length"].low, SETUP_ACTION["tether_length"].high
 BRAKE_LOW, BRAKE_HIGH = SETUP_ACTION["restitution"].low, SETUP_ACTION["restitution"].high
@@ -65,7 +73,11 @@ SAMPLES = 10
 REFINEMENTS = 16
 """Golden-section steps about the best grid point."""
 COMMAND_TIME = 1.0
-"""s: a speed error weighs as the aim missed by the distance it covers in this time."""
+"""s: a stop's speed error weighs as the aim missed by the distance it covers in this time."""
+AIM_TIME = 0.05
+"""s: the same at full speed, where the aim matters most (`speed_weight`)."""
+PATH_TIME = 2.0
+"""s: the path after the bounce that should pass through the aim."""
 COMMAND_TOLERANCE = 1e-3
 """m: a command is met when the set-up found misses it by less."""
 ARM_WEIGHT = 0.01
@@ -107,17 +119,26 @@ def _taut(radius, direction, arm):
 
 
 @numba.njit(cache=True)
-def _miss(px, py, ox, oy, gx, gy, speed):
+def _miss(px, py, ox, oy, gx, gy, speed, weight):
     """The command's miss by a bounce at (px, py) leaving at (ox, oy): the aim's distance from
-    the path (a ray; the point itself at rest) plus `COMMAND_TIME` times the speed error."""
+    the path over the next `PATH_TIME` (a slow puck's is short, a stopped one's the point
+    itself) plus `weight` (s) times the speed error."""
     dx, dy = gx - px, gy - py
     v2 = ox * ox + oy * oy
-    t = max((dx * ox + dy * oy) / v2, 0.0) if v2 > 0.0 else 0.0
-    return math.hypot(dx - t * ox, dy - t * oy) + COMMAND_TIME * abs(math.sqrt(v2) - speed)
+    t = min(max((dx * ox + dy * oy) / v2, 0.0), PATH_TIME) if v2 > 0.0 else 0.0
+    return math.hypot(dx - t * ox, dy - t * oy) + weight * abs(math.sqrt(v2) - speed)
+
+
+@numba.njit(cache=True, inline="always")
+def speed_weight(fraction):
+    """s: how much a speed error counts, by the commanded speed's `fraction`: `COMMAND_TIME`
+    for a stop, falling to `AIM_TIME` at full speed (a slow command is about the speed, a fast
+    one about the aim)."""
+    return AIM_TIME + (COMMAND_TIME - AIM_TIME) * (1.0 - fraction) ** 2
 
 
 @numba.njit(cache=True)
-def _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, k_low, k_high):
+def _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high):
     """The change k in [k_low, k_high] along the tether u at (px, py) that misses the command
     least: towards the aim, or at the commanded speed (either root, or the least speed), or a
     limit."""
@@ -130,14 +151,14 @@ def _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, k_low, k_high):
     best_k, best = k_low, math.inf
     for k in (aim, along - root, along + root, k_low, k_high):
         k = min(max(k, k_low), k_high)
-        miss = _miss(px, py, vx - k * ux, vy - k * uy, gx, gy, speed)
+        miss = _miss(px, py, vx - k * ux, vy - k * uy, gx, gy, speed, weight)
         if miss < best:
             best_k, best = k, miss
     return best_k
 
 
 @numba.njit(cache=True)
-def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, longest):
+def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest):
     """The impulse bounce at tautening point (px, py) for the command, the tether at most
     `longest`: (score, miss, tether length, moment arm R sin(alpha), brake e)."""
     rx, ry = px - ax, py - ay
@@ -156,9 +177,9 @@ def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, longest):
     compliance = 1.0 + arm * arm / GYRATION2
     k_low = max((1.0 + BRAKE_LOW) * pull / compliance, 0.0)
     k_high = max((1.0 + BRAKE_HIGH) * pull / compliance, 0.0)
-    k = _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, k_low, k_high)
+    k = _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high)
     e = k * compliance / pull - 1.0 if pull > 0.0 else BRAKE_HIGH
-    miss = _miss(px, py, vx - k * ux, vy - k * uy, gx, gy, speed)
+    miss = _miss(px, py, vx - k * ux, vy - k * uy, gx, gy, speed, weight)
     return miss + ARM_WEIGHT * abs(arm), miss, length, arm, e
 
 
@@ -204,7 +225,7 @@ def _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, wheel, bound=math.inf
     x, y = puck.x + puck.vx * t, puck.y + puck.vy * t
     speed = fraction * math.hypot(puck.vx, puck.vy)
     score, miss, length, arm, e = _bounce_at(
-        x, y, puck.vx, puck.vy, puck.spin, ax, ay, gx, gy, speed, longest
+        x, y, puck.vx, puck.vy, puck.spin, ax, ay, gx, gy, speed, speed_weight(fraction), longest
     )
     if score >= bound:
         return score, miss, length, arm, e, False
@@ -235,18 +256,44 @@ def _golden(puck, lo, hi, ax, ay, gx, gy, fraction, longest, wheel):
 
 
 @numba.njit(cache=True)
-def _physical(action, j):
-    """Action entry j mapped from [-1, 1] (clipped) onto its range."""
-    x = min(max(action[j], -1.0), 1.0)
-    return ACTION_LOW[j] + 0.5 * (x + 1.0) * (ACTION_HIGH[j] - ACTION_LOW[j])
+def _command(action, first):
+    """(aim x, aim y, speed fraction): the action's entries from `first` on, mapped from
+    [-1, 1] (clipped) onto their ranges."""
+    values = np.empty(3)
+    for j in range(3):
+        x = min(max(action[first + j], -1.0), 1.0)
+        low, high = ACTION_LOW[j + 1], ACTION_HIGH[j + 1]
+        values[j] = low + 0.5 * (x + 1.0) * (high - low)
+    return values[0], values[1], values[2]
 
 
 @numba.njit(cache=True)
-def solve(action, s, p, out):
-    """The set-up (peg, tether length, offset angle, brake) nearest a normalized velocity
-    command from episode state `s`; writes `command_met` and `command_error` into `out`."""
-    gx, gy, fraction = _physical(action, 1), _physical(action, 2), _physical(action, 3)
-    anchor = _pick_peg(s, action[0])
+def _closest_approach(s, p, gx, gy):
+    """(stretch, t on it): where the flight's first `SEGMENTS` stretches come closest to the
+    aim (gx, gy)."""
+    puck = PuckState(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
+    nearest, stretch, at = math.inf, 0, 0.0
+    elapsed = 0.0
+    for segment in range(SEGMENTS):
+        t_end, t_wall, wall, t_post = stretch_end(puck, s, elapsed)
+        v2 = puck.vx * puck.vx + puck.vy * puck.vy
+        t = (gx - puck.x) * puck.vx + (gy - puck.y) * puck.vy
+        t = min(max(t / v2, 0.0), t_end) if v2 > 0.0 else 0.0
+        d = math.hypot(puck.x + puck.vx * t - gx, puck.y + puck.vy * t - gy)
+        if d < nearest:
+            nearest, stretch, at = d, segment, t
+        if t_post < math.inf or t_wall > FLIGHT_HORIZON - elapsed:
+            break
+        puck = wall_bounce_row(free_flight_row(puck, t_wall), wall, p.wall_restitution)
+        elapsed += t_wall
+    return stretch, at
+
+
+@numba.njit(cache=True)
+def _search(s, p, anchor, gx, gy, fraction, after_stretch, after_t):
+    """The grid search over the tautening windows from `after_t` into stretch
+    `after_stretch` on: (best score, its stretch's puck, the bracket about it, its `wheel`,
+    the longest tether); score inf if no window."""
     ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
     puck = PuckState(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
     reach = math.hypot(s.x + ARM * math.cos(s.angle) - ax, s.y + ARM * math.sin(s.angle) - ay)
@@ -262,8 +309,10 @@ def solve(action, s, p, out):
         # beyond the first stretch the tether must not have gone taut on the earlier ones
         low = r_low if segment == 0 else max(r_low, farthest + 2.0 * ARM)
         t_low, t_high = _window(puck, ax, ay, low, r_high, t_end)
+        if segment == after_stretch:
+            t_low = max(t_low, after_t)
         wheel = (elapsed, t_end, p.wheel_rate, clearance)
-        if t_low <= t_high:
+        if segment >= after_stretch and t_low <= t_high:
             step = (t_high - t_low) / (SAMPLES - 1)
             for j in range(SAMPLES):
                 t = t_low + j * step
@@ -276,12 +325,60 @@ def solve(action, s, p, out):
         puck = wall_bounce_row(free_flight_row(puck, t_wall), wall, p.wall_restitution)
         elapsed += t_wall
         farthest = max(farthest, math.hypot(puck.x - ax, puck.y - ay))
-    if best == math.inf:  # no tautening on the stretches searched: the longest tether
+    return best, best_stretch, best_low, best_high, best_wheel, longest
+
+
+@numba.njit(cache=True)
+def _search_peg(s, p, anchor, gx, gy, fraction, stretch, at):
+    """`_search` after the closest approach (`stretch`, `at`), anywhere if nothing comes
+    after it."""
+    found = _search(s, p, anchor, gx, gy, fraction, stretch, at)
+    if found[0] == math.inf:
+        found = _search(s, p, anchor, gx, gy, fraction, 0, 0.0)
+    return found
+
+
+@numba.njit(cache=True)
+def _refine(s, anchor, found, gx, gy, fraction):
+    """(score, the set-up's miss, length, moment arm, brake, the wheel meets it) at the
+    golden-section refinement of a peg's grid search `found`."""
+    _, puck, low, high, wheel, longest = found
+    ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
+    t, score = _golden(puck, low, high, ax, ay, gx, gy, fraction, longest, wheel)
+    _, miss, length, arm, e, turns = _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, wheel)
+    return score, miss, length, arm, e, turns
+
+
+@numba.njit(cache=True)
+def solve(action, s, p, out):
+    """The set-up (peg, tether length, offset angle, brake) nearest a normalized velocity
+    command (`ACTION`; `AIM_ACTION` with `p.control` "aim": every peg searched, the two best
+    on the grid refined) from episode state `s`, the tautening after the flight's closest
+    approach to the aim where the flight allows one; writes `command_met` and
+    `command_error` into `out`."""
+    pick = p.control == VELOCITY
+    gx, gy, fraction = _command(action, 1 if pick else 0)
+    stretch, at = _closest_approach(s, p, gx, gy)
+    if pick:
+        anchor = second = _pick_peg(s, action[0])
+        found = runner = _search_peg(s, p, anchor, gx, gy, fraction, stretch, at)
+    else:
+        anchor, found = 0, _search_peg(s, p, 0, gx, gy, fraction, stretch, at)
+        second, runner = 0, found
+        for j in range(1, s.n_anchors):
+            other = _search_peg(s, p, j, gx, gy, fraction, stretch, at)
+            if other[0] < found[0]:
+                second, runner, anchor, found = anchor, found, j, other
+            elif other[0] < runner[0] or second == anchor:
+                second, runner = j, other
+    if found[0] == math.inf:  # no tautening on the stretches searched: the longest tether
         out[OUT.command_met], out[OUT.command_error] = 0.0, math.inf
         return anchor, LENGTH_HIGH, 0.0, BRAKE_HIGH
-    t, _ = _golden(best_stretch, best_low, best_high, ax, ay, gx, gy, fraction, longest, best_wheel)
-    _, miss, length, arm, e, turns = _bounce_on(
-        best_stretch, t, ax, ay, gx, gy, fraction, longest, best_wheel
-    )
+    best = _refine(s, anchor, found, gx, gy, fraction)
+    if second != anchor and runner[0] < math.inf:
+        other = _refine(s, second, runner, gx, gy, fraction)
+        if other[0] < best[0]:
+            anchor, best = second, other
+    _, miss, length, arm, e, turns = best
     out[OUT.command_met], out[OUT.command_error] = turns and miss < COMMAND_TOLERANCE, miss
     return anchor, length, math.asin(arm / ARM), e

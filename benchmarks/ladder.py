@@ -1,0 +1,64 @@
+"""The difficulty ladder's yardsticks: the planners' and random's success on every rung, on the
+held-out test episodes of `tether-train`'s final tables (seed `TEST_SEED`).
+
+    python benchmarks/ladder.py [--episodes 1000] [--out results/ladder] [--overwrite]
+
+Each dense ladder id (the sparse twin has the same episodes and successes) gets one
+`tether-evaluate --json` file in `--out`: the greedy and lookahead planners (which act in
+`control="setup"`) and random in each control mode, so that a learned agent in any mode has
+its random floor on the same episodes. The table printed at the end is read from those files.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from tether_gym import ladder
+from tether_gym.agents.evaluate import main as evaluate_main
+from tether_gym.training.train import TEST_SEED
+
+CONTROLS = ("setup", "velocity", "aim")
+
+
+def dense_ids() -> list[str]:
+    return [env_id for env_id, kwargs in ladder.ids().items() if kwargs["reward_type"] == "dense"]
+
+
+def run(env_id: str, control: str, agents: list[str], path: Path, episodes: int, overwrite: bool):
+    argv = ["--env", env_id, "--agents", *agents, "--episodes", str(episodes),
+            "--seed", str(TEST_SEED), "--json", str(path), "--no-progress",
+            "--env-kwargs", f"control:{control}"]  # fmt: skip
+    if overwrite:
+        argv.append("--overwrite")
+    evaluate_main(argv)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--episodes", type=int, default=1000)
+    parser.add_argument("--out", type=Path, default=Path("results/ladder"))
+    parser.add_argument("--overwrite", action="store_true")
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for env_id in dense_ids():
+        for control in CONTROLS:
+            agents = ["greedy", "lookahead", "random"] if control == "setup" else ["random"]
+            path = args.out / f"{env_id}_{control}.json"
+            if not path.exists() or args.overwrite:
+                run(env_id, control, agents, path, args.episodes, args.overwrite)
+            for result in json.loads(path.read_text())["results"]:
+                name = result["name"] if result["name"] != "random" else f"random ({control})"
+                rows.append((env_id, name, result))
+    print("| env | agent | success [95% CI] | maneuvers to goal |")
+    print("|---|---|---|---:|")
+    for env_id, name, r in rows:
+        low, high = r["success_ci"]
+        print(f"| {env_id} | {name} | {100 * r['success_rate']:.1f}% [{100 * low:.1f}, "
+              f"{100 * high:.1f}] | {r['maneuvers_mean'] or float('nan'):.2f} |")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
