@@ -17,7 +17,6 @@ import time
 from pathlib import Path
 
 import gymnasium as gym
-import numpy as np
 from stable_baselines3 import SAC, HerReplayBuffer
 
 import tether_gym  # noqa: F401  (registers the env ids)
