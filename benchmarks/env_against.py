@@ -5,7 +5,9 @@
 REV is checked out into a temporary git worktree. Each repeat runs `env.py --json --repeats 1`
 once against each tree, alternating which goes first, so both see the same machine; the table
 gives the medians over repeats and the ratio of this tree's rate to REV's, for every case and
-both harnesses. The same script (this tree's `env.py`) times both: only the package differs.
+both harnesses; a case REV does not have (a TetherNavigate control mode) is compared with REV's
+case of the same name without the mode. The same script (this tree's `env.py`) times both: only
+the package differs.
 """
 
 from __future__ import annotations
@@ -56,11 +58,17 @@ def main() -> None:
     for harness, cases in runs[ROOT][0].items():
         print(harness)
         for case in cases:
-            if case not in runs[base][0][harness]:
+            peer = case if case in runs[base][0][harness] else _without_mode(case)
+            if peer not in runs[base][0][harness]:
                 continue
             new = statistics.median(run[harness][case] for run in runs[ROOT])
-            old = statistics.median(run[harness][case] for run in runs[base])
-            print(f"  {case:38s} {new:>14,.0f} vs {old:>14,.0f} steps/s  {new / old:5.2f}x")
+            old = statistics.median(run[harness][peer] for run in runs[base])
+            print(f"  {case:44s} {new:>12,.0f} vs {old:>12,.0f} steps/s  {new / old:5.2f}x")
+
+
+def _without_mode(case: str) -> str:
+    """A TetherNavigate case's name without its control mode (REV's peer of it)."""
+    return case.replace(" velocity ", " ").replace(" aim ", " ")
 
 
 if __name__ == "__main__":
