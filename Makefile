@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 TRAIN_STAMP := $(VENV)/.installed-train
 PIP_INSTALL := $(BIN)/python -m pip install --quiet -c constraints.txt
 
-.PHONY: test train lint format figures bench clean
+.PHONY: test train lint format figures bench clean clean-cache
 
 # The venv with the package and the extras $(1); `make train` needs only "train", which
 # installs in half the time of "test" (Ray, Optuna, the zoo, the test tools), part of the
@@ -48,5 +48,10 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/env.py
 	$(BIN)/python benchmarks/pymunk_model.py
 
-clean:
+# numba's cache of a kernel does not notice changes in the modules it imports: after editing
+# tether_gym, `make clean-cache` makes every kernel compile anew.
+clean-cache:
+	find tether_gym -name "*.nbi" -delete -o -name "*.nbc" -delete
+
+clean: clean-cache
 	rm -rf $(VENV) .pytest_cache .ruff_cache build *.egg-info
