@@ -64,7 +64,7 @@ peg's distance, to rounding) is taut at once, before the wheel, at rest, turns t
 
 
 @numba.njit(cache=True, inline="always")
-def first_post_hit(puck, posts, n_posts, t_end):
+def _first_post_hit(puck, posts, n_posts, t_end):
     """When the puck's rim first touches a post within [0, t_end] (inf if never)."""
     first = math.inf
     reach = POST_RADIUS + PUCK_RADIUS
@@ -178,7 +178,7 @@ def stretch_end(puck, s, elapsed):
     next wall, the flight horizon or a post, whichever comes first."""
     t_wall, wall = time_to_wall_row(puck, TABLE_WIDTH, TABLE_HEIGHT, PUCK_RADIUS)
     t_end = min(t_wall, FLIGHT_HORIZON - elapsed)
-    t_post = first_post_hit(puck, s.posts, s.n_posts, t_end)
+    t_post = _first_post_hit(puck, s.posts, s.n_posts, t_end)
     return min(t_end, t_post), t_wall, wall, t_post
 
 
@@ -249,7 +249,7 @@ def fly(s, p, ax, ay, length, alpha, out):
         if t < math.inf:
             turned = free_flight_row(puck, t)
             puck = PuckState(turned.x, turned.y, turned.vx, turned.vy, turned.angle, s.spin)
-            met = target if on_target else offset_angle_at(puck, ax, ay)
+            met = target if on_target else _offset_angle(puck, ax, ay)
             n = path_point(out, n, puck.x, puck.y)
             out[OUT.wheel_turn] = rate * (elapsed + t)
             return puck, True, met, elapsed + t, hits, False, n
@@ -267,7 +267,7 @@ def fly(s, p, ax, ay, length, alpha, out):
 
 
 @numba.njit(cache=True, inline="always")
-def offset_angle_at(puck, ax, ay):
+def _offset_angle(puck, ax, ay):
     """The paper's alpha at tautening: from the tether's direction (anchor to attachment
     point) to the line from the attachment point to the centre of mass."""
     rx, ry = ARM * math.cos(puck.angle), ARM * math.sin(puck.angle)
