@@ -268,50 +268,71 @@ def _command(action, first):
 
 
 @numba.njit(cache=True)
-def _closest_approach(s, p, gx, gy):
-    """(stretch, t on it): where the flight's first `SEGMENTS` stretches come closest to the
-    aim (gx, gy)."""
+def _flight(s, p):
+    """The flight's first `SEGMENTS` straight stretches (fewer if a post or the horizon ends
+    it), walked once per step: (their start states (k, 6) as `PuckState`'s fields, their
+    start from the decision (k,), their lengths (k,))."""
+    starts, elapsed, lengths = np.empty((SEGMENTS, 6)), np.empty(SEGMENTS), np.empty(SEGMENTS)
     puck = PuckState(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
+    time = 0.0
+    for k in range(SEGMENTS):
+        t_end, t_wall, wall, t_post = stretch_end(puck, s, time)
+        for j in range(6):
+            starts[k, j] = puck[j]
+        elapsed[k], lengths[k] = time, t_end
+        if t_post < math.inf or t_wall > FLIGHT_HORIZON - time:
+            return starts[: k + 1], elapsed[: k + 1], lengths[: k + 1]
+        puck = wall_bounce_row(free_flight_row(puck, t_wall), wall, p.wall_restitution)
+        time += t_wall
+    return starts, elapsed, lengths
+
+
+@numba.njit(cache=True, inline="always")
+def _stretch(starts, k):
+    row = starts[k]
+    return PuckState(row[0], row[1], row[2], row[3], row[4], row[5])
+
+
+@numba.njit(cache=True)
+def _closest_approach(flight, gx, gy):
+    """(stretch, t on it): where the `flight`'s stretches come closest to the aim (gx, gy)."""
+    starts, _, lengths = flight
     nearest, stretch, at = math.inf, 0, 0.0
-    elapsed = 0.0
-    for segment in range(SEGMENTS):
-        t_end, t_wall, wall, t_post = stretch_end(puck, s, elapsed)
+    for segment in range(len(lengths)):
+        puck = _stretch(starts, segment)
         v2 = puck.vx * puck.vx + puck.vy * puck.vy
         t = (gx - puck.x) * puck.vx + (gy - puck.y) * puck.vy
-        t = min(max(t / v2, 0.0), t_end) if v2 > 0.0 else 0.0
+        t = min(max(t / v2, 0.0), lengths[segment]) if v2 > 0.0 else 0.0
         d = math.hypot(puck.x + puck.vx * t - gx, puck.y + puck.vy * t - gy)
         if d < nearest:
             nearest, stretch, at = d, segment, t
-        if t_post < math.inf or t_wall > FLIGHT_HORIZON - elapsed:
-            break
-        puck = wall_bounce_row(free_flight_row(puck, t_wall), wall, p.wall_restitution)
-        elapsed += t_wall
     return stretch, at
 
 
 @numba.njit(cache=True)
-def _search(s, p, anchor, gx, gy, fraction, after_stretch, after_t):
-    """The grid search over the tautening windows from `after_t` into stretch
+def _search(s, p, anchor, flight, gx, gy, fraction, after_stretch, after_t):
+    """The grid search over the tautening windows of the `flight` from `after_t` into stretch
     `after_stretch` on: (best score, its stretch's puck, the bracket about it, its `wheel`,
     the longest tether); score inf if no window."""
+    starts, elapsed, lengths = flight
     ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
-    puck = PuckState(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
     reach = math.hypot(s.x + ARM * math.cos(s.angle) - ax, s.y + ARM * math.sin(s.angle) - ay)
     longest = max(reach, LENGTH_HIGH)  # a tether raised to the peg is taut at once
     r_low, r_high = max(reach, LENGTH_LOW) + ARM, longest + ARM
-    farthest = math.hypot(s.x - ax, s.y - ay)
-    best, best_stretch, best_low, best_high = math.inf, puck, 0.0, 0.0
+    farthest = 0.0
+    best, best_stretch, best_low, best_high = math.inf, _stretch(starts, 0), 0.0, 0.0
     clearance = contact_clearance(s, p)
     best_wheel = (0.0, 0.0, p.wheel_rate, clearance)
-    elapsed = 0.0
-    for segment in range(SEGMENTS):
-        t_end, t_wall, wall, t_post = stretch_end(puck, s, elapsed)
+    for segment in range(len(lengths)):
+        puck = _stretch(starts, segment)
+        t_end = lengths[segment]
+        farthest = max(farthest, math.hypot(puck.x - ax, puck.y - ay))
         # beyond the first stretch the tether must not have gone taut on the earlier ones
         low = r_low if segment == 0 else max(r_low, farthest + 2.0 * ARM)
         t_low, t_high = _window(puck, ax, ay, low, r_high, t_end)
         if segment == after_stretch:
             t_low = max(t_low, after_t)
-        wheel = (elapsed, t_end, p.wheel_rate, clearance)
+        wheel = (elapsed[segment], t_end, p.wheel_rate, clearance)
         if segment >= after_stretch and t_low <= t_high:
             step = (t_high - t_low) / (SAMPLES - 1)
             for j in range(SAMPLES):
@@ -320,21 +341,16 @@ def _search(s, p, anchor, gx, gy, fraction, after_stretch, after_t):
                 if score < best:
                     best, best_stretch, best_wheel = score, puck, wheel
                     best_low, best_high = max(t - step, t_low), min(t + step, t_high)
-        if t_post < math.inf or t_wall > FLIGHT_HORIZON - elapsed:
-            break
-        puck = wall_bounce_row(free_flight_row(puck, t_wall), wall, p.wall_restitution)
-        elapsed += t_wall
-        farthest = max(farthest, math.hypot(puck.x - ax, puck.y - ay))
     return best, best_stretch, best_low, best_high, best_wheel, longest
 
 
 @numba.njit(cache=True)
-def _search_peg(s, p, anchor, gx, gy, fraction, stretch, at):
+def _search_peg(s, p, anchor, flight, gx, gy, fraction, stretch, at):
     """`_search` after the closest approach (`stretch`, `at`), anywhere if nothing comes
     after it."""
-    found = _search(s, p, anchor, gx, gy, fraction, stretch, at)
+    found = _search(s, p, anchor, flight, gx, gy, fraction, stretch, at)
     if found[0] == math.inf:
-        found = _search(s, p, anchor, gx, gy, fraction, 0, 0.0)
+        found = _search(s, p, anchor, flight, gx, gy, fraction, 0, 0.0)
     return found
 
 
@@ -358,15 +374,16 @@ def solve(action, s, p, out):
     `command_error` into `out`."""
     pick = p.control == VELOCITY
     gx, gy, fraction = _command(action, 1 if pick else 0)
-    stretch, at = _closest_approach(s, p, gx, gy)
+    flight = _flight(s, p)
+    stretch, at = _closest_approach(flight, gx, gy)
     if pick:
         anchor = second = _pick_peg(s, action[0])
-        found = runner = _search_peg(s, p, anchor, gx, gy, fraction, stretch, at)
+        found = runner = _search_peg(s, p, anchor, flight, gx, gy, fraction, stretch, at)
     else:
-        anchor, found = 0, _search_peg(s, p, 0, gx, gy, fraction, stretch, at)
+        anchor, found = 0, _search_peg(s, p, 0, flight, gx, gy, fraction, stretch, at)
         second, runner = 0, found
         for j in range(1, s.n_anchors):
-            other = _search_peg(s, p, j, gx, gy, fraction, stretch, at)
+            other = _search_peg(s, p, j, flight, gx, gy, fraction, stretch, at)
             if other[0] < found[0]:
                 second, runner, anchor, found = anchor, found, j, other
             elif other[0] < runner[0] or second == anchor:
