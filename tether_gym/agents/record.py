@@ -98,7 +98,7 @@ def build_parser() -> argparse.ArgumentParser:
     add("--episodes", type=int, default=3, help="episodes (default 3)")
     add("--seed", type=int, default=0, help="seed of the first reset (default 0)")
     add("--out", type=Path, required=True, metavar="GIF", help="the GIF to write")
-    add("--size", type=int, default=320, help="pixels across (default 320)")
+    add("--size", type=int, default=640, help="pixels across (default 640)")
     add("--fps", type=int, default=20, help="frames per second, drawn and played (default 20)")
     add("--overwrite", action="store_true", help="replace an existing file")
     add_env_arguments(parser)

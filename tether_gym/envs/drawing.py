@@ -39,6 +39,23 @@ TEXT: Colour = (40, 40, 40)
 MISS: Colour = (215, 95, 0)
 VELOCITY: Colour = (60, 130, 230)
 RENDER_MODES = ("human", "rgb_array", "rgb_array_list")
+FONT_SCALE = 0.65
+"""A text size in pixels is drawn in DejaVu Sans Bold at this many points per pixel: about the
+height of pygame's own default font at that size."""
+
+
+def font_file() -> str | None:
+    """DejaVu Sans Bold, the font matplotlib ships (a dependency), or None for pygame's own.
+
+    pygame's own font (FreeSans Bold) spaces some letter pairs apart ("maneu ver")."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.find_spec("matplotlib")
+    if spec is None or spec.origin is None:
+        return None
+    path = Path(spec.origin).parent / "mpl-data" / "fonts" / "ttf" / "DejaVuSans-Bold.ttf"
+    return str(path) if path.is_file() else None
 
 
 class Canvas:
@@ -167,7 +184,9 @@ class Canvas:
             pygame.font.init()
             self._fonts.clear()
         if size not in self._fonts:
-            self._fonts[size] = pygame.font.Font(None, size)
+            file = font_file()
+            points = size if file is None else round(FONT_SCALE * size)
+            self._fonts[size] = pygame.font.Font(file, points)
         font = self._fonts[size]
         x, y = at
         for line in lines:

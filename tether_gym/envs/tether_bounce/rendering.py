@@ -38,7 +38,9 @@ from tether_gym.envs.tether_bounce.kernel import OUT, PUCK_MASS, PUCK_RADIUS, ST
 from tether_gym.physics.trajectory import trajectory
 from tether_gym.tasks.bounce import DEADSPIN, VELOCITY
 
-SIZE = 480
+SIZE = 640
+TEXT_SIZE = 26
+"""Pixels: the picture's side, and the height of its text."""
 VIEW = 2.6 * TETHER_LENGTH
 """Metres across the picture: the anchor, a tether length from the puck, is always in view."""
 PUCK_DRAWN = 2.5
@@ -76,7 +78,7 @@ def _set_up(state: np.ndarray, canvas: Canvas) -> None:
     _target(canvas, state, origin)
     canvas.dashed((0.0, -0.6 * VIEW / 2), origin)
     canvas.disc(origin, PUCK_DRAWN * PUCK_RADIUS, PUCK)
-    canvas.text([_task_line(state), "set-up to choose"], (8, 6))
+    canvas.text([_task_line(state), "set-up to choose"], (10, 8), TEXT_SIZE)
 
 
 def _target(canvas: Canvas, state: np.ndarray, at: np.ndarray) -> None:
@@ -160,11 +162,13 @@ class Bounce:
             self.attachment[frame],
         )  # fmt: skip
         lines = self.lines + (self.result if frame >= self.leaving else [])
-        canvas.text(lines, (8, 6))
+        canvas.text(lines, (10, 8), TEXT_SIZE)
         phase = "slack"
         if self.taut[frame]:
             phase = "taut (slowed down)" if self.slowed else "taut"
-        canvas.text([f"t = {self.t[frame]:+.3f} s, tether {phase}"], (8, canvas.size[1] - 24))
+        canvas.text(
+            [f"t = {self.t[frame]:+.3f} s, tether {phase}"], (10, canvas.size[1] - 32), TEXT_SIZE
+        )
 
 
 def _result_lines(out: np.ndarray) -> list[str | tuple[str, Colour]]:
