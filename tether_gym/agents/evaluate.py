@@ -28,6 +28,7 @@ import numpy as np
 from scipy.stats import binomtest
 
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
+from tether_gym.agents.planned import BASE_KEY, PROPOSALS_KEY, with_planner
 from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner
 from tether_gym.agents.random_agent import RandomAgent
 from tether_gym.cli import DEFAULT_ENV_ID, add_env_arguments, env_from_args, require_extra
@@ -48,12 +49,6 @@ NAVIGATION_ENTRY_POINT = "tether_gym.envs.tether_navigate:TetherNavigateEnv"
 INFERENCE_ONLY = {"replay_buffer_class": None, "replay_buffer_kwargs": {}, "buffer_size": 1}
 """Saved settings `load_agent` replaces: playing needs no replay buffer (a hindsight one would
 need the training env)."""
-BASE_KEY = "base_action"
-"""The observation entry of a residual policy: its planner's action
-(`tether_gym.training.residual`)."""
-PROPOSALS_KEY = "proposals"
-"""The observation entry of a policy over a planner's proposals: their features
-(`tether_gym.training.proposals`)."""
 
 
 class _Summary:
@@ -379,6 +374,20 @@ class SB3Agent:
         return self.model.predict(obs, state, episode_start, deterministic)
 
 
+def read_config(path: Path) -> dict:
+    """A training run's saved config (`config.yaml`): ValueError naming the file if it cannot
+    be read."""
+    import yaml
+
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as error:
+        raise ValueError(f"cannot read {str(path)!r}: {error}") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{str(path)!r} does not hold a config mapping")
+    return data
+
+
 def load_agent(path: str | Path):
     """A saved SB3 model (zip: PPO or SAC, whichever loads it) as an agent; `vecnormalize.pkl`
     beside it is applied, and a policy that plays with a planner (a residual policy or one over
@@ -417,11 +426,7 @@ def load_agent(path: str | Path):
     config = path.parent / "config.yaml"
     planned = {BASE_KEY, PROPOSALS_KEY} & set(getattr(model.observation_space, "spaces", {}))
     if planned and config.is_file():
-        import yaml
-
-        from tether_gym.training.proposals import with_planner
-
-        return with_planner(agent, yaml.safe_load(config.read_text()))
+        return with_planner(agent, read_config(config))
     return agent
 
 

@@ -20,8 +20,7 @@ import numpy as np
 import torch
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
-from tether_gym.agents.evaluate import BASE_KEY
-from tether_gym.training.residual import make_planner
+from tether_gym.agents.planned import BASE_KEY, make_planner
 
 PRETRAIN_SEED = 3_000_000
 """Seed of the demonstration episodes (apart from training's seed + i and the evaluations')."""

@@ -11,62 +11,25 @@ planner's action as its base and learns a bounded correction from the reward:
 The policy sees the planner's action as the observation's "base_action"; a correction of 0 is
 the planner itself, which SB3's near-zero initial action mean starts from. This is not plain
 RL: the planner is part of the agent, and tables name it so ("PPO residual on greedy").
+
+Playing one (`ResidualAgent`, `combine`) is `tether_gym.agents.planned`'s; training it, the
+`ResidualVecEnv` here.
 """
 
 from __future__ import annotations
-
-from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
-from tether_gym.agents.evaluate import BASE_KEY
-from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner
-
-PLANNERS = {"greedy": GreedyPlanner, "lookahead": LookaheadPlanner}
-"""The bases a residual policy may correct (the zoo entry's `residual`)."""
-
-
-def combine(base: np.ndarray, correction: np.ndarray, scale: float) -> np.ndarray:
-    """The played action: base + scale * correction, the bearing (column 0, a circle over
-    [-1, 1)) wrapped around and the other columns clipped to [-1, 1]."""
-    action = np.asarray(base, dtype=np.float64) + scale * np.clip(correction, -1.0, 1.0)
-    action[..., 0] = (action[..., 0] + 1.0) % 2.0 - 1.0
-    action[..., 1:] = np.clip(action[..., 1:], -1.0, 1.0)
-    return action.astype(np.float32)
-
-
-def make_planner(name: str, env_kwargs: dict[str, Any]):
-    """The base planner `name` for the env's arguments (ValueError for an unknown name)."""
-    if name not in PLANNERS:
-        raise ValueError(f"residual must be one of {sorted(PLANNERS)}, got {name!r}")
-    return PLANNERS[name](env_kwargs)
-
-
-def check_scale(scale: Any) -> float:
-    if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0.0 < scale <= 1.0:
-        raise ValueError(f"residual_scale must be a number in (0, 1], got {scale!r}")
-    return float(scale)
-
-
-class ResidualAgent:
-    """A residual policy with its planner as one agent (SB3's `predict`)."""
-
-    control = "setup"
-
-    def __init__(self, policy, base, scale: float):
-        self.policy, self.base, self.scale = policy, base, check_scale(scale)
-
-    def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
-        base, _ = self.base.predict(obs, deterministic=True)
-        correction, state = self.policy.predict(
-            {**obs, BASE_KEY: np.asarray(base, dtype=np.float32)},
-            state,
-            episode_start,
-            deterministic,
-        )
-        return combine(base, correction, self.scale), state
+from tether_gym.agents.planned import (
+    BASE_KEY,
+    PLANNERS,
+    ResidualAgent,
+    check_scale,
+    combine,
+    make_planner,
+)
 
 
 class ResidualVecEnv(VecEnvWrapper):
@@ -118,4 +81,4 @@ class ResidualVecEnv(VecEnvWrapper):
         return obs, rewards, dones, infos
 
 
-__all__ = ["PLANNERS", "ResidualAgent", "ResidualVecEnv", "combine", "make_planner"]
+__all__ = ["PLANNERS", "ResidualAgent", "ResidualVecEnv", "check_scale", "combine", "make_planner"]

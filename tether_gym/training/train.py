@@ -59,8 +59,11 @@ from tether_gym.agents.evaluate import (
     evaluate,
     format_table,
     navigates,
+    read_config,
 )
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
+from tether_gym.agents.planned import check_scale, make_planner, make_proposer, with_planner
+from tether_gym.agents.planned import settings as proposal_settings
 from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner
 from tether_gym.agents.random_agent import RandomAgent
 from tether_gym.cli import (
@@ -73,14 +76,8 @@ from tether_gym.cli import (
 )
 from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.pretrain import check_pretrain, clone_planner
-from tether_gym.training.proposals import (
-    ProposalPolicy,
-    ProposalVecEnv,
-    make_proposer,
-    with_planner,
-)
-from tether_gym.training.proposals import settings as proposal_settings
-from tether_gym.training.residual import ResidualVecEnv, check_scale, make_planner
+from tether_gym.training.proposals import ProposalPolicy, ProposalVecEnv
+from tether_gym.training.residual import ResidualVecEnv
 from tether_gym.training.sb3 import make_sb3_vec_env
 from tether_gym.training.summary import RESULTS
 
@@ -268,17 +265,6 @@ def check_config(config: dict[str, Any]) -> None:
         raise ValueError(f"eval_freq must be at least 0, got {config['eval_freq']}")
 
 
-def read_yaml(path: Path) -> dict[str, Any]:
-    """A saved config (ValueError naming the file if it cannot be read)."""
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as error:
-        raise ValueError(f"cannot read {str(path)!r}: {error}") from None
-    if not isinstance(data, dict):
-        raise ValueError(f"{str(path)!r} does not hold a config mapping")
-    return data
-
-
 def check_run(config: dict[str, Any], run_dir: Path, resume: bool = False) -> None:
     """Everything `train` checks before any work (ValueError): the config and, to resume, a
     `last/` checkpoint short of `config["timesteps"]`."""
@@ -286,7 +272,7 @@ def check_run(config: dict[str, Any], run_dir: Path, resume: bool = False) -> No
     if resume:
         if not (run_dir / "last" / "model.zip").is_file():
             raise ValueError(f"cannot resume {str(run_dir)!r}: it has no last/model.zip")
-        done = read_yaml(run_dir / "last" / "config.yaml").get("num_timesteps", 0)
+        done = read_config(run_dir / "last" / "config.yaml").get("num_timesteps", 0)
         if done >= config["timesteps"]:
             raise ValueError(
                 f"{run_dir} has {done} timesteps: ask for more than that in total (--timesteps)"
@@ -604,7 +590,7 @@ def train(
     if resume:
         best_file = run_dir / "best" / "config.yaml"
         if best_file.is_file():
-            best = read_yaml(best_file).get("eval_success_rate", best)
+            best = read_config(best_file).get("eval_success_rate", best)
     else:
         run_dir.mkdir(parents=True, exist_ok=True)
         (run_dir / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
@@ -706,7 +692,7 @@ def setup(args: argparse.Namespace) -> tuple[dict[str, Any], Path]:
         fixed += [f"--{key}" for key in ("name", "hyperparams") if getattr(args, key)]
         if fixed:
             raise ValueError(f"--resume takes the config of {args.resume}: drop {', '.join(fixed)}")
-        config = {"algo": "ppo", **read_yaml(args.resume / "config.yaml")}  # runs before --algo
+        config = {"algo": "ppo", **read_config(args.resume / "config.yaml")}  # runs before --algo
         config.update({key: int(value) for key, value in given.items()})
         check_run(config, args.resume, resume=True)
         return config, args.resume

@@ -23,7 +23,7 @@ from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
-from tether_gym.agents.evaluate import SB3Agent, evaluate
+from tether_gym.agents.evaluate import SB3Agent, evaluate, read_config
 from tether_gym.cli import DEFAULT_ENV_ID, require_extra
 
 AGENTS = {"pretrained": "default", "pretrained-low-stiffness": "low-stiffness"}
@@ -98,8 +98,9 @@ def export(
         ValueError: for an unknown name, a run without `best/`, or a model that normalizes its
             observations (a policy file cannot carry VecNormalize statistics).
     """
+    import stable_baselines3
+
     from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
-    from tether_gym.training.train import ALGOS, read_yaml
 
     policy_file, card_file = agent_file(name, ".pt", folder), agent_file(name, ".md", folder)
     best = run_dir / "best"
@@ -107,9 +108,12 @@ def export(
         raise ValueError(f"run_dir {str(run_dir)!r} has no best/model.zip")
     if (best / "vecnormalize.pkl").is_file():
         raise ValueError(f"run_dir {str(run_dir)!r} normalizes observations: not supported")
-    config = read_yaml(best / "config.yaml")
-    last = read_yaml(run_dir / "last" / "config.yaml")
-    model = ALGOS[config["algo"]].load(best / "model.zip", device="cpu")
+    config = read_config(best / "config.yaml")
+    last = read_config(run_dir / "last" / "config.yaml")
+    if config.get("algo") not in POLICIES:
+        raise ValueError(f"algo must be one of {sorted(POLICIES)}, got {config.get('algo')!r}")
+    algorithm = getattr(stable_baselines3, POLICIES[config["algo"]])
+    model = algorithm.load(best / "model.zip", device="cpu")
     model.policy.save(str(policy_file))
     policy = load_policy(policy_file, config["algo"], config["hyperparams"]["policy"])
     env_id, env_kwargs = config["env_id"], config["env_kwargs"]
