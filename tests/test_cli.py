@@ -11,6 +11,16 @@ from tether_gym import cli, training
 from tether_gym.agents import evaluate
 from tether_gym.envs import EnvConfig
 
+NAVIGATE_ARGUMENTS = ("`n_obstacles`", "`n_anchors`", "`layout`", "`control`", "`max_maneuvers`")
+BOUNCE_ARGUMENTS = ("`inertia_ratio`", "`restitution`", "`spin_disturbance`")
+
+
+def help_text(main, argv: list[str], capsys) -> str:
+    """What `main(argv + ["--help"])` prints."""
+    with pytest.raises(SystemExit):
+        main([*argv, "--help"])
+    return capsys.readouterr().out
+
 
 def test_both_commands_have_a_flag_per_envconfig_field():
     """The named env flags come from the env's one declaration: a new field gets a flag."""
@@ -61,8 +71,54 @@ def test_tether_train_without_the_extra_says_how_to_install(monkeypatch):
 
 def test_tether_evaluate_needs_the_extra_only_for_a_model(monkeypatch, tmp_path, capsys):
     hide(monkeypatch, "torch")
-    evaluate.main(["--agents", "oracle", "--episodes", "5", "--no-progress"])
+    evaluate.main(["--agents", "oracle", "--episodes", "5", "--no-progress-bar"])
     assert "| oracle |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         evaluate.main(["--agents", str(tmp_path / "m.zip"), "--episodes", "5", "--no-progress"])
     assert 'pip install "tether-gym[train]"' in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["tether-train", "tether-evaluate", "tether-sweep"])
+def test_help_lists_both_envs_arguments_from_their_docstrings(command, capsys):
+    pytest.importorskip("stable_baselines3")
+    mains = {"tether-train": training.main, "tether-evaluate": evaluate.main}
+    if command == "tether-sweep":
+        pytest.importorskip("ray.tune")
+        from tether_gym.training import sweep
+
+        mains[command] = sweep.main
+    out = help_text(mains[command], [], capsys)
+    assert "TetherBounce-v0 (TetherBounceEnv) takes" in out
+    assert "TetherNavigate-v1 (TetherNavigateEnv) takes" in out
+    for name in (*BOUNCE_ARGUMENTS, *NAVIGATE_ARGUMENTS):
+        assert f"| {name}" in out
+
+
+@pytest.mark.parametrize("main", [training.main, evaluate.main], ids=["train", "evaluate"])
+def test_help_with_env_shows_that_envs_arguments(main, capsys):
+    pytest.importorskip("stable_baselines3")
+    out = help_text(main, ["--env", "TetherNavigate_WallStop-v1"], capsys)
+    assert "TetherNavigate_WallStop-v1 (TetherNavigateEnv) takes" in out
+    assert "registered with layout=<a text map>, task='stop'" in out
+    assert all(f"| {name}" in out for name in NAVIGATE_ARGUMENTS)
+    assert "TetherBounce-v0 (TetherBounceEnv)" not in out
+
+
+def test_an_unknown_env_kwargs_key_lists_the_valid_ones(capsys):
+    with pytest.raises(SystemExit):
+        evaluate.main(["--env", "TetherNavigate-v1", "--env-kwargs", "n_obstacle:3"])
+    err = capsys.readouterr().err
+    assert "TetherNavigate-v1 has no argument 'n_obstacle'; its arguments: task, " in err
+    assert "n_obstacles" in err and "layout" in err
+    with pytest.raises(ValueError, match="has no argument 'n_anchors'; its arguments: task, dyn"):
+        cli.check_env("TetherBounce-v0", {"n_anchors": 3})
+
+
+def test_the_progress_flag_has_one_name_across_the_commands():
+    """--no-progress-bar everywhere; tether-evaluate's former --no-progress still works."""
+    pytest.importorskip("stable_baselines3")
+    from tether_gym.training import train
+
+    for parser in (evaluate.build_parser(), train.build_parser()):
+        assert parser.parse_args(["--no-progress-bar"]).no_progress_bar
+    assert evaluate.build_parser().parse_args(["--no-progress"]).no_progress_bar

@@ -72,10 +72,13 @@ def test_the_paired_table_counts_wins_and_losses_and_the_exact_mcnemar_p():
         paired_table(results, "random")
 
 
-def test_saved_models_are_named_by_as_few_path_parts_as_tell_them_apart():
-    assert agent_names(["runs/a/best/model.zip", "greedy"]) == ["model", "greedy"]
+def test_saved_models_are_named_by_their_run_and_as_few_folders_as_tell_them_apart():
+    assert agent_names(["runs/a/best/model.zip", "greedy"]) == ["a (best)", "greedy"]
     seeds = ["runs/s0/best/model.zip", "runs/s1/best/model.zip", "runs/s1/last/model.zip"]
-    assert agent_names(seeds) == ["s0/best/model", "s1/best/model", "s1/last/model"]
+    assert agent_names(seeds) == ["s0 (best)", "s1 (best)", "s1 (last)"]
+    sweeps = ["x/runs/t0/best/model.zip", "y/runs/t0/best/model.zip"]
+    assert agent_names(sweeps) == ["x/runs/t0 (best)", "y/runs/t0 (best)"]
+    assert agent_names(["zoo/ppo.zip", "model.zip"]) == ["ppo", "model"]
     assert agent_names(["greedy.zip", "greedy"]) == ["greedy.zip", "greedy"]
     with pytest.raises(ValueError, match="lists an agent twice"):
         agent_names(["random", "random"])
@@ -134,7 +137,7 @@ def test_cli_help_documents_every_option(module):
     options = ["--agents", "--episodes", "--seed", "--env", "--env-kwargs", "--task",
                "--dynamics", "--rho", "--stiffness", "--inertia-ratio", "--restitution",
                "--spin-disturbance", "--csv", "--json", "--plot", "--plot-against", "--overwrite",
-               "--no-progress"]  # fmt: skip
+               "--no-progress-bar"]  # fmt: skip
     for option in options:
         assert option in out
 
@@ -166,6 +169,18 @@ def test_cli_rejects_bad_options(tmp_path):
         main(["--task", "juggle", "--episodes", "5", "--no-progress"])
     with pytest.raises(SystemExit):
         main(["--env-kwargs", "restitution:2", "--episodes", "5", "--no-progress"])
+
+
+@pytest.mark.parametrize(
+    ("env", "names"),
+    [("TetherBounce-v0", "oracle, shooting, pretrained, pretrained-low-stiffness, random"),
+     ("TetherNavigate-v1", "greedy, lookahead, random")],
+)  # fmt: skip
+def test_an_unknown_agent_name_lists_the_names_the_env_takes(capsys, env, names):
+    with pytest.raises(SystemExit):
+        main(["--env", env, "--agents", "greedyy", "--episodes", "5", "--no-progress-bar"])
+    err = capsys.readouterr().err
+    assert f"unknown agent 'greedyy': {env} takes {names}, or a saved model's .zip path" in err
 
 
 def test_agents_and_plots_are_refused_on_the_wrong_env(tmp_path):

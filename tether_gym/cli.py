@@ -1,10 +1,12 @@
 """What the console scripts share: the env's arguments from one declaration, the extra check.
 
 `tether-train` and `tether-evaluate` take `--env ID` and rl-zoo style `--env-kwargs key:value
-...`, plus one named flag per field of the env's `EnvConfig` (`--task`, `--rho`, ...), generated
-here so that the flags cannot drift from the env. Values are Python literals (`rho:(5, 100)`,
-`stiffness:3000`), a plain word is a string (`task:heading`). The env validates them itself:
-`check_env` builds it once, so a bad value fails with the env's own error before any work.
+...`, plus one named flag per field of TetherBounce-v0's `EnvConfig` (`--task`, `--rho`, ...),
+generated here so that the flags cannot drift from the env. Values are Python literals
+(`rho:(5, 100)`, `stiffness:3000`), a plain word is a string (`task:heading`). The env validates
+them itself: `check_env` builds it once, so a bad value fails with the env's own error before
+any work, and an unknown key lists the env's arguments. `--help` shows the Arguments table of
+the env's docstring (`env_help`): the one chosen with `--env`, else both envs'.
 """
 
 from __future__ import annotations
@@ -13,14 +15,19 @@ import argparse
 import ast
 import dataclasses
 import importlib.util
+import inspect
 import typing
+from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
+from gymnasium.envs.registration import load_env_creator
 
 from tether_gym.envs import EnvConfig  # the one place the CLIs learn the env's arguments
 
 DEFAULT_ENV_ID = "TetherBounce-v0"
+HELP_ENV_IDS = (DEFAULT_ENV_ID, "TetherNavigate-v1")
+"""The envs whose arguments `--help` lists when no `--env` is given."""
 ENV_DEFAULTS: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(EnvConfig)}
 """TetherBounce-v0's arguments (`EnvConfig`'s fields) and their defaults."""
 TRAIN_EXTRA = ("stable_baselines3", "torch", "tensorboard", "yaml", "rich")
@@ -62,14 +69,80 @@ def _takes_range(hint) -> bool:
     return any(typing.get_origin(option) is tuple for option in options)
 
 
-def add_env_arguments(parser: argparse.ArgumentParser) -> None:
+def env_arguments(env_id: str) -> dict[str, Any]:
+    """The keyword arguments of a registered env and their defaults: its constructor's, then
+    those its registration sets (a ladder id's `layout`, ...). ValueError for an unknown id."""
+    try:
+        spec = gym.spec(env_id)
+    except gym.error.Error as error:
+        raise ValueError(f"--env: {error}") from None
+    creator = load_env_creator(spec.entry_point) if isinstance(spec.entry_point, str) else None
+    parameters = inspect.signature(creator).parameters.values() if creator else ()
+    variadic = (inspect.Parameter.VAR_POSITIONAL, inspect.Parameter.VAR_KEYWORD)
+    defaults = {p.name: p.default for p in parameters if p.kind not in variadic}
+    return {**defaults, **spec.kwargs}
+
+
+def env_help(env_id: str) -> str:
+    """The Arguments section of the env's docstring (its table of keyword arguments), and the
+    arguments its registration sets."""
+    spec = gym.spec(env_id)
+    creator = load_env_creator(spec.entry_point)
+    doc = inspect.getdoc(creator) or ""
+    start = doc.find("## Arguments")
+    if start < 0:
+        section = ", ".join(env_arguments(env_id))
+    else:
+        end = doc.find("\n## ", start + 1)
+        section = doc[start + len("## Arguments") : end if end >= 0 else None].strip("\n")
+    text = f"{env_id} ({creator.__name__}) takes, as --env-kwargs KEY:VALUE:\n{section}"
+    if spec.kwargs:
+        shown = ", ".join(
+            f"{key}=<a text map>"
+            if isinstance(value, str) and "\n" in value
+            else f"{key}={value!r}"
+            for key, value in spec.kwargs.items()
+        )
+        text += f"\n\n{env_id} is registered with {shown}."
+    return text
+
+
+def chosen_env(argv: Sequence[str] | None) -> str | None:
+    """The `--env` given in `argv` (None if none or unknown): picks the arguments `--help`
+    shows."""
+    probe = argparse.ArgumentParser(add_help=False)
+    probe.add_argument("--env")
+    known, _ = probe.parse_known_args(argv)
+    if known.env is None:
+        return None
+    try:
+        gym.spec(known.env)
+    except gym.error.Error:
+        return None
+    return known.env
+
+
+def env_epilog(env_id: str | None = None) -> str:
+    """`--help`'s closing text: the arguments of `env_id`, else of both envs (`HELP_ENV_IDS`)."""
+    ids = HELP_ENV_IDS if env_id is None else (env_id,)
+    hint = (
+        ""
+        if env_id
+        else "\n\n(--env ID --help shows one env's; the ladder ids are TetherNavigate's)"
+    )
+    return "Env arguments\n\n" + "\n\n".join(env_help(i) for i in ids) + hint
+
+
+def add_env_arguments(parser: argparse.ArgumentParser, env_id: str | None = None) -> None:
     """`--env`, `--env-kwargs` and one flag per `EnvConfig` field, all defaulting to None
-    (not given: the env's own default)."""
+    (not given: the env's own default); the arguments of `env_id` (else of both envs) close
+    `--help` (the parser needs a `RawDescriptionHelpFormatter` to keep their table)."""
+    parser.epilog = env_epilog(env_id)
     group = parser.add_argument_group(
         "environment",
-        f"--env-kwargs and the named flags (the fields of {DEFAULT_ENV_ID}'s EnvConfig) set "
-        "the env's keyword arguments; values are Python literals or plain words, validated by "
-        "the env itself before any work. See help(tether_gym.envs.TetherBounceEnv).",
+        "--env-kwargs and, for TetherBounce-v0, the named flags (the fields of its EnvConfig) "
+        "set the env's keyword arguments (listed at the end); values are Python literals or "
+        "plain words, validated by the env itself before any work.",
     )
     group.add_argument("--env", metavar="ID", help=f"registered env id (default {DEFAULT_ENV_ID})")
     group.add_argument(
@@ -121,8 +194,14 @@ def env_from_args(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
 
 
 def check_env(env_id: str, env_kwargs: dict[str, Any]) -> None:
-    """Build the env once: its own error for a bad argument, as a ValueError (an unknown
-    id or keyword included)."""
+    """Build the env once: its own error for a bad argument, as a ValueError (an unknown id,
+    and an unknown keyword with the env's valid ones)."""
+    valid = env_arguments(env_id)
+    unknown = [key for key in env_kwargs if key not in valid]
+    if unknown:
+        raise ValueError(
+            f"{env_id} has no argument {unknown[0]!r}; its arguments: {', '.join(valid)}"
+        )
     try:
         gym.make(env_id, **env_kwargs).close()
     except (TypeError, gym.error.Error) as error:

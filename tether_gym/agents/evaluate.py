@@ -31,7 +31,13 @@ from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 from tether_gym.agents.planned import BASE_KEY, PROPOSALS_KEY, with_planner
 from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner
 from tether_gym.agents.random_agent import RandomAgent
-from tether_gym.cli import DEFAULT_ENV_ID, add_env_arguments, env_from_args, require_extra
+from tether_gym.cli import (
+    DEFAULT_ENV_ID,
+    add_env_arguments,
+    chosen_env,
+    env_from_args,
+    require_extra,
+)
 from tether_gym.envs.tether_bounce import decode_observation
 from tether_gym.tasks.bounce import DEADSPIN
 
@@ -438,13 +444,34 @@ def action_size(env_id: str, env_kwargs: dict) -> int:
     return size
 
 
+def agent_choices(env_id: str) -> tuple[str, ...]:
+    """The agent names `make_agent` takes on `env_id` (besides a saved model's path)."""
+    from tether_gym.agents import pretrained  # which imports this module
+
+    if navigates(env_id):
+        return ("greedy", "lookahead", "random")
+    return ("oracle", "shooting", *pretrained.AGENTS, "random")
+
+
+def looks_like_path(spec: str) -> bool:
+    """Whether an `--agents` entry names a file rather than an agent: a .zip, a folder in it,
+    or an existing file."""
+    return spec.endswith(".zip") or "/" in spec or "\\" in spec or Path(spec).is_file()
+
+
 def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT_ENV_ID):
     """ "oracle", "shooting", a pretrained agent ("pretrained", "pretrained-low-stiffness":
     `pretrained.AGENTS`; TetherBounce-v0), "greedy", "lookahead" (TetherNavigate), "random" or
-    the path of a saved SB3 model zip."""
+    the path of a saved SB3 model zip. ValueError for an unknown name, listing the env's."""
     from tether_gym.agents import pretrained  # which imports this module
 
     navigation = navigates(env_id)
+    known = {"oracle", "shooting", "greedy", "lookahead", "random", *pretrained.AGENTS}
+    if spec not in known and not looks_like_path(spec):
+        raise ValueError(
+            f"unknown agent {spec!r}: {env_id} takes {', '.join(agent_choices(env_id))}, "
+            "or a saved model's .zip path"
+        )
     if spec in pretrained.AGENTS:
         if navigation:
             raise ValueError(f"the agent {spec!r} solves {DEFAULT_ENV_ID} only, not {env_id}")
@@ -494,10 +521,25 @@ def plot(results: list[EvalResult], path: Path, against: str = "rho") -> None:
     plt.close(fig)
 
 
+CHECKPOINTS = ("best", "last")
+"""The folders of a training run that hold a model (`runs/<name>/best/model.zip`)."""
+
+
+def model_name(parts: tuple[str, ...], depth: int) -> str:
+    """A saved model's name from its path's `parts` (no ".zip"): its last `depth` folders, the
+    file's stem dropped if it is "model" and a run's checkpoint folder said in brackets
+    ("ppo_seed0 (best)" for runs/ppo_seed0/best/model.zip)."""
+    if len(parts) > 1 and parts[-1] == "model":
+        parts = parts[:-1]
+    if len(parts) > 1 and parts[-1] in CHECKPOINTS:
+        return f"{'/'.join(parts[-1 - depth : -1])} ({parts[-1]})"
+    return "/".join(parts[-depth:])
+
+
 def agent_names(specs: list[str]) -> list[str]:
-    """The table's name of each `--agents` entry: a named agent's own; a saved model's path
-    without ".zip", its last parts only, as few as tell the agents apart ("model" alone,
-    "seed0/best/model" beside "seed1/best/model"). ValueError if an entry repeats."""
+    """The table's name of each `--agents` entry: a named agent's own; a saved model's by its
+    run (`model_name`), with as many parent folders as tell the agents apart. ValueError if an
+    entry repeats."""
     if len(set(specs)) < len(specs):
         raise ValueError(f"--agents lists an agent twice: {specs}")
     paths = [
@@ -505,7 +547,7 @@ def agent_names(specs: list[str]) -> list[str]:
     ]
     for depth in range(1, max((len(p) for p in paths if p), default=0) + 1):
         names = [
-            spec if p is None else "/".join(p[-depth:])
+            spec if p is None else model_name(p, depth)
             for spec, p in zip(specs, paths, strict=True)
         ]
         if len(set(names)) == len(names):
@@ -513,10 +555,12 @@ def agent_names(specs: list[str]) -> list[str]:
     return list(specs)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
+    """The command line; `--help` ends with the arguments of `env_id` (else of both envs)."""
     parser = argparse.ArgumentParser(
         prog="tether-evaluate",
         description="Evaluate agents on the same fixed, seeded episodes of an env.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add = parser.add_argument
     add("--agents", nargs="+", metavar="AGENT",
@@ -537,14 +581,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="also compare every agent with AGENT (one of --agents) episode by episode: wins, "
         "losses and the exact McNemar p-value")  # fmt: skip
     add("--overwrite", action="store_true", help="replace existing output files")
-    add("--no-progress", action="store_true", help="no progress bar")
-    add_env_arguments(parser)
+    add("--no-progress-bar", "--no-progress", action="store_true",
+        help="no progress bar (--no-progress: the same, its former name)")  # fmt: skip
+    add_env_arguments(parser, env_id)
     return parser
 
 
 def main(argv: list[str] | None = None) -> None:
     """The console script `tether-evaluate`."""
-    parser = build_parser()
+    parser = build_parser(chosen_env(argv))
     args = parser.parse_args(argv)
     outputs = [p for p in (args.csv, args.json, args.plot) if p is not None]
     for path in outputs:
@@ -567,7 +612,7 @@ def main(argv: list[str] | None = None) -> None:
             for name, spec in zip(names, specs, strict=True)
         }
         results = evaluate(
-            agents, env_kwargs, args.episodes, args.seed, not args.no_progress, env_id
+            agents, env_kwargs, args.episodes, args.seed, not args.no_progress_bar, env_id
         )
     except (ValueError, ModuleNotFoundError) as error:
         parser.error(str(error))

@@ -82,7 +82,7 @@ from ray.tune.search.optuna import OptunaSearch
 from ray.tune.search.repeater import TRIAL_INDEX
 from ray.tune.search.sample import Categorical, Domain
 
-from tether_gym.cli import DEFAULT_ENV_ID
+from tether_gym.cli import DEFAULT_ENV_ID, env_epilog
 from tether_gym.training.summary import t_interval
 from tether_gym.training.train import (
     ALGOS,
@@ -669,6 +669,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="tether-sweep",
         description=__doc__,
+        epilog=env_epilog(),  # what base.env_kwargs and env_kwargs.<name> may set
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("sweep_file", nargs="?", type=Path, metavar="SWEEP.yml")

@@ -40,10 +40,8 @@ from importlib.resources import files
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import gymnasium as gym
 import torch
 import yaml
-from gymnasium.envs.registration import load_env_creator
 from stable_baselines3 import PPO, SAC, HerReplayBuffer
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
@@ -68,9 +66,10 @@ from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner
 from tether_gym.agents.random_agent import RandomAgent
 from tether_gym.cli import (
     DEFAULT_ENV_ID,
-    ENV_DEFAULTS,
     add_env_arguments,
     check_env,
+    chosen_env,
+    env_arguments,
     env_from_args,
     given_env_options,
 )
@@ -293,24 +292,11 @@ def label(config: dict[str, Any]) -> str:
     return name
 
 
-def env_defaults(env_id: str) -> dict[str, Any]:
-    """The keyword defaults of a registered env (its class's, then its registration's);
-    TetherBounce-v0's for an id that is not registered."""
-    try:
-        spec = gym.spec(env_id)
-    except gym.error.Error:
-        return ENV_DEFAULTS
-    creator = load_env_creator(spec.entry_point) if isinstance(spec.entry_point, str) else None
-    parameters = inspect.signature(creator).parameters.values() if creator else ()
-    defaults = {p.name: p.default for p in parameters if p.default is not p.empty}
-    return {**defaults, **spec.kwargs}
-
-
 def default_name(env_id: str, env_kwargs: dict[str, Any], seed: int, algo: str = "ppo") -> str:
     """runs/<name>: `<algo>_<task>_<dynamics>` (after the env id if not the default), the other
     env arguments given, and the seed."""
     parts = [algo] if env_id == DEFAULT_ENV_ID else [algo, env_id]
-    defaults = env_defaults(env_id)
+    defaults = env_arguments(env_id)
     parts += [str(env_kwargs.get(key, defaults.get(key))) for key in ("task", "dynamics")]
     for key, value in env_kwargs.items():
         if key not in ("task", "dynamics"):
@@ -637,7 +623,8 @@ def train(
     return {**summary, "table": table}
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
+    """The command line; `--help` ends with the arguments of `env_id` (else of both envs)."""
     parser = argparse.ArgumentParser(
         prog="tether-train",
         description=__doc__,
@@ -678,8 +665,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="continue runs/<name> from its last model (to --timesteps in total)",
     )
     out.add_argument("--overwrite", action="store_true", help="replace an existing run folder")
-    out.add_argument("--no-progress-bar", action="store_true")
-    add_env_arguments(parser)
+    out.add_argument("--no-progress-bar", action="store_true", help="no progress bar")
+    add_env_arguments(parser, env_id)
     return parser
 
 
@@ -709,7 +696,7 @@ def setup(args: argparse.Namespace) -> tuple[dict[str, Any], Path]:
 
 def main(argv: list[str] | None = None) -> int:
     """Train, evaluate, print the table; returns the exit status (130 after Ctrl-C)."""
-    parser = build_parser()
+    parser = build_parser(chosen_env(argv))
     args = parser.parse_args(argv)
     try:
         config, run_dir = setup(args)
