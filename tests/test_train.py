@@ -101,24 +101,44 @@ def test_train_runs_a_config_as_the_cli_does(tmp_path):
         train.train({**config, "timesteps": 1536}, folder, resume=True)
 
 
-def test_sac_trains_and_resumes_with_its_replay_buffer(tmp_path):
-    """`--algo sac`: the same run folder and table; `last/` keeps the replay buffer."""
-    tiny = [
-        "learning_starts:128", "batch_size:64", "buffer_size:4096",
-        "policy_kwargs:dict(net_arch=[16])",
-    ]  # fmt: skip
-    folder = tmp_path / "sac"
+SAC_TINY = [
+    "learning_starts:128", "batch_size:64", "buffer_size:4096",
+    "policy_kwargs:dict(net_arch=[16])",
+]  # fmt: skip
+SAC_OPTIONS = ["--eval-episodes", "40", "--no-progress-bar"]
+
+
+def train_sac(tmp_path: Path, *extra: str) -> Path:
+    """A 512-timestep SAC run in tmp_path/sac."""
     argv = ["--algo", "sac", "--timesteps", "512", "--eval-freq", "256", "--n-envs", "8"]
-    options = ["--eval-episodes", "40", "--no-progress-bar"]
-    assert train.main([*argv, *options, "--name", "sac", "--runs-dir", str(tmp_path),
-                       "--hyperparams", *tiny]) == 0  # fmt: skip
+    assert train.main([*argv, *SAC_OPTIONS, *extra, "--name", "sac", "--runs-dir",
+                       str(tmp_path), "--hyperparams", *SAC_TINY]) == 0  # fmt: skip
+    return tmp_path / "sac"
+
+
+def test_sac_keeps_its_replay_buffer_when_asked_and_resumes_with_it(tmp_path, capsys):
+    """`--algo sac`: the same run folder and table; `--save-replay-buffer` keeps the buffer in
+    `last/`, says its size, and a resumed run loads it."""
+    folder = train_sac(tmp_path, "--save-replay-buffer")
     assert yaml.safe_load((folder / "config.yaml").read_text())["algo"] == "sac"
-    assert (folder / "last" / "replay_buffer.pkl").is_file()
+    size = (folder / "last" / "replay_buffer.pkl").stat().st_size
+    assert f"saved the replay buffer ({size / 1e6:,.1f} MB)" in capsys.readouterr().out
     assert "| SAC (best) |" in (folder / "results.md").read_text()
-    assert train.main(["--resume", str(folder), "--timesteps", "768", *options]) == 0
+    assert train.main(["--resume", str(folder), "--timesteps", "768", *SAC_OPTIONS]) == 0
+    assert "empty" not in capsys.readouterr().out
     assert saved_timesteps(folder / "last") == 768
     agent = load_agent(folder / "last" / "model.zip")  # tether-evaluate loads SAC too
     assert type(agent.model).__name__ == "SAC"
+
+
+def test_sac_saves_no_replay_buffer_unless_asked_and_resumes_with_an_empty_one(tmp_path, capsys):
+    folder = train_sac(tmp_path)
+    assert not list(folder.rglob("replay_buffer.pkl"))
+    assert "replay buffer" not in capsys.readouterr().out
+    assert train.main(["--resume", str(folder), "--timesteps", "768", *SAC_OPTIONS]) == 0
+    assert "SAC resumes with an empty one" in capsys.readouterr().out
+    assert saved_timesteps(folder / "last") == 768
+    assert not list(folder.rglob("replay_buffer.pkl"))
 
 
 def test_env_kwargs_and_named_flags_make_one_config(tmp_path):
@@ -182,7 +202,7 @@ def test_a_bad_hyperparameter_file_fails_up_front(tmp_path, capsys, text, messag
         (["--env-kwargs", "task:juggle"], "task must be one of"),
         (["--env-kwargs", "rho:5", "--rho", "6"], "rho is given twice"),
         (["--env-kwargs", "rho=5"], "key:value"),
-        (["--env-kwargs", "wind:3"], "unexpected keyword argument 'wind'"),
+        (["--env-kwargs", "wind:3"], "has no argument 'wind'; its arguments: task, dynamics"),
         (["--env", "TetherBonce-v0"], "doesn't exist"),
         (["--hyperparams", "n_steps=32"], "key:value"),
         (["--n-envs", "0"], "n_envs must be at least 1"),
@@ -200,7 +220,8 @@ def test_default_names_differ_by_config_and_seed():
     assert train.default_name("TetherBounce-v0", {}, 0) == "ppo_mixed_hybrid_seed0"
     low = train.default_name("TetherBounce-v0", {"rho": [5.0, 100.0], "task": "heading"}, 1)
     assert low == "ppo_heading_hybrid_rho5-100_seed1"
-    assert train.default_name("Other-v1", {}, 2) == "ppo_Other-v1_mixed_hybrid_seed2"
+    navigate = train.default_name("TetherNavigate-v1", {}, 2)
+    assert navigate == "ppo_TetherNavigate-v1_reach_hybrid_seed2"
     assert train.default_name("TetherBounce-v0", {}, 0, "sac") == "sac_mixed_hybrid_seed0"
 
 

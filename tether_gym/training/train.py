@@ -15,7 +15,7 @@ vector env feeds SB3 through `tether_gym.training.sb3`. Every `--eval-freq` time
 deterministic policy plays the same fixed, seeded episodes as the env's yardstick (`yardstick`:
 TetherBounce's impulse oracle, TetherNavigate's greedy planner); the best policy so far and the
 last one are kept in `runs/<name>/best/` and `runs/<name>/last/` (model.zip, config.yaml,
-vecnormalize.pkl if used, replay_buffer.pkl for SAC), TensorBoard logs in `runs/<name>/tb/`. At
+vecnormalize.pkl if used, SAC's replay_buffer.pkl with --save-replay-buffer), TensorBoard logs in `runs/<name>/tb/`. At
 the end the policy and the env's baselines (`baselines`: the impulse and shooting oracles, or
 the greedy and lookahead planners; and a random agent) play the same fresh test episodes and
 the table is printed and saved to `runs/<name>/results.md`. Ctrl-C saves the last model before
@@ -108,12 +108,15 @@ cloned from a planner first, `tether_gym.training.pretrain`; `proposals`, `propo
 `proposals_depth`: PPO picking among a planner's proposals, `tether_gym.training.proposals`)."""
 Report = Callable[[dict[str, float]], None]
 """Receives each periodic evaluation's numbers (e.g. a sweep's `tune.report`)."""
-RUN_OPTIONS = ("algo", "seed", "n_envs", "timesteps", "eval_episodes", "eval_freq")
+RUN_OPTIONS = (
+    "algo", "seed", "n_envs", "timesteps", "eval_episodes", "eval_freq", "save_replay_buffer",
+)  # fmt: skip
 """`make_config`'s options that the command line sets (None: not given)."""
-RESUME_OPTIONS = ("timesteps", "eval_episodes", "eval_freq")
+RESUME_OPTIONS = ("timesteps", "eval_episodes", "eval_freq", "save_replay_buffer")
 """The options a resumed run may change."""
 REPLAY_BUFFER = "replay_buffer.pkl"
-"""An off-policy algorithm's replay buffer in `last/`."""
+"""An off-policy algorithm's replay buffer in `last/`, kept with `save_replay_buffer` only
+(hundreds of MB for a few thousand SAC timesteps)."""
 REPLAY_BUFFERS = {"HerReplayBuffer": HerReplayBuffer}
 """`replay_buffer_class` names a zoo entry may give (hindsight relabeling for goal envs)."""
 EXPRESSION_NAMES = {"dict": dict, "nn": torch.nn, "NavigateExtractor": NavigateExtractor}
@@ -199,11 +202,13 @@ def make_config(
     eval_episodes: int = 1000,
     eval_freq: float = 250_000,
     algo: str = "ppo",
+    save_replay_buffer: bool = False,
 ) -> dict[str, Any]:
     """A run's config as plain data (its `config.yaml`): what `train` reads, nothing else.
 
     `hyperparams` is the zoo entry for `algo` (`ALGOS`); `n_envs` and `timesteps` default to
-    its `n_envs` and `n_timesteps`; `eval_freq` 0 turns the periodic evaluation off.
+    its `n_envs` and `n_timesteps`; `eval_freq` 0 turns the periodic evaluation off;
+    `save_replay_buffer` keeps an off-policy algorithm's replay buffer in `last/`.
     """
     return {
         "algo": algo,
@@ -214,6 +219,7 @@ def make_config(
         "timesteps": int(hyperparams.get("n_timesteps", 1e6) if timesteps is None else timesteps),
         "eval_episodes": eval_episodes,
         "eval_freq": int(eval_freq),
+        "save_replay_buffer": save_replay_buffer,
         "hyperparams": hyperparams,
     }
 
@@ -262,6 +268,16 @@ def check_config(config: dict[str, Any]) -> None:
             raise ValueError(f"{key} must be at least 1, got {config[key]}")
     if config["eval_freq"] < 0:
         raise ValueError(f"eval_freq must be at least 0, got {config['eval_freq']}")
+    if not isinstance(keeps_replay_buffer(config), bool):
+        raise ValueError(
+            f"save_replay_buffer must be true or false, got {config['save_replay_buffer']!r}"
+        )
+
+
+def keeps_replay_buffer(config: dict[str, Any]) -> bool:
+    """Whether the run saves its replay buffer in `last/` (runs whose config predates the
+    option did)."""
+    return config.get("save_replay_buffer", True)
 
 
 def check_run(config: dict[str, Any], run_dir: Path, resume: bool = False) -> None:
@@ -325,8 +341,8 @@ def prepare_run_dir(path: Path, overwrite: bool) -> None:
 
 
 class Checkpoints:
-    """Saving a model with its config (and VecNormalize stats, and an off-policy algorithm's
-    replay buffer, so that a resumed run learns from where it stopped) in
+    """Saving a model with its config (and VecNormalize stats, and if asked an off-policy
+    algorithm's replay buffer, so that a resumed run learns from where it stopped) in
     runs/<name>/<best|last>/."""
 
     def __init__(self, run_dir: Path, config: dict[str, Any]):
@@ -340,7 +356,10 @@ class Checkpoints:
         if normalizer is not None:
             normalizer.save(str(folder / "vecnormalize.pkl"))
         if which == "last" and isinstance(model, OffPolicyAlgorithm):
-            model.save_replay_buffer(folder / REPLAY_BUFFER)
+            if keeps_replay_buffer(self.config):
+                model.save_replay_buffer(folder / REPLAY_BUFFER)
+                size = (folder / REPLAY_BUFFER).stat().st_size
+                print(f"saved the replay buffer ({size / 1e6:,.1f} MB) in {folder}", flush=True)
         config = {**self.config, "num_timesteps": int(model.num_timesteps), **extra}
         (folder / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
         return folder / "model.zip"
@@ -502,10 +521,7 @@ def make_model(config: dict[str, Any], run_dir: Path, resume: bool) -> BaseAlgor
         last = run_dir / "last"
         model = load_model(last, config, venv)
         if isinstance(model, OffPolicyAlgorithm):
-            with warnings.catch_warnings():  # HER's buffer ends the episodes in progress: right,
-                # as the resumed run starts new ones (seeded below)
-                warnings.filterwarnings("ignore", "The last trajectory in the replay buffer")
-                model.load_replay_buffer(last / REPLAY_BUFFER)
+            load_replay_buffer(model, last / REPLAY_BUFFER)
         venv.seed(seed + model.num_timesteps)  # fresh episodes, not a replay of the first ones
         return model
     normalize = params.get("normalize", False)
@@ -521,6 +537,22 @@ def make_model(config: dict[str, Any], run_dir: Path, resume: bool) -> BaseAlgor
         tensorboard_log=str(run_dir / "tb"),
         **algo_kwargs(params),
     )
+
+
+def load_replay_buffer(model: OffPolicyAlgorithm, path: Path) -> None:
+    """The replay buffer saved at `path` into `model`; without one, say that the resumed run
+    starts with an empty buffer."""
+    if not path.is_file():
+        print(
+            f"{path.parent} holds no replay buffer (--save-replay-buffer keeps it): "
+            f"{type(model).__name__} resumes with an empty one",
+            flush=True,
+        )
+        return
+    with warnings.catch_warnings():  # HER's buffer ends the episodes in progress: right, as
+        # the resumed run starts new ones
+        warnings.filterwarnings("ignore", "The last trajectory in the replay buffer")
+        model.load_replay_buffer(path)
 
 
 def pretrain_from_planner(model: BaseAlgorithm, config: dict[str, Any]) -> None:
@@ -665,6 +697,13 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         help="continue runs/<name> from its last model (to --timesteps in total)",
     )
     out.add_argument("--overwrite", action="store_true", help="replace an existing run folder")
+    out.add_argument(
+        "--save-replay-buffer",
+        action="store_true",
+        default=None,
+        help="SAC: keep the replay buffer in last/ at every save (large; a resumed run learns "
+        "from it, else it resumes with an empty one)",
+    )
     out.add_argument("--no-progress-bar", action="store_true", help="no progress bar")
     add_env_arguments(parser, env_id)
     return parser
@@ -680,7 +719,7 @@ def setup(args: argparse.Namespace) -> tuple[dict[str, Any], Path]:
         if fixed:
             raise ValueError(f"--resume takes the config of {args.resume}: drop {', '.join(fixed)}")
         config = {"algo": "ppo", **read_config(args.resume / "config.yaml")}  # runs before --algo
-        config.update({key: int(value) for key, value in given.items()})
+        config.update({k: v if isinstance(v, bool) else int(v) for k, v in given.items()})
         check_run(config, args.resume, resume=True)
         return config, args.resume
     env_id, env_kwargs = env_from_args(args)
