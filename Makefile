@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 TRAIN_STAMP := $(VENV)/.installed-train
 PIP_INSTALL := $(BIN)/python -m pip install --quiet -c constraints.txt
 
-.PHONY: test train lint format figures bench clean clean-cache
+.PHONY: test train lint format docs docs-check figures bench clean clean-cache
 
 # The venv with the package and the extras $(1); `make train` needs only "train", which
 # installs in half the time of "test" (Ray, Optuna, the zoo, the test tools), part of the
@@ -27,7 +27,19 @@ $(TRAIN_STAMP): pyproject.toml constraints.txt
 
 test: $(STAMP)
 	$(BIN)/ruff check .
+	$(MAKE) --no-print-directory docs
 	$(BIN)/python -m pytest -q -n auto
+
+# The documentation site into build/site; --strict: a broken link, a missing reference or a
+# results table whose file is gone fails the build.
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
+
+# A headless Chromium (Debian's package: apt-get install chromium) opens the built site: the
+# home page and an environment page render with their GIFs and no console error; screenshots
+# in build/screenshots/. In `make test` the same check skips when chromium is absent.
+docs-check: $(STAMP)
+	TETHER_REQUIRE_CHROMIUM=1 $(BIN)/python -m pytest -q tests/test_docs.py -k chromium
 
 train: $(TRAIN_STAMP)
 	$(BIN)/python train.py

@@ -1,12 +1,19 @@
-"""The README's Python examples run as written."""
+"""The README is a front door: short, its Python examples run as written, its links resolve.
+(Its bash blocks and its results table are checked with the docs', in test_docs.py.)"""
 
 import re
 from pathlib import Path
 
 import pytest
 
-README = Path(__file__).resolve().parents[1] / "README.md"
-BLOCKS = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.DOTALL)
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+TEXT = README.read_text()
+BLOCKS = re.findall(r"```python\n(.*?)```", TEXT, flags=re.DOTALL)
+
+
+def test_readme_is_short():
+    assert len(TEXT.splitlines()) <= 150
 
 
 def test_readme_has_examples():
@@ -26,3 +33,12 @@ def test_readme_physics_example_prints_the_bank_shot(capsys):
     exec(compile(block, str(README), "exec"), {})
     deflection, ratio = (float(x) for x in capsys.readouterr().out.split()[:2])
     assert deflection == pytest.approx(90.0) and ratio == pytest.approx(1.0)
+
+
+def test_readme_links_resolve():
+    """Every relative link and image names a file of the repository (anchors left out)."""
+    links = re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", TEXT)
+    assert links
+    for link in links:
+        if "://" not in link:
+            assert (ROOT / link).exists(), link

@@ -1,0 +1,307 @@
+"""The docs' generated parts: results tables read from the repository's results files, the
+command-line help of the console scripts, the ladder's ids.
+
+A page (or the README) writes a placeholder, a call of one of `MACROS` with literal arguments:
+
+    {{ success_table({"results/ladder/*_setup.json": "python benchmarks/ladder.py"}) }}
+    {{ cli_help("tether-train --env TetherNavigate-v1") }}
+
+MkDocs runs this file as a hook (`hooks:` in mkdocs.yml): `on_page_markdown` replaces every
+placeholder of a page with its Markdown before the page is rendered, so no number on a results
+page is typed by hand, and each table says which command regenerates its files. The README is
+static Markdown: its table sits between `<!-- results: CALL -->` and `<!-- /results -->`, and
+
+    python docs/hooks.py --readme          # rewrites that table from the files
+    python docs/hooks.py --readme --check  # exit status 1 if the README's table is stale
+
+(`tests/test_docs.py` runs the check).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import contextlib
+import glob
+import io
+import json
+import os
+import re
+import sys
+from collections.abc import Callable
+from importlib import import_module, metadata
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+"""The repository: results paths in placeholders are relative to it."""
+PLACEHOLDER = re.compile(r"\{\{\s*(\w+\(.*?\))\s*\}\}", re.DOTALL)
+README_BLOCK = re.compile(r"(<!-- results: (.*?) -->\n)(.*?)(<!-- /results -->)", re.DOTALL)
+
+
+# --- results files -----------------------------------------------------------------------
+
+
+def read_results(path: Path) -> dict[str, Any]:
+    """One results file as `{env_id, env_kwargs, seed, episodes, agents: {name: result}}`.
+
+    Understood: the JSON of `tether-evaluate --json` and `benchmarks/ladder.py`, a run's
+    `results.json` (`tether-train`), a flat JSON with one `success_rate` (a benchmark script's;
+    the agent is named by its `agent` key, else the file's stem), and a pretrained agent's model
+    card (YAML front matter, `tether_gym/agents/pretrained/*.md`).
+    """
+    if path.suffix == ".md":
+        import yaml
+
+        front = yaml.safe_load(path.read_text().split("---\n", 2)[1])
+        held_out = front["held_out"]
+        agents = {
+            (front["name"] if key == "policy" else key): value
+            for key, value in held_out.items()
+            if isinstance(value, dict)
+        }
+        for value in agents.values():
+            value.setdefault("episodes", held_out["episodes"])
+        return {
+            "env_id": front["env_id"],
+            "env_kwargs": front.get("env_kwargs") or {},
+            "seed": held_out["seed"],
+            "agents": agents,
+        }
+    data = json.loads(path.read_text())
+    if "results" in data:
+        agents = {result["name"]: result for result in data["results"]}
+    else:
+        agents = {data.get("agent", path.stem): data}
+    kwargs = dict(data.get("env_kwargs") or {})
+    if "control" in data:
+        kwargs.setdefault("control", data["control"])
+    return {"env_id": data["env_id"], "env_kwargs": kwargs, "seed": data.get("seed"),
+            "agents": agents}  # fmt: skip
+
+
+def files_of(pattern: str, root: Path) -> list[Path]:
+    """The files a glob relative to `root` names, sorted; ValueError if there are none."""
+    paths = sorted(Path(p) for p in glob.glob(str(root / pattern)))
+    if not paths:
+        raise ValueError(f"no results file matches {pattern!r} under {root}")
+    return paths
+
+
+def percent(result: dict[str, Any]) -> str:
+    """Success as `98.2% [98.0, 98.5]` (with the 95% interval when the file has it)."""
+    text = f"{100 * result['success_rate']:.1f}%"
+    ci = result.get("success_ci")
+    if ci:
+        text += f" [{100 * ci[0]:.1f}, {100 * ci[1]:.1f}]"
+    return text
+
+
+def kwargs_text(kwargs: dict[str, Any]) -> str:
+    return " ".join(f"{k}:{v}" for k, v in kwargs.items()) if kwargs else "defaults"
+
+
+def sources_line(sources: dict[str, str]) -> str:
+    """The line under a table: its files, grouped by the command that writes them."""
+    by_command: dict[str, list[str]] = {}
+    for pattern, command in sources.items():
+        by_command.setdefault(command, []).append(f"`{pattern}`")
+    parts = [f"{', '.join(p)}, written by `{c}`" for c, p in by_command.items()]
+    return "\n\n*Read from " + "; ".join(parts) + ".*\n"
+
+
+def _check_sources(sources: dict[str, str]) -> None:
+    if not isinstance(sources, dict) or not sources:
+        raise ValueError("a results table needs {files glob: command that writes them}")
+    for pattern, command in sources.items():
+        if not (isinstance(command, str) and command.strip()):
+            raise ValueError(f"{pattern}: the command that regenerates it is missing")
+
+
+def success_table(
+    sources: dict[str, str], agents: list[str] | None = None, root: Path = ROOT
+) -> str:
+    """One row per results file and agent: env, its arguments, agent, episodes, success
+    [95% CI] (and maneuvers to the goal where the file has them). `sources` maps a glob of
+    results files to the command that writes them; `agents` keeps those agents, in that order.
+    """
+    _check_sources(sources)
+    rows = []
+    for pattern in sources:
+        for path in files_of(pattern, root):
+            data = read_results(path)
+            names = agents if agents is not None else list(data["agents"])
+            for name in names:
+                if name not in data["agents"]:
+                    continue
+                result = data["agents"][name]
+                maneuvers = result.get("maneuvers_mean")
+                rows.append(
+                    f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | {name} | "
+                    f"{result['episodes']:,} | {percent(result)} | "
+                    f"{'-' if maneuvers is None else f'{maneuvers:.2f}'} |"
+                )
+    if not rows:
+        raise ValueError(f"no agent of {agents} in {list(sources)}")
+    header = (
+        "| env | arguments | agent | episodes | success [95% CI] | maneuvers to goal |\n"
+        "|---|---|---|---:|---|---:|\n"
+    )
+    return header + "\n".join(rows) + sources_line(sources)
+
+
+def ladder_table(
+    sources: dict[str, str], agents: list[str], by_control: bool = False, root: Path = ROOT
+) -> str:
+    """One row per env id, one column per agent: success [95% CI]. With `by_control`, one
+    column per control mode (`env_kwargs["control"]`) and agent. A cell no file fills is
+    blank; two files filling one cell are an error."""
+    _check_sources(sources)
+    table: dict[str, dict[str, str]] = {}
+    columns: list[str] = [] if by_control else list(agents)
+    for pattern in sources:
+        for path in files_of(pattern, root):
+            data = read_results(path)
+            row = table.setdefault(data["env_id"], {})
+            for name in agents:
+                if name not in data["agents"]:
+                    continue
+                column = name
+                if by_control:
+                    column = f"{name}, {data['env_kwargs'].get('control', 'setup')}"
+                    if column not in columns:
+                        columns.append(column)
+                if column in row:
+                    raise ValueError(f"{path.name}: a second result for {data['env_id']}, "
+                                     f"{column}")  # fmt: skip
+                row[column] = percent(data["agents"][name])
+    header = "| env | " + " | ".join(columns) + " |\n|---|" + "---|" * len(columns) + "\n"
+    lines = [
+        f"| `{env_id}` | " + " | ".join(row.get(column, "") for column in columns) + " |"
+        for env_id, row in table.items()
+    ]
+    return header + "\n".join(lines) + sources_line(sources)
+
+
+# --- command-line help and ids -------------------------------------------------------------
+
+
+def _entry_point(program: str) -> Callable[[list[str]], Any]:
+    """The `main` of a console script (`tether-train`) or of a module (`-m package.module`)."""
+    if program.startswith("-m "):
+        return import_module(program[3:]).main
+    (point,) = metadata.entry_points(group="console_scripts", name=program)
+    return point.load()
+
+
+def cli_help(command: str) -> str:
+    """The `--help` text of a console script (or `python -m module`), as a text block.
+
+    `command` is the program and any arguments before `--help`, e.g. `"tether-train --env
+    TetherNavigate-v1"`; `"python -m tether_gym.agents.record"` runs that module's `main`.
+    """
+    words = command.split()
+    if words[:2] == ["python", "-m"]:
+        program, argv = f"-m {words[2]}", words[3:]
+    else:
+        program, argv = words[0], words[1:]
+    main = _entry_point(program)
+    out = io.StringIO()
+    old_columns = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = "100"
+    try:
+        with contextlib.redirect_stdout(out), contextlib.suppress(SystemExit):
+            main([*argv, "--help"])
+    finally:
+        if old_columns is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = old_columns
+    text = out.getvalue().strip()
+    if not text:
+        raise ValueError(f"{command} --help printed nothing")
+    return f"```text\n$ {command} --help\n{text}\n```\n"
+
+
+def ladder_ids() -> str:
+    """TetherNavigate's ladder: each registered id and its arguments, from `tether_gym.ladder`."""
+    from tether_gym import ladder
+
+    lines = ["| id | arguments |", "|---|---|"]
+    for env_id, kwargs in ladder.ids().items():
+        shown = {k: ("the Wall map" if v == ladder.WALL else v) for k, v in kwargs.items()}
+        lines.append(f"| `{env_id}` | {kwargs_text(shown)} |")
+    return "\n".join(lines) + "\n"
+
+
+MACROS: dict[str, Callable[..., str]] = {
+    "success_table": success_table,
+    "ladder_table": ladder_table,
+    "cli_help": cli_help,
+    "ladder_ids": ladder_ids,
+}
+"""The placeholders a page may use."""
+RESULTS_MACROS = ("success_table", "ladder_table")
+
+
+def parse_call(text: str) -> tuple[str, list[Any], dict[str, Any]]:
+    """A placeholder's macro name and literal arguments; ValueError for anything else."""
+    call = ast.parse(text, mode="eval").body
+    if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Name)):
+        raise ValueError(f"not a macro call: {text!r}")
+    if call.func.id not in MACROS:
+        raise ValueError(f"unknown macro {call.func.id!r} (known: {sorted(MACROS)})")
+    args = [ast.literal_eval(arg) for arg in call.args]
+    kwargs = {kw.arg: ast.literal_eval(kw.value) for kw in call.keywords if kw.arg}
+    return call.func.id, args, kwargs
+
+
+def expand(call_text: str, root: Path = ROOT) -> str:
+    """The Markdown of one placeholder's call (results paths relative to `root`)."""
+    name, args, kwargs = parse_call(call_text)
+    if name in RESULTS_MACROS:
+        kwargs["root"] = root
+    return MACROS[name](*args, **kwargs)
+
+
+def render(markdown: str, root: Path = ROOT) -> str:
+    """`markdown` with every placeholder replaced by its Markdown."""
+    return PLACEHOLDER.sub(lambda m: expand(m.group(1), root), markdown)
+
+
+def on_page_markdown(markdown: str, page, config, files) -> str:  # MkDocs hook
+    try:
+        return render(markdown)
+    except Exception as error:  # the page's name makes a failed build easy to place
+        raise RuntimeError(f"{page.file.src_path}: {error}") from error
+
+
+# --- the README's table --------------------------------------------------------------------
+
+
+def readme_text(text: str, root: Path = ROOT) -> str:
+    """The README with each `<!-- results: CALL -->` block rendered anew from the files."""
+    return README_BLOCK.sub(lambda m: m[1] + expand(m[2], root) + m[4], text)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Render the README's results table.")
+    parser.add_argument("--readme", action="store_true", help="rewrite README.md's tables")
+    parser.add_argument("--check", action="store_true", help="only check: 1 if stale")
+    args = parser.parse_args(argv)
+    if not args.readme:
+        parser.error("nothing to do: pass --readme")
+    readme = ROOT / "README.md"
+    text = readme.read_text()
+    new = readme_text(text)
+    if args.check:
+        if new != text:
+            print("README.md's results table is stale: python docs/hooks.py --readme")
+            return 1
+        return 0
+    readme.write_text(new)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,225 @@
+"""The documentation site: its code blocks run, its results tables come from the results
+files, it builds with --strict, and a headless Chromium shows its pages with no console error.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from docblocks import RUNS, blocks, budget, commands
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+PAGES = sorted(p for p in DOCS.rglob("*.md") if "figures" not in p.parts)
+BLOCKS = [b for page in [*PAGES, ROOT / "README.md"] for b in blocks(page)]
+SCREENSHOTS = ROOT / "build" / "screenshots"
+
+
+def _hooks():
+    spec = importlib.util.spec_from_file_location("docs_hooks", DOCS / "hooks.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+hooks = _hooks()
+
+
+def _entry_point(program: str):
+    return hooks._entry_point(program)
+
+
+# --- code blocks ---------------------------------------------------------------------------
+
+
+def test_every_block_runs_or_says_why_not():
+    assert BLOCKS, "no code block found"
+    for block in BLOCKS:
+        assert block.language in RUNS or block.not_run, (
+            f"{block.id}: a ```{block.language} block: make it python or bash, or mark it "
+            "<!-- not run: reason -->"
+        )
+        if block.language == "bash" and not block.not_run:
+            for words in commands(block.code):
+                budget(words)  # ValueError for a program the tests cannot run
+
+
+PYTHON = [b for b in BLOCKS if b.language == "python" and not b.not_run]
+BASH = [b for b in BLOCKS if b.language == "bash" and not b.not_run]
+
+
+@pytest.mark.parametrize("block", PYTHON, ids=[b.id for b in PYTHON])
+def test_python_block_runs(block, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    exec(compile(block.code, f"{block.path}:{block.line}", "exec"), {"__name__": "__main__"})
+    assert capsys.readouterr().out.strip(), f"{block.id} printed nothing"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("block", BASH, ids=[b.id for b in BASH])
+def test_bash_block_runs(block, tmp_path, monkeypatch, capsys):
+    """Each command of the block, in order in one folder, with a small budget."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    for words in commands(block.code):
+        program, argv = budget(words)
+        for i, word in enumerate(argv[:-1]):  # output files go into the block's folder
+            if word in ("--out", "--json", "--csv", "--plot") and "." in Path(argv[i + 1]).name:
+                Path(argv[i + 1]).parent.mkdir(parents=True, exist_ok=True)
+        try:
+            status = _entry_point(program)(argv)
+        except SystemExit as stop:
+            status = stop.code
+        assert status in (None, 0), f"{block.id}: {' '.join(words)} exited with {status}"
+    assert capsys.readouterr().out.strip(), f"{block.id} printed nothing"
+
+
+# --- results tables ------------------------------------------------------------------------
+
+SOURCES = [*PAGES, ROOT / "README.md"]
+
+
+def _calls(page: Path) -> list[str]:
+    """The placeholders of a page, and the README's generated blocks."""
+    text = page.read_text()
+    return [*hooks.PLACEHOLDER.findall(text), *(m[1] for m in hooks.README_BLOCK.findall(text))]
+
+
+CALLS = [(page, call) for page in SOURCES for call in _calls(page)]
+RESULTS_CALLS = [(p, c) for p, c in CALLS if hooks.parse_call(c)[0] in hooks.RESULTS_MACROS]
+
+
+def test_the_docs_show_results_tables():
+    assert any(p.name == "results.md" for p, _ in RESULTS_CALLS)
+    assert any(p.name == "README.md" for p, _ in RESULTS_CALLS)
+
+
+@pytest.mark.parametrize("page, call", CALLS, ids=[f"{p.name}:{c[:40]}" for p, c in CALLS])
+def test_placeholder_renders(page, call):
+    assert hooks.expand(call).strip()
+
+
+def _change(path: Path) -> None:
+    """Set the first success rate of a results file to 0.123456."""
+    if path.suffix == ".md":
+        text = path.read_text()
+        text, n = re.subn(r"success_rate: [0-9.]+", "success_rate: 0.123456", text, count=1)
+        assert n == 1
+        path.write_text(text)
+        return
+    data = json.loads(path.read_text())
+    (data["results"][0] if "results" in data else data)["success_rate"] = 0.123456
+    path.write_text(json.dumps(data))
+
+
+@pytest.mark.parametrize(
+    "page, call", RESULTS_CALLS, ids=[f"{p.name}:{c[:40]}" for p, c in RESULTS_CALLS]
+)
+def test_results_table_renders_from_its_files(page, call, tmp_path):
+    """The table is its files': the same files elsewhere give the same table, and changing a
+    file's number changes the table."""
+    _, args, _ = hooks.parse_call(call)
+    sources = args[0]
+    assert all(command.strip() for command in sources.values())
+    files = [f for pattern in sources for f in hooks.files_of(pattern, ROOT)]
+    for file in files:
+        copy = tmp_path / file.relative_to(ROOT)
+        copy.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(file, copy)
+    table = hooks.expand(call)
+    assert hooks.expand(call, tmp_path) == table
+    assert "12.3%" not in table
+    for pattern in sources:
+        _change(hooks.files_of(pattern, tmp_path)[0])
+    changed = hooks.expand(call, tmp_path)
+    assert changed != table and "12.3%" in changed
+    for command in sources.values():
+        assert f"`{command}`" in table, "the table names the command that regenerates it"
+
+
+def test_no_results_table_is_typed_by_hand():
+    """A table row in a page's source with a percentage is a number typed by hand (the
+    README's generated blocks left out)."""
+    for page in SOURCES:
+        text = hooks.README_BLOCK.sub("", page.read_text())
+        for number, line in enumerate(text.splitlines(), 1):
+            assert not re.match(r"\s*\|.*\d(\.\d+)?%", line), f"{page.name}:{number}: {line}"
+
+
+def test_readme_table_is_fresh():
+    text = (ROOT / "README.md").read_text()
+    assert hooks.readme_text(text) == text, "stale: python docs/hooks.py --readme"
+
+
+def test_a_results_file_without_its_command_is_refused():
+    with pytest.raises(ValueError, match="command"):
+        hooks.success_table({"results/ladder/*.json": " "})
+    with pytest.raises(ValueError, match="no results file"):
+        hooks.success_table({"results/none/*.json": "true"})
+
+
+# --- the site ------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("site")
+    env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
+    done = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "--quiet", "--site-dir", str(out)],
+        cwd=ROOT, capture_output=True, text=True, env=env, timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    return out
+
+
+def test_site_builds_with_the_results_and_the_specs(site):
+    results = (site / "results" / "index.html").read_text()
+    data = json.loads((ROOT / "results/ladder/TetherNavigate_OpenReach-v1_setup.json").read_text())
+    greedy = next(r for r in data["results"] if r["name"] == "greedy")
+    assert f"{100 * greedy['success_rate']:.1f}%" in results
+    bounce = (site / "envs" / "tether-bounce" / "index.html").read_text()
+    assert "Action Space" in bounce and "tether_bounce.gif" in bounce  # the env's docstring
+    training = (site / "training" / "index.html").read_text()
+    assert "--hyperparams" in training and "--env-kwargs" in training  # the CLI's own help
+
+
+def test_chromium_shows_the_site(site):
+    """The home page and an environment page render in a headless Chromium, with their GIFs
+    and no console error; screenshots go to build/screenshots/."""
+    import browser
+
+    executable = browser.chromium()
+    required = os.environ.get("TETHER_REQUIRE_CHROMIUM") == "1"
+    if executable is None or importlib.util.find_spec("websocket") is None:
+        reason = "no chromium (apt-get install chromium) or no websocket-client (docs extra)"
+        if required:
+            pytest.fail(reason)
+        pytest.skip(reason)
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    chrome = browser.Browser(executable)
+    try:
+        with browser.serve(site) as base:
+            for name, url in (("home", ""), ("tether-bounce", "envs/tether-bounce/")):
+                chrome.open(base + url)
+                chrome.screenshot(SCREENSHOTS / f"{name}.png")
+                assert chrome.errors() == [], f"{url or 'home'}: console errors"
+                title = chrome.evaluate("document.querySelector('article h1').textContent")
+                assert title and "404" not in title
+                gifs = [i for i in chrome.images() if i["src"].endswith(".gif")]
+                assert gifs, f"{url or 'home'}: no GIF"
+                for gif in gifs:
+                    assert gif["complete"] and gif["width"] >= 640, gif
+    finally:
+        with contextlib.suppress(Exception):
+            chrome.close()
