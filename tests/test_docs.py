@@ -67,7 +67,7 @@ def test_python_block_runs(block, tmp_path, monkeypatch, capsys):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("block", BASH, ids=[b.id for b in BASH])
-def test_bash_block_runs(block, tmp_path, monkeypatch, capsys):
+def test_bash_block_runs(block, tmp_path, monkeypatch):
     """Each command of the block, in order in one folder, with a small budget."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
@@ -81,7 +81,6 @@ def test_bash_block_runs(block, tmp_path, monkeypatch, capsys):
         except SystemExit as stop:
             status = stop.code
         assert status in (None, 0), f"{block.id}: {' '.join(words)} exited with {status}"
-    assert capsys.readouterr().out.strip(), f"{block.id} printed nothing"
 
 
 # --- results tables ------------------------------------------------------------------------
