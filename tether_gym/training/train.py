@@ -15,12 +15,12 @@ vector env feeds SB3 through `tether_gym.training.sb3`. Every `--eval-freq` time
 deterministic policy plays the same fixed, seeded episodes as the env's yardstick (`yardstick`:
 TetherBounce's impulse oracle, TetherNavigate's greedy planner); the best policy so far and the
 last one are kept in `runs/<name>/best/` and `runs/<name>/last/` (model.zip, config.yaml,
-vecnormalize.pkl if used, SAC's replay_buffer.pkl with --save-replay-buffer), TensorBoard logs in `runs/<name>/tb/`. At
-the end the policy and the env's baselines (`baselines`: the impulse and shooting oracles, or
-the greedy and lookahead planners; and a random agent) play the same fresh test episodes and
-the table is printed and saved to `runs/<name>/results.md`. Ctrl-C saves the last model before
-exiting, and so does every periodic evaluation (a killed run resumes from its last evaluation);
-an existing run is never overwritten without `--overwrite`.
+vecnormalize.pkl if used, SAC's replay_buffer.pkl with --save-replay-buffer), TensorBoard logs
+in `runs/<name>/tb/`. At the end the policy and the env's baselines (`baselines`: the impulse
+and shooting oracles, or the greedy and lookahead planners; and a random agent) play the same
+fresh test episodes and the table is printed and saved to `runs/<name>/results.md`. Ctrl-C
+saves the last model before exiting, and so does every periodic evaluation (a killed run
+resumes from its last evaluation); an existing run is never overwritten without `--overwrite`.
 
 `train(config, run_dir)` is that whole run for callers that make their own configs (a sweep's
 trials): `make_config` gives the schema, saved as `config.yaml`, and `check_run` the checks.
