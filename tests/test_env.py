@@ -138,7 +138,7 @@ def test_render_modes():
     env = gym.make("TetherBounce-v0", render_mode="rgb_array")
     env.reset(seed=0)
     before = env.render()
-    assert before.shape == (480, 480, 3) and before.dtype == np.uint8
+    assert before.shape == (640, 640, 3) and before.dtype == np.uint8
     env.step(normalized(2.0, math.pi / 4, 0.0, 0.0))
     after = env.render()
     assert after.shape == before.shape and not np.array_equal(before, after)
