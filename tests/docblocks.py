@@ -77,7 +77,7 @@ def budget(words: list[str]) -> tuple[str, list[str]]:
         program, argv = words[0], words[1:]
     if program == "tether-evaluate":
         argv = _set(argv, "--episodes", "10")
-        return program, [*argv, "--no-progress"]
+        return program, [*argv, "--no-progress-bar"]
     if program == "tether-train":
         argv = _set(argv, "--timesteps", "1024" if "--resume" in argv else "512")
         argv = _set(argv, "--eval-episodes", "10")
