@@ -8,7 +8,13 @@ import io
 import json
 import math
 import os
+import secrets
+import shutil
 import signal
+import socket
+import subprocess
+import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -18,7 +24,7 @@ import yaml
 
 pytest.importorskip("ray.tune")
 
-from tether_gym.training import sweep, sweep_main
+from tether_gym.training import cluster, sweep, sweep_main
 
 SWEEPS = Path(__file__).resolve().parents[1] / "sweeps"
 SMOKE = SWEEPS / "smoke.yml"
@@ -213,3 +219,116 @@ def test_a_sweep_on_tether_navigate_compares_with_the_greedy_planner(tmp_path):
     (row,) = sweep.pd.read_csv(out / "summary.csv").to_dict("records")
     assert row["oracle_success"] > 0.5, "the greedy planner's success on the test episodes"
     assert "| greedy planner | train s |" in (out / "summary.md").read_text()
+
+
+def test_ctrl_c_while_ray_starts_stops_every_ray_process_and_the_folder_starts_again(
+    tmp_path, monkeypatch, capsys
+):
+    """Ctrl-C as Ray begins to start: Ray finishes starting, is stopped with all it started,
+    and the folder, where no trial ran, is reused by the same command or by --resume."""
+    psutil = pytest.importorskip("psutil")
+    started: list = []
+    real_init = cluster.ray.init
+
+    def interrupted_init(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)
+        real_init(*args, **kwargs)
+        started.extend(psutil.Process().children(recursive=True))
+
+    monkeypatch.setattr(cluster.ray, "init", interrupted_init)
+    out = tmp_path / "out"
+    assert sweep.main([str(SMOKE), "--out", str(out)]) == 130
+    err = capsys.readouterr().err
+    assert "Ctrl-C: stopping once Ray has started" in err
+    assert f"interrupted: no trial started; start it again with tether-sweep --resume {out}" in err
+    assert "Traceback" not in err
+    assert started and not cluster.ray.is_initialized()
+    _, alive = psutil.wait_procs(started, timeout=30)
+    assert not alive, f"Ray processes left running: {alive}"
+    again = tmp_path / "again"
+    shutil.copytree(out, again)
+    sweep.prepare_out(again, overwrite=False)  # the same command reuses the folder
+    assert not any(again.iterdir())
+    resumed, folder, tune_resumes = sweep.setup(
+        sweep.build_parser().parse_args(["--resume", str(out)])
+    )
+    assert folder == out and not tune_resumes and resumed.seeds == [0, 1]
+    assert "never started" in capsys.readouterr().err
+
+
+def test_a_refused_token_is_one_line_saying_what_to_do():
+    refused = ConnectionError("Failed to connect to Ray cluster at 10.0.0.1:6379")
+    cause = "Failed to connect to GCS. Last connection error: RPC error: InvalidAuthToken"
+    refused.__cause__ = RuntimeError(cause)
+    line = cluster.refusal(refused, "10.0.0.1:6379")
+    assert line.startswith("the Ray cluster at 10.0.0.1:6379 refused the connection (token auth")
+    assert "export RAY_AUTH_MODE=token" in line and "\n" not in line
+    absent = cluster.refusal(ConnectionError("Failed to connect"), "10.0.0.1:6379")
+    assert "cannot join a Ray cluster at 10.0.0.1:6379" in absent and "ray start --head" in absent
+
+
+@contextlib.contextmanager
+def head_node(env: dict[str, str]):
+    """A Ray head node on a free port of this machine, started as the docs say (`ray start
+    --head`) in a folder of its own; yields its address on 127.0.0.1. Every process it started
+    is killed at the end."""
+    psutil = pytest.importorskip("psutil")
+    folder = Path(tempfile.mkdtemp(prefix="tg-ray-", dir="/tmp"))  # short: Ray's socket paths
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    ray_cli = str(Path(sys.executable).parent / "ray")
+    command = [ray_cli, "start", "--head", "--port", str(port), "--num-cpus", "1",
+               "--include-dashboard", "false", "--temp-dir", str(folder / "t")]  # fmt: skip
+    starter = subprocess.Popen(
+        command, env=env, start_new_session=True, stderr=subprocess.PIPE, text=True,
+        stdout=subprocess.DEVNULL,
+    )  # fmt: skip
+    try:
+        _, errors = starter.communicate(timeout=120)
+        assert starter.returncode == 0, errors
+        yield f"127.0.0.1:{port}"
+    finally:
+        ours = [
+            p
+            for p in psutil.process_iter(["cmdline"])
+            if str(folder) in " ".join(p.info["cmdline"] or [])
+        ]
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(starter.pid, signal.SIGKILL)  # the session `ray start` began
+        for process in ours:
+            with contextlib.suppress(psutil.NoSuchProcess):
+                process.kill()
+        psutil.wait_procs(ours, timeout=30)
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def test_a_cluster_with_token_authentication_is_joined_as_the_docs_say(tmp_path):
+    """`export RAY_AUTH_MODE=token` and the cluster's token on every node and client: the
+    head node starts, `ray status` and tether-sweep's `start_ray` join it; without the token
+    tether-sweep ends in one line saying what to do."""
+    token = secrets.token_hex(16)
+    home = tmp_path / "home"
+    home.mkdir()
+    base = {k: v for k, v in os.environ.items() if not k.startswith("RAY_")}
+    documented = {**base, "HOME": str(home), "RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": token}
+    with head_node(documented) as address:
+        ray_cli = str(Path(sys.executable).parent / "ray")
+        status = subprocess.run([ray_cli, "status", "--address", address], env=documented,
+                                capture_output=True, text=True, timeout=120)  # fmt: skip
+        assert status.returncode == 0, status.stderr
+        join = ("import ray; from tether_gym.training.cluster import start_ray; "
+                f"start_ray({address!r}, {{}}); print(ray.cluster_resources()['CPU']); "
+                "ray.shutdown()")  # fmt: skip
+        joined = subprocess.run([sys.executable, "-c", join], env=documented,
+                                capture_output=True, text=True, timeout=120)  # fmt: skip
+        assert joined.returncode == 0 and joined.stdout.strip() == "1.0", joined.stderr
+        no_token = {k: v for k, v in documented.items() if k != "RAY_AUTH_TOKEN"}
+        command = [sys.executable, "-m", "tether_gym.training.sweep", str(SMOKE),
+                   "--out", str(tmp_path / "out"), "--address", address]  # fmt: skip
+        refused = subprocess.run(command, env=no_token, capture_output=True, text=True,
+                                 timeout=120)  # fmt: skip
+    assert refused.returncode == 1
+    last = refused.stderr.strip().splitlines()[-1]
+    assert last.startswith(f"tether-sweep: error: the Ray cluster at {address} refused")
+    assert "export RAY_AUTH_MODE=token" in last and "Traceback" not in refused.stderr

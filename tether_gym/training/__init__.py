@@ -1,13 +1,22 @@
-"""Training (stable-baselines3) and sweeps (Ray Tune) on TetherBounce-v0: the optional extras
-"train" and "sweep".
+"""Training (stable-baselines3) and sweeps (Ray Tune) on the tether envs: the optional extras
+"train" and "sweep". It builds on `tether_gym.agents` (evaluation, planners, playing a saved
+policy), which never imports it.
 
 `tether_gym.training.train` holds the `tether-train` command and `train(config, run_dir)`, the
 run behind it; `tether_gym.training.sweep` the `tether-sweep` command, which runs `train` as Ray
-Tune trials; `tether_gym.training.sb3` the SB3 `VecEnv` adapter over the native vector env;
-`hyperparams/<algo>.yml` the default hyperparameters (package data, rl-baselines3-zoo's format).
+Tune trials (`tether_gym.training.cluster` starts or joins Ray); `tether_gym.training.sb3` the
+SB3 `VecEnv` adapter over the native vector env; `residual`, `proposals` and `pretrain` the
+planner-backed policies' training; `hyperparams/<algo>.yml` the default hyperparameters
+(package data, rl-baselines3-zoo's format).
 """
 
+import sys
+from collections.abc import Callable
+
 from tether_gym.cli import SWEEP_EXTRA, TRAIN_EXTRA, require_extra
+
+INTERRUPTED = 130
+"""Exit status after Ctrl-C (128 + SIGINT), as a shell reports it."""
 
 
 def _require(command: str, modules: tuple[str, ...], extra: str) -> None:
@@ -18,17 +27,35 @@ def _require(command: str, modules: tuple[str, ...], extra: str) -> None:
         raise SystemExit(f"error: {error}") from None
 
 
+def _quietly_interrupted(command: Callable[[], int]) -> int:
+    """Run `command`; a Ctrl-C it does not handle itself (while the heavy modules import, or
+    while the arguments are checked, before anything is written) exits without a traceback."""
+    try:
+        return command()
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return INTERRUPTED
+
+
 def main(argv: list[str] | None = None) -> int:
     """The console script `tether-train`."""
     _require("tether-train", TRAIN_EXTRA, "train")
-    from tether_gym.training.train import main as train_main
 
-    return train_main(argv)
+    def command() -> int:
+        from tether_gym.training.train import main as train_main
+
+        return train_main(argv)
+
+    return _quietly_interrupted(command)
 
 
 def sweep_main(argv: list[str] | None = None) -> int:
     """The console script `tether-sweep`."""
     _require("tether-sweep", SWEEP_EXTRA, "sweep")
-    from tether_gym.training.sweep import main as sweep_main
 
-    return sweep_main(argv)
+    def command() -> int:
+        from tether_gym.training.sweep import main as sweep_main
+
+        return sweep_main(argv)
+
+    return _quietly_interrupted(command)

@@ -47,9 +47,12 @@ The output folder DIR (an existing non-empty one only with --resume or --overwri
 
     sweep.yml, hyperparams.yml  the sweep as run, with the hyperparameters it read (--resume)
     runs/<trial id>/            each trial's run folder: config.yaml, best/, last/, tb/,
-                                results.md (`tensorboard --logdir DIR` shows every trial)
+                                results.md, output.log (what the trial printed)
+                                (`tensorboard --logdir DIR` shows every trial)
     tune/                       Ray Tune's experiment: its state, each trial's reported results
                                 and latest checkpoint
+    sweep.log                   Ray's and Ray Tune's log and report (the console shows one line
+                                per trial)
     summary.csv, summary.md     one row per configuration, over its seeds (`SUMMARY_COLUMNS`)
     success.png                 periodic evaluations: success against timesteps, the mean and
                                 95% band over seeds for each configuration
@@ -61,8 +64,10 @@ import argparse
 import copy
 import json
 import math
+import os
 import shutil
 import sys
+from contextlib import redirect_stderr, redirect_stdout
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -83,6 +88,7 @@ from ray.tune.search.repeater import TRIAL_INDEX
 from ray.tune.search.sample import Categorical, Domain
 
 from tether_gym.cli import DEFAULT_ENV_ID, env_epilog
+from tether_gym.training.cluster import ClusterError, ray_log_to, start_ray
 from tether_gym.training.summary import t_interval
 from tether_gym.training.train import (
     ALGOS,
@@ -119,6 +125,12 @@ METRICS = {"success_rate": "max", "reward_mean": "max", "heading_error_mean_deg"
 SEED_KEYS = ("seed", TRIAL_INDEX)
 """Keys of a trial's parameters that pick its seed rather than its configuration."""
 HYPERPARAMS = "hyperparams.yml"
+LOG = "sweep.log"
+"""Ray's and Tune's log in DIR."""
+TRIAL_LOG = "output.log"
+"""What a trial printed, in its run folder DIR/runs/<trial id>/."""
+NOT_STARTED = {"sweep.yml", HYPERPARAMS, LOG, "tune", "runs"}
+"""What DIR holds when the sweep stopped before any trial started (`never_started`)."""
 FINAL = ("timesteps", "test_success", "test_oracle_success", "train_seconds")
 """A trial's final report, besides its last evaluation's numbers and its thread counts."""
 SUMMARY_COLUMNS = (
@@ -128,6 +140,12 @@ SUMMARY_COLUMNS = (
 """summary.csv's columns after the varied keys: success is the final test table's success of
 the trial's best model, over seeds (95% Student t interval, NaN for one seed); the impulse
 oracle's success is on the same episodes; train_seconds of a trial's last attempt."""
+SUMMARY_DECIMALS = {
+    **dict.fromkeys(("success_mean", "success_ci_low", "success_ci_high", "success_worst"), 6),
+    "oracle_success": 6,
+    "train_seconds_mean": 2,
+}
+"""summary.csv's decimals: a mean of rates prints 0.97, not 0.9700000000000001."""
 
 
 @dataclass(frozen=True)
@@ -423,7 +441,9 @@ def run_trial(params: dict[str, Any], base: dict[str, Any], seeds: list[int], ru
         saved = tune.Checkpoint.from_directory(run_dir / "last") if resumable else None
         tune.report(numbers, checkpoint=saved)
 
-    summary = train(config, run_dir, resume=checkpoint is not None, report=report)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    with (run_dir / TRIAL_LOG).open("a") as log, redirect_stdout(log), redirect_stderr(log):
+        summary = train(config, run_dir, resume=checkpoint is not None, report=report)
     results = {result["name"]: result for result in summary["results"]}
     final = {
         "timesteps": summary["timesteps"],
@@ -443,9 +463,32 @@ def make_trainable(sweep: Sweep, out: Path) -> Any:
     return tune.with_resources(trainable, {"cpu": sweep.cpus})
 
 
+class TrialLines(tune.Callback):
+    """One line on stderr per trial that finishes or fails (Tune's own report goes to the
+    log)."""
+
+    def __init__(self, total: int):
+        self.total, self.ended = total, 0
+
+    def _line(self, trial: Any, outcome: str) -> None:
+        self.ended += 1
+        params = {k: v for k, v in trial.config.items() if k != TRIAL_INDEX}
+        print(f"[sweep] {self.ended}/{self.total} trial {trial.trial_id} ({describe(params)}) "
+              f"{outcome}", file=sys.stderr, flush=True)  # fmt: skip
+
+    def on_trial_complete(self, iteration: int, trials: list, trial: Any, **info: Any) -> None:
+        success = trial.last_result.get("test_success")
+        shown = "" if success is None else f": best model {100 * success:.1f}% test success"
+        self._line(trial, f"finished{shown}")
+
+    def on_trial_error(self, iteration: int, trials: list, trial: Any, **info: Any) -> None:
+        self._line(trial, f"failed: see its error.txt under tune/ and runs/*/{TRIAL_LOG}")
+
+
 def make_tuner(sweep: Sweep, out: Path, resume: bool) -> tune.Tuner:
     """A new Tuner writing into out/tune/, or the interrupted one restored from there (its
-    finished trials kept, the unfinished and failed ones resumed from their checkpoints)."""
+    finished trials kept, the unfinished and failed ones resumed from their checkpoints), with
+    one line per trial on the console (`TrialLines`)."""
     trainable = make_trainable(sweep, out)
     if resume:
         experiment = str(out / "tune")
@@ -463,7 +506,8 @@ def make_tuner(sweep: Sweep, out: Path, resume: bool) -> tune.Tuner:
         storage_path=str(out),
         failure_config=tune.FailureConfig(max_failures=sweep.max_failures),
         checkpoint_config=tune.CheckpointConfig(num_to_keep=1),
-        verbose=1,
+        verbose=0,
+        callbacks=[TrialLines(sweep.num_trials())],
     )
     return tune.Tuner(
         trainable, param_space=sweep.param_space(), tune_config=tune_config, run_config=run_config
@@ -594,8 +638,35 @@ def plot_success(groups: list[list[Trial]], path: Path, yardstick: str = "impuls
     figure.savefig(path, dpi=120)
 
 
+def never_started(out: Path) -> bool:
+    """Whether DIR holds a sweep stopped before any trial started (Ctrl-C while Ray started):
+    only what `run` writes first, no Tune state and no trial's run folder."""
+    names = {path.name for path in out.iterdir()}
+    runs = out / "runs"
+    return (
+        "sweep.yml" in names
+        and names <= NOT_STARTED
+        and not tune.Tuner.can_restore(str(out.resolve() / "tune"))
+        and not (runs.is_dir() and any(runs.iterdir()))
+    )
+
+
+def clear_not_started(out: Path) -> None:
+    """Remove what a sweep that never started left in DIR (`never_started`), and say so."""
+    for name in NOT_STARTED:
+        path = out / name
+        if path.is_dir():
+            shutil.rmtree(path)
+        elif path.exists():
+            path.unlink()
+    print(f"{out} held a sweep that never started (no trial ran): reusing it", file=sys.stderr)
+
+
 def prepare_out(out: Path, overwrite: bool) -> None:
-    """Create DIR; refuse a non-empty one unless `overwrite` (then it is emptied)."""
+    """Create DIR; refuse a non-empty one unless `overwrite` (then it is emptied) or it holds
+    only a sweep that never started (then it is reused)."""
+    if out.is_dir() and any(out.iterdir()) and never_started(out):
+        clear_not_started(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         if not overwrite:
             raise ValueError(
@@ -640,7 +711,7 @@ def write_results(results: tune.ResultGrid, sweep: Sweep, out: Path) -> Outcome:
         return Outcome(None, "", trials, failed, unfinished)
     groups = group(trials)
     summary = summarize(groups).sort_values("success_mean", ascending=False, ignore_index=True)
-    summary.to_csv(out / "summary.csv", index=False)
+    summary.round(SUMMARY_DECIMALS).to_csv(out / "summary.csv", index=False)
     yardstick = yardstick_name(sweep.base["env_id"])
     table = format_summary(summary, yardstick)
     (out / "summary.md").write_text(table + "\n")
@@ -651,17 +722,31 @@ def write_results(results: tune.ResultGrid, sweep: Sweep, out: Path) -> Outcome:
 def run(sweep: Sweep, out: Path, address: str | None = None, resume: bool = False) -> Outcome:
     """Run (or, with `resume`, continue) the sweep into `out` and write its results (the
     command refuses a non-empty `out` first: `prepare_out`). Ray starts locally unless
-    `address` names a cluster to join, and is shut down at the end."""
+    `address` names a cluster to join (`start_ray`), logs into out/sweep.log, and is shut down
+    at the end, after Ctrl-C too.
+
+    Raises:
+        ClusterError: Ray could not be started or the cluster refused (one line).
+        KeyboardInterrupt: Ctrl-C before Tune ran (Tune itself stops on Ctrl-C and returns).
+    """
     out = out.resolve()
     if not resume:
         out.mkdir(parents=True, exist_ok=True)
         save_sweep(sweep, out)
     runtime_env = {"env_vars": thread_env(sweep.cpus)}
-    ray.init(address=address or "local", include_dashboard=False, runtime_env=runtime_env)
-    try:
-        results = make_tuner(sweep, out, resume).fit()
-    finally:
-        ray.shutdown()
+    where = f"the Ray cluster at {address}" if address else "Ray here"
+    print(f"[sweep] {sweep.num_trials()} trials on {where}; Ray's log: {out / LOG}, each "
+          f"trial's output: {out}/runs/<trial>/{TRIAL_LOG}", file=sys.stderr)  # fmt: skip
+    # a checkpoint per periodic evaluation is the design, not a bottleneck to warn about
+    os.environ.setdefault("TUNE_WARN_EXCESSIVE_EXPERIMENT_CHECKPOINT_SYNC_THRESHOLD_S", "0")
+    with ray_log_to(out / LOG) as log:
+        start_ray(address, runtime_env)
+        try:
+            tuner = make_tuner(sweep, out, resume)
+            with redirect_stdout(log):  # Tune's console report, into the log
+                results = tuner.fit()
+        finally:
+            ray.shutdown()
     return write_results(results, sweep, out)
 
 
@@ -685,33 +770,52 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def setup(args: argparse.Namespace) -> tuple[Sweep, Path]:
-    """The sweep and its folder from the command line, checked (ValueError)."""
+def setup(args: argparse.Namespace) -> tuple[Sweep, Path, bool]:
+    """The sweep, its folder and whether Tune resumes it, from the command line, checked
+    (ValueError). `--resume` of a sweep that never started starts it."""
     if args.resume is not None:
         given = [flag for flag, value in [("SWEEP.yml", args.sweep_file), ("--out", args.out),
                                           ("--overwrite", args.overwrite)] if value]  # fmt: skip
         if given:
             raise ValueError(f"--resume takes the sweep saved in {args.resume}: drop {given[0]}")
+        if args.resume.is_dir() and never_started(args.resume):
+            sweep = load_sweep(args.resume / "sweep.yml")
+            clear_not_started(args.resume)
+            return sweep, args.resume, False
         if not tune.Tuner.can_restore(str(args.resume.resolve() / "tune")):
             raise ValueError(f"cannot resume {str(args.resume)!r}: it holds no Ray Tune sweep")
-        return load_sweep(args.resume / "sweep.yml"), args.resume
+        return load_sweep(args.resume / "sweep.yml"), args.resume, True
     if args.sweep_file is None or args.out is None:
         raise ValueError("give a sweep file and --out DIR, or --resume DIR")
     sweep = load_sweep(args.sweep_file)
     prepare_out(args.out, args.overwrite)
-    return sweep, args.out
+    return sweep, args.out, False
+
+
+def interrupted_note(out: Path) -> str:
+    """What to do with DIR after Ctrl-C: start it again, or continue it."""
+    if never_started(out):
+        return f"no trial started; start it again with tether-sweep --resume {out}"
+    return f"continue with tether-sweep --resume {out}"
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the sweep and print its summary; returns the exit status: 0 when every trial
-    finished, 1 if some failed, 130 if interrupted."""
+    finished, 1 if some failed or Ray could not start, 130 if interrupted."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        sweep, out = setup(args)
+        sweep, out, resume = setup(args)
     except ValueError as error:
         parser.error(str(error))
-    outcome = run(sweep, out, args.address, resume=args.resume is not None)
+    try:
+        outcome = run(sweep, out, args.address, resume=resume)
+    except ClusterError as error:
+        print(f"tether-sweep: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"interrupted: {interrupted_note(out)}", file=sys.stderr)
+        return 130
     if outcome.summary is not None:
         print(f"\n{len(outcome.trials)} trials finished; {out}/summary.csv:\n{outcome.table}")
         print(f"plot: {out}/success.png; TensorBoard: tensorboard --logdir {out}")
