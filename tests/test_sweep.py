@@ -8,6 +8,7 @@ import io
 import json
 import math
 import os
+import re
 import secrets
 import shutil
 import signal
@@ -64,6 +65,18 @@ def test_smoke_sweep_writes_the_summary_and_prints_its_table(smoke):
     assert table.startswith("| configuration | seeds | success mean [95% CI] |")
     assert "| base | 2 |" in table and table in printed
     assert (out / "success.png").stat().st_size > 10_000
+    assert not re.search(r"\d\.\d{7,}", (out / "summary.csv").read_text()), "rates rounded"
+
+
+def test_the_console_gets_a_few_lines_and_the_logs_go_to_the_folder(smoke):
+    """Tune's report and Ray's log go to DIR/sweep.log, each trial's output to its run folder;
+    the console keeps the summary (stdout) and one line per trial (stderr)."""
+    _, printed, out = smoke
+    assert len(printed.strip().splitlines()) <= 8, printed
+    assert "Trial status" not in printed and "[eval]" not in printed
+    assert "Started a local Ray instance" in (out / "sweep.log").read_text()
+    for run in (out / "runs").iterdir():
+        assert "[eval] 1,024 timesteps" in (run / "output.log").read_text()
 
 
 def test_each_trial_is_a_tether_train_run_folder_on_one_thread(smoke):
