@@ -14,13 +14,13 @@ import yaml
 pytest.importorskip("stable_baselines3")
 
 import torch
-from stable_baselines3 import HerReplayBuffer
 
 from tether_gym.agents.evaluate import NavigationResult, evaluate, load_agent
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS
 from tether_gym.envs.tether_navigate.spaces import decode_observation
 from tether_gym.training import pretrain, proposals, residual, summary, train
 from tether_gym.training.features import NavigateExtractor
+from tether_gym.training.her import PathHerReplayBuffer
 from tether_gym.training.sb3 import make_sb3_vec_env
 
 OPTIONS = ["--eval-episodes", "20", "--no-progress-bar", "--n-envs", "8"]
@@ -66,19 +66,22 @@ def test_sac_with_her_trains_on_the_sparse_env_and_resumes(tmp_path):
     tiny = ["learning_starts:128", "batch_size:64", "buffer_size:4096", TINY_POLICY]
     argv = ["--algo", "sac", "--env", "TetherNavigateSparse-v1", "--timesteps", "512",
             "--eval-freq", "256", "--name", "her", "--runs-dir", str(tmp_path), *OPTIONS,
-            "--hyperparams", *tiny]  # fmt: skip
+            "--save-replay-buffer", "--hyperparams", *tiny]  # fmt: skip
     assert train.main(argv) == 0
     folder = tmp_path / "her"
     config = yaml.safe_load((folder / "config.yaml").read_text())
-    assert config["hyperparams"]["replay_buffer_class"] == "HerReplayBuffer"
+    assert config["hyperparams"]["replay_buffer_class"] == "PathHerReplayBuffer"
     assert (folder / "last" / "replay_buffer.pkl").is_file()
     for name in ("SAC (best)", "SAC (last)", *BASELINES):
         assert f"| {name} |" in (folder / "results.md").read_text()
     summary = train.train({**config, "timesteps": 768}, folder, resume=True)
     assert summary["timesteps"] == saved_timesteps(folder / "last") == 768
+    curve = (folder / train.EVALUATIONS).read_text().splitlines()  # the resumed run appends
+    assert curve[0].startswith("timesteps,success_rate,planner_success_rate")
+    assert [int(row.split(",")[0]) for row in curve[1:]] == [256, 512, 768]
     model = train.load_model(folder / "last", config, train.make_venv(config))
     model.load_replay_buffer(folder / "last" / "replay_buffer.pkl", truncate_last_traj=False)
-    assert isinstance(model.replay_buffer, HerReplayBuffer)
+    assert isinstance(model.replay_buffer, PathHerReplayBuffer)
     agent = load_agent(folder / "last" / "model.zip")  # without the env HER's buffer needs
     assert type(agent.model).__name__ == "SAC"
     samples = model.replay_buffer.sample(64, env=None)  # relabels through the adapter
@@ -90,7 +93,7 @@ def test_the_default_hyperparameters_have_navigate_entries():
     ppo = train.load_hyperparams(train.default_conf("ppo"), env_id="TetherNavigate-v1")
     sac = train.load_hyperparams(train.default_conf("sac"), env_id="TetherNavigateSparse-v1")
     assert ppo["policy"] == sac["policy"] == "MultiInputPolicy"
-    assert train.algo_kwargs(sac)["replay_buffer_class"] is HerReplayBuffer
+    assert train.algo_kwargs(sac)["replay_buffer_class"] is PathHerReplayBuffer
     assert train.algo_kwargs(ppo)["policy_kwargs"]["features_extractor_class"] is NavigateExtractor
     with pytest.raises(ValueError, match="replay_buffer_class must be one of"):
         train.algo_kwargs({"replay_buffer_class": "DictReplayBuffer"})

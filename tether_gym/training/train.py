@@ -16,9 +16,10 @@ deterministic policy plays the same fixed, seeded episodes as the env's yardstic
 TetherBounce's impulse oracle, TetherNavigate's greedy planner); the best policy so far and the
 last one are kept in `runs/<name>/best/` and `runs/<name>/last/` (model.zip, config.yaml,
 vecnormalize.pkl if used, SAC's replay_buffer.pkl with --save-replay-buffer), TensorBoard logs
-in `runs/<name>/tb/`. At the end the policy and the env's baselines (`baselines`: the impulse
-and shooting oracles, or the greedy and lookahead planners; and a random agent) play the same
-fresh test episodes and the table is printed and saved to `runs/<name>/results.md`. Ctrl-C
+in `runs/<name>/tb/`, the evaluations (the learning curve) in `runs/<name>/evaluations.csv`. At
+the end the policy and the env's baselines (`baselines`: the impulse and shooting oracles, or
+the greedy and lookahead planners; and a random agent) play the same fresh test episodes and
+the table is printed and saved to `runs/<name>/results.md`. Ctrl-C
 saves the last model before exiting, and so does every periodic evaluation (a killed run
 resumes from its last evaluation); an existing run is never overwritten without `--overwrite`.
 
@@ -29,6 +30,7 @@ trials): `make_config` gives the schema, saved as `config.yaml`, and `check_run`
 from __future__ import annotations
 
 import argparse
+import csv
 import inspect
 import json
 import shutil
@@ -74,6 +76,7 @@ from tether_gym.cli import (
     given_env_options,
 )
 from tether_gym.training.features import NavigateExtractor
+from tether_gym.training.her import PathHerReplayBuffer
 from tether_gym.training.pretrain import check_pretrain, clone_planner
 from tether_gym.training.proposals import ProposalPolicy, ProposalVecEnv
 from tether_gym.training.residual import ResidualVecEnv
@@ -114,10 +117,12 @@ RUN_OPTIONS = (
 """`make_config`'s options that the command line sets (None: not given)."""
 RESUME_OPTIONS = ("timesteps", "eval_episodes", "eval_freq", "save_replay_buffer")
 """The options a resumed run may change."""
+EVALUATIONS = "evaluations.csv"
+"""The periodic evaluations in the run folder, a row each (the learning curve)."""
 REPLAY_BUFFER = "replay_buffer.pkl"
 """An off-policy algorithm's replay buffer in `last/`, kept with `save_replay_buffer` only
 (hundreds of MB for a few thousand SAC timesteps)."""
-REPLAY_BUFFERS = {"HerReplayBuffer": HerReplayBuffer}
+REPLAY_BUFFERS = {"HerReplayBuffer": HerReplayBuffer, "PathHerReplayBuffer": PathHerReplayBuffer}
 """`replay_buffer_class` names a zoo entry may give (hindsight relabeling for goal envs)."""
 EXPRESSION_NAMES = {"dict": dict, "nn": torch.nn, "NavigateExtractor": NavigateExtractor}
 """What a zoo expression (`policy_kwargs`, `replay_buffer_kwargs`) may name."""
@@ -399,6 +404,16 @@ def baselines(config: dict[str, Any]) -> dict[str, object]:
     return {**agents, "random": RandomAgent(config["seed"], size)}
 
 
+def append_row(path: Path, numbers: dict[str, float]) -> None:
+    """Append `numbers` to the CSV file `path` as a row, with a header if the file is new."""
+    new = not path.exists()
+    with path.open("a", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=list(numbers))
+        if new:
+            writer.writeheader()
+        writer.writerow(numbers)
+
+
 class OracleEvalCallback(BaseCallback):
     """Every `eval_freq` timesteps: the policy vs the env's `yardstick` on the same seeded
     episodes.
@@ -458,6 +473,7 @@ class OracleEvalCallback(BaseCallback):
         for key, value in numbers.items():
             if key != "timesteps":
                 self.logger.record(f"eval/{key}", value)
+        append_row(self.checkpoints.run_dir / EVALUATIONS, numbers)
         self.checkpoints.save(self.model, "last")
         improved = policy.success_rate > self.best
         if improved:
