@@ -77,6 +77,22 @@ def test_interruption_leaves_a_checkpoint_that_resume_continues(tmp_path, monkey
     assert "has 2048 timesteps" in capsys.readouterr().err
 
 
+def test_interruption_before_the_first_checkpoint_leaves_a_reusable_folder(
+    tmp_path, monkeypatch, capsys
+):
+    def interrupt(*args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(train, "make_model", interrupt)
+    short = ["--timesteps", "512", "--eval-freq", "0"]
+    assert run(tmp_path, *short) == 130
+    assert "holds no model; the same command starts the run again" in capsys.readouterr().err
+    monkeypatch.undo()
+    assert run(tmp_path, *short) == 0
+    assert "stopped before its first checkpoint: reusing it" in capsys.readouterr().err
+    assert saved_timesteps(tmp_path / "smoke" / "last") == 512
+
+
 def test_train_runs_a_config_as_the_cli_does(tmp_path):
     """The seam for sweeps: `make_config` + `train()` give the CLI's run folder, periodic
     evaluations (handed to `report`), summary and resume."""

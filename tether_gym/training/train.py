@@ -327,8 +327,22 @@ def default_name(env_id: str, env_kwargs: dict[str, Any], seed: int, algo: str =
     return "_".join([*parts, f"seed{seed}"])
 
 
+def never_started(path: Path) -> bool:
+    """Whether the run folder holds a run stopped before its first checkpoint (Ctrl-C while
+    the model was built): its config and an empty TensorBoard folder at most."""
+    names = {entry.name for entry in path.iterdir()}
+    tensorboard = path / "tb"
+    return names <= {"config.yaml", "tb"} and not (
+        tensorboard.is_dir() and any(tensorboard.rglob("*.*"))
+    )
+
+
 def prepare_run_dir(path: Path, overwrite: bool) -> None:
-    """Create the run folder; refuse an existing run unless `overwrite`; check it is writable."""
+    """Create the run folder; refuse an existing run unless `overwrite` (a run that never
+    reached its first checkpoint is reused, and said so); check it is writable."""
+    if path.is_dir() and any(path.iterdir()) and never_started(path):
+        print(f"{path} held a run stopped before its first checkpoint: reusing it", file=sys.stderr)
+        shutil.rmtree(path)
     if path.is_dir() and any(path.iterdir()):
         if not overwrite:
             raise ValueError(
@@ -761,7 +775,11 @@ def main(argv: list[str] | None = None) -> int:
         resume, progress_bar = args.resume is not None, not args.no_progress_bar
         summary = train(config, run_dir, resume=resume, progress_bar=progress_bar)
     except KeyboardInterrupt:
-        print(f"continue with: tether-train --resume {run_dir}", file=sys.stderr)
+        if (run_dir / "last" / "model.zip").is_file():
+            print(f"continue with: tether-train --resume {run_dir}", file=sys.stderr)
+        else:
+            print(f"interrupted before the first checkpoint: {run_dir} holds no model; the same "
+                  "command starts the run again", file=sys.stderr)  # fmt: skip
         return 130
     env = config["env_kwargs"] or "default env"
     print(f"\nTest episodes (seed {TEST_SEED}), {config['env_id']} {env}:\n{summary['table']}")
