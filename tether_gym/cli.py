@@ -140,9 +140,10 @@ def add_env_arguments(parser: argparse.ArgumentParser, env_id: str | None = None
     parser.epilog = env_epilog(env_id)
     group = parser.add_argument_group(
         "environment",
-        "--env-kwargs and, for TetherBounce-v0, the named flags (the fields of its EnvConfig) "
-        "set the env's keyword arguments (listed at the end); values are Python literals or "
-        "plain words, validated by the env itself before any work.",
+        "--env-kwargs and the named flags (the fields of TetherBounce-v0's EnvConfig; --task, "
+        "--dynamics, --rho and --stiffness are TetherNavigate's arguments too) set the env's "
+        "keyword arguments, listed at the end; values are Python literals or plain words, "
+        "validated by the env itself before any work.",
     )
     group.add_argument("--env", metavar="ID", help=f"registered env id (default {DEFAULT_ENV_ID})")
     group.add_argument(
