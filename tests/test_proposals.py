@@ -12,7 +12,7 @@ pytest.importorskip("stable_baselines3")
 import torch
 from stable_baselines3.common.torch_layers import CombinedExtractor
 
-from tether_gym.agents.evaluate import PROPOSALS_KEY
+from tether_gym.agents.planned import PROPOSALS_KEY
 from tether_gym.agents.planners import KINDS, GreedyPlanner, observed_states
 from tether_gym.training import proposals, train
 from tether_gym.training.features import NavigateExtractor
