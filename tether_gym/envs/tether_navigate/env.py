@@ -151,7 +151,10 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     maneuver's path in `info` (so hindsight relabeling is exact), as do `compute_terminated`
     and `compute_truncated`. They need each step's `info` (its `path`, `at_rest` and
     `hit_post`): SB3's `HerReplayBuffer` must keep them, `copy_info_dict=True`; without them
-    `compute_reward` raises a `ValueError` that says so.
+    `compute_reward` raises a `ValueError` that says so. A "reach" goal is met anywhere along
+    the path, but the achieved goals a relabeling buffer replays are where maneuvers ended,
+    beside the pegs: `tether_gym.training.her.PathHerReplayBuffer` (the zoo's SAC + HER entry)
+    replays goals along the later maneuvers' paths, with the termination each goal gives.
 
     ## Starting State
 

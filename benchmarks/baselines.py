@@ -1,0 +1,164 @@
+"""Learned baselines over seeds: `tether-train` runs of one configuration, one core each, then
+the policy's success on the held-out test episodes (mean, 95% t interval over seeds, worst
+seed) beside the planners' and random's on the same episodes, the train times and the learning
+curves (success on the evaluation episodes against timesteps).
+
+    python benchmarks/baselines.py --algo sac --env TetherNavigate_PostsReachSparse-v1 \
+        --env-kwargs control:aim --timesteps 200000 [--seeds 5] [--jobs 2] \
+        [--runs-dir runs/baselines] [--out results/baselines] [--overwrite]
+    python benchmarks/baselines.py --plot results/baselines/A.json results/baselines/B.json \
+        --figure results/baselines/curves.png
+
+Each seed is `tether-train --seed k --name <config>_seed<k>` in `--runs-dir` (a finished run
+is read, not retrained; an interrupted one resumes). The summary goes to `--out/<config>.json`
+and its learning curves to `--out/<config>.png`; `--plot` draws several summaries in one figure,
+a band (the seeds' range) and the mean per configuration.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from tether_gym.training.summary import RESULTS, t_interval
+from tether_gym.training.train import EVALUATIONS, TEST_SEED
+
+ONE_CORE = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def config_name(args: argparse.Namespace) -> str:
+    kwargs = "_".join(kv.replace(":", "-") for kv in args.env_kwargs)
+    return "_".join(part for part in (args.algo, args.env, kwargs) if part)
+
+
+def train_command(args: argparse.Namespace, seed: int, run_dir: Path) -> list[str]:
+    command = [str(Path(sys.executable).parent / "tether-train"), "--algo", args.algo,
+               "--env", args.env, "--seed", str(seed), "--timesteps", str(args.timesteps),
+               "--eval-freq", str(args.eval_freq), "--eval-episodes", str(args.eval_episodes),
+               "--runs-dir", str(run_dir.parent), "--name", run_dir.name,
+               "--no-progress-bar"]  # fmt: skip
+    if args.env_kwargs:
+        command += ["--env-kwargs", *args.env_kwargs]
+    if args.hyperparams:
+        command += ["--hyperparams", *args.hyperparams]
+    return command
+
+
+def run_seed(args: argparse.Namespace, seed: int, run_dir: Path) -> None:
+    """Train one seed unless its run finished; an interrupted run resumes."""
+    if (run_dir / RESULTS).is_file():
+        return
+    command = train_command(args, seed, run_dir)
+    if (run_dir / "last").is_dir():
+        command = [command[0], "--resume", str(run_dir), "--no-progress-bar"]
+    run_dir.parent.mkdir(parents=True, exist_ok=True)
+    with (run_dir.parent / f"{run_dir.name}.log").open("w") as log:
+        subprocess.run(command, check=True, stdout=log, stderr=subprocess.STDOUT,
+                       env={**os.environ, **ONE_CORE})  # fmt: skip
+
+
+def read_curve(run_dir: Path) -> list[list[float]]:
+    with (run_dir / EVALUATIONS).open() as file:
+        return [[int(row["timesteps"]), float(row["success_rate"])] for row in csv.DictReader(file)]
+
+
+def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
+    runs = [json.loads((run_dir / RESULTS).read_text()) for run_dir in run_dirs]
+    rates: dict[str, list[float]] = {}
+    for run in runs:
+        for row in run["results"]:
+            rates.setdefault(row["name"], []).append(row["success_rate"])
+    agents = {}
+    for name, values in rates.items():
+        values = np.asarray(values)
+        low, high = t_interval(values)
+        agents[name] = {"mean": float(values.mean()), "ci": [low, high],
+                        "worst": float(values.min()), "per_seed": values.tolist()}  # fmt: skip
+    return {
+        "algo": args.algo, "env_id": args.env, "env_kwargs": args.env_kwargs,
+        "timesteps": args.timesteps, "seeds": list(range(args.seeds)),
+        "test_seed": TEST_SEED, "test_episodes": args.eval_episodes,
+        "command": " ".join(["python benchmarks/baselines.py", *sys.argv[1:]]),
+        "train_seconds": [round(run["train_seconds"], 1) for run in runs],
+        "agents": agents, "curves": [read_curve(run_dir) for run_dir in run_dirs],
+    }  # fmt: skip
+
+
+def plot(summaries: list[dict], path: Path) -> None:
+    """Success on the evaluation episodes against timesteps: per summary the seeds' range as a
+    band and their mean as a line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(figsize=(7, 4.2))
+    for summary in summaries:
+        curves = summary["curves"]
+        n = min(len(curve) for curve in curves)
+        timesteps = np.array([point[0] for point in curves[0][:n]])
+        rates = np.array([[point[1] for point in curve[:n]] for curve in curves])
+        label = f"{summary['algo'].upper()} {summary['env_id']} {' '.join(summary['env_kwargs'])}"
+        line = axes.plot(timesteps, rates.mean(axis=0), label=label)[0]
+        axes.fill_between(timesteps, rates.min(axis=0), rates.max(axis=0), alpha=0.2,
+                          color=line.get_color())  # fmt: skip
+    axes.set_xlabel("timesteps")
+    axes.set_ylabel("success on the evaluation episodes")
+    axes.set_ylim(0, 1)
+    axes.grid(alpha=0.3)
+    axes.legend(fontsize=7)
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--algo", choices=("ppo", "sac"), default="ppo")
+    parser.add_argument("--env", default="TetherNavigate_PostsReach-v1")
+    parser.add_argument("--env-kwargs", nargs="*", default=[], metavar="KEY:VALUE")
+    parser.add_argument("--hyperparams", nargs="*", default=[], metavar="KEY:VALUE")
+    parser.add_argument("--timesteps", type=int, default=1_500_000)
+    parser.add_argument("--eval-freq", type=int, default=100_000)
+    parser.add_argument("--eval-episodes", type=int, default=1000)
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--jobs", type=int, default=2, help="runs at once, one core each")
+    parser.add_argument("--runs-dir", type=Path, default=Path("runs/baselines"))
+    parser.add_argument("--out", type=Path, default=Path("results/baselines"))
+    parser.add_argument("--overwrite", action="store_true")
+    parser.add_argument("--plot", nargs="+", type=Path, help="summaries to draw in one figure")
+    parser.add_argument("--figure", type=Path, help="the --plot figure's file")
+    args = parser.parse_args()
+    if args.plot:
+        if args.figure is None:
+            parser.error("--plot needs --figure")
+        plot([json.loads(path.read_text()) for path in args.plot], args.figure)
+        return
+    name = config_name(args)
+    out = args.out / f"{name}.json"
+    if out.exists() and not args.overwrite:
+        parser.error(f"{out} exists: pass --overwrite to replace it")
+    run_dirs = [args.runs_dir / f"{name}_seed{seed}" for seed in range(args.seeds)]
+    with ThreadPoolExecutor(args.jobs) as pool:
+        list(pool.map(lambda seed: run_seed(args, seed, run_dirs[seed]), range(args.seeds)))
+    summary = summarize(args, run_dirs)
+    args.out.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(summary, indent=1) + "\n")
+    plot([summary], out.with_suffix(".png"))
+    for agent, numbers in summary["agents"].items():
+        low, high = numbers["ci"]
+        print(f"{agent:>24}: {100 * numbers['mean']:5.1f}% [{100 * low:.1f}, {100 * high:.1f}]"
+              f" worst {100 * numbers['worst']:.1f}%")  # fmt: skip
+    print(f"train seconds per seed: {summary['train_seconds']}; wrote {out}")
+
+
+if __name__ == "__main__":
+    main()

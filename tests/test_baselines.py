@@ -1,0 +1,39 @@
+"""benchmarks/baselines.py, the learned baselines over seeds, on a tiny budget: every seed
+trains, the summary holds each agent's mean, interval and worst seed over the runs' test
+episodes and the learning curves, and a finished run is read rather than retrained."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).parent.parent / "benchmarks" / "baselines.py"
+
+
+@pytest.mark.slow
+def test_seeds_train_once_and_are_summarized_with_their_curves(tmp_path):
+    runs, out = tmp_path / "runs", tmp_path / "out"
+    argv = [sys.executable, str(SCRIPT), "--algo", "ppo", "--env", "TetherNavigate_OpenReach-v1",
+            "--env-kwargs", "control:aim", "--timesteps", "1024", "--eval-freq", "512",
+            "--eval-episodes", "10", "--seeds", "2", "--runs-dir", str(runs), "--out", str(out),
+            "--hyperparams", "n_envs:8", "n_steps:64", "batch_size:64", "n_epochs:1"]  # fmt: skip
+    subprocess.run(argv, check=True, capture_output=True)
+    (summary_file,) = out.glob("*.json")
+    summary = json.loads(summary_file.read_text())
+    assert summary["env_id"] == "TetherNavigate_OpenReach-v1" and summary["seeds"] == [0, 1]
+    policy = summary["agents"]["PPO (best)"]
+    assert len(policy["per_seed"]) == 2 and policy["worst"] == min(policy["per_seed"])
+    assert abs(policy["mean"] - sum(policy["per_seed"]) / 2) < 1e-12
+    assert set(summary["agents"]) >= {"greedy planner", "lookahead planner", "random"}
+    assert [[t for t, _ in curve] for curve in summary["curves"]] == [[512, 1024]] * 2
+    assert summary_file.with_suffix(".png").is_file()
+    logs = sorted(runs.glob("*.log"))
+    stamps = [log.stat().st_mtime for log in logs]
+    summary_file.unlink()
+    subprocess.run(argv, check=True, capture_output=True)  # the finished runs are read
+    assert [log.stat().st_mtime for log in logs] == stamps
+    assert json.loads(summary_file.read_text())["agents"] == summary["agents"]
