@@ -71,24 +71,26 @@ def read_curve(run_dir: Path) -> list[list[float]]:
 
 
 def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
+    """The runs' test tables as one: per agent the mean success over seeds (`success_rate`),
+    its 95% t interval (`success_ci`), the worst seed and each seed's; and the curves."""
     runs = [json.loads((run_dir / RESULTS).read_text()) for run_dir in run_dirs]
     rates: dict[str, list[float]] = {}
     for run in runs:
         for row in run["results"]:
             rates.setdefault(row["name"], []).append(row["success_rate"])
-    agents = {}
+    results = []
     for name, values in rates.items():
         values = np.asarray(values)
-        low, high = t_interval(values)
-        agents[name] = {"mean": float(values.mean()), "ci": [low, high],
-                        "worst": float(values.min()), "per_seed": values.tolist()}  # fmt: skip
+        results.append({"name": name, "episodes": args.eval_episodes,
+                        "success_rate": float(values.mean()),
+                        "success_ci": list(t_interval(values)), "worst": float(values.min()),
+                        "per_seed": values.tolist()})  # fmt: skip
     return {
-        "algo": args.algo, "env_id": args.env, "env_kwargs": args.env_kwargs,
-        "timesteps": args.timesteps, "seeds": list(range(args.seeds)),
-        "test_seed": TEST_SEED, "test_episodes": args.eval_episodes,
+        "algo": args.algo, "env_id": args.env, "env_kwargs": runs[0]["env_kwargs"],
+        "timesteps": args.timesteps, "seeds": list(range(args.seeds)), "test_seed": TEST_SEED,
         "command": " ".join(["python benchmarks/baselines.py", *sys.argv[1:]]),
         "train_seconds": [round(run["train_seconds"], 1) for run in runs],
-        "agents": agents, "curves": [read_curve(run_dir) for run_dir in run_dirs],
+        "results": results, "curves": [read_curve(run_dir) for run_dir in run_dirs],
     }  # fmt: skip
 
 
@@ -106,7 +108,8 @@ def plot(summaries: list[dict], path: Path) -> None:
         n = min(len(curve) for curve in curves)
         timesteps = np.array([point[0] for point in curves[0][:n]])
         rates = np.array([[point[1] for point in curve[:n]] for curve in curves])
-        label = f"{summary['algo'].upper()} {summary['env_id']} {' '.join(summary['env_kwargs'])}"
+        kwargs = " ".join(f"{k}:{v}" for k, v in summary["env_kwargs"].items())
+        label = f"{summary['algo'].upper()} {summary['env_id']} {kwargs}"
         line = axes.plot(timesteps, rates.mean(axis=0), label=label)[0]
         axes.fill_between(timesteps, rates.min(axis=0), rates.max(axis=0), alpha=0.2,
                           color=line.get_color())  # fmt: skip
@@ -153,10 +156,10 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(summary, indent=1) + "\n")
     plot([summary], out.with_suffix(".png"))
-    for agent, numbers in summary["agents"].items():
-        low, high = numbers["ci"]
-        print(f"{agent:>24}: {100 * numbers['mean']:5.1f}% [{100 * low:.1f}, {100 * high:.1f}]"
-              f" worst {100 * numbers['worst']:.1f}%")  # fmt: skip
+    for row in summary["results"]:
+        low, high = row["success_ci"]
+        print(f"{row['name']:>24}: {100 * row['success_rate']:5.1f}% [{100 * low:.1f}, "
+              f"{100 * high:.1f}] worst {100 * row['worst']:.1f}%")  # fmt: skip
     print(f"train seconds per seed: {summary['train_seconds']}; wrote {out}")
 
 

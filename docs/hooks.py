@@ -183,6 +183,30 @@ def ladder_table(
     return header + "\n".join(lines) + sources_line(sources)
 
 
+def seeds_table(sources: dict[str, str], root: Path = ROOT) -> str:
+    """One row per agent of each summary over seeds (`benchmarks/baselines.py`): the runs'
+    timesteps and median train time, and each agent's mean success on the test episodes over
+    the seeds with its 95% t interval and the worst seed (the planners and random play the same
+    episodes in every run)."""
+    _check_sources(sources)
+    rows = []
+    for pattern in sources:
+        for path in files_of(pattern, root):
+            data = json.loads(path.read_text())
+            minutes = sorted(data["train_seconds"])[len(data["train_seconds"]) // 2] / 60
+            for result in data["results"]:
+                rows.append(
+                    f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | "
+                    f"{result['name']} | {len(data['seeds'])} | {data['timesteps']:,} | "
+                    f"{minutes:.0f} | {percent(result)} | {100 * result['worst']:.1f}% |"
+                )
+    header = (
+        "| env | arguments | agent | seeds | timesteps | train min (median) | "
+        "success, mean [95% CI] | worst seed |\n|---|---|---|---:|---:|---:|---|---:|\n"
+    )
+    return header + "\n".join(rows) + sources_line(sources)
+
+
 # --- command-line help and ids -------------------------------------------------------------
 
 
@@ -237,11 +261,12 @@ def ladder_ids() -> str:
 MACROS: dict[str, Callable[..., str]] = {
     "success_table": success_table,
     "ladder_table": ladder_table,
+    "seeds_table": seeds_table,
     "cli_help": cli_help,
     "ladder_ids": ladder_ids,
 }
 """The placeholders a page may use."""
-RESULTS_MACROS = ("success_table", "ladder_table")
+RESULTS_MACROS = ("success_table", "ladder_table", "seeds_table")
 
 
 def parse_call(text: str) -> tuple[str, list[Any], dict[str, Any]]:

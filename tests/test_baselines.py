@@ -25,10 +25,11 @@ def test_seeds_train_once_and_are_summarized_with_their_curves(tmp_path):
     (summary_file,) = out.glob("*.json")
     summary = json.loads(summary_file.read_text())
     assert summary["env_id"] == "TetherNavigate_OpenReach-v1" and summary["seeds"] == [0, 1]
-    policy = summary["agents"]["PPO (best)"]
+    rows = {row["name"]: row for row in summary["results"]}
+    policy = rows["PPO (best)"]
     assert len(policy["per_seed"]) == 2 and policy["worst"] == min(policy["per_seed"])
-    assert abs(policy["mean"] - sum(policy["per_seed"]) / 2) < 1e-12
-    assert set(summary["agents"]) >= {"greedy planner", "lookahead planner", "random"}
+    assert abs(policy["success_rate"] - sum(policy["per_seed"]) / 2) < 1e-12
+    assert set(rows) >= {"greedy planner", "lookahead planner", "random"}
     assert [[t for t, _ in curve] for curve in summary["curves"]] == [[512, 1024]] * 2
     assert summary_file.with_suffix(".png").is_file()
     logs = sorted(runs.glob("*.log"))
@@ -36,4 +37,4 @@ def test_seeds_train_once_and_are_summarized_with_their_curves(tmp_path):
     summary_file.unlink()
     subprocess.run(argv, check=True, capture_output=True)  # the finished runs are read
     assert [log.stat().st_mtime for log in logs] == stamps
-    assert json.loads(summary_file.read_text())["agents"] == summary["agents"]
+    assert json.loads(summary_file.read_text())["results"] == summary["results"]
