@@ -154,4 +154,5 @@ def test_tether_train_reads_its_packaged_hyperparameters_and_writes_under_cwd(fr
     assert "| PPO (last) |" in run(command, outside).stdout
     model = outside / "runs" / "ppo_mixed_hybrid_seed0" / "last" / "model.zip"
     command = [bin_dir / "tether-evaluate", "--agents", str(model), "--episodes", "20"]
-    assert "| model | 20 |" in run([*command, "--no-progress"], outside).stdout
+    table = run([*command, "--no-progress"], outside).stdout
+    assert "| ppo_mixed_hybrid_seed0 (last) | 20 |" in table  # named by its run
