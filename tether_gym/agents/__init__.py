@@ -1,4 +1,5 @@
-"""Agents for TetherBounce-v0 and their evaluation: the oracles, a random baseline, a harness.
+"""Agents and their evaluation: TetherBounce's oracles, TetherNavigate's planners, a random
+baseline, pretrained policies, the evaluation harness and recording.
 
 Every agent has stable-baselines3's `predict(obs, state=None, episode_start=None,
 deterministic=True) -> (action, state)`, for one observation or a batch.
