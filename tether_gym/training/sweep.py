@@ -113,8 +113,9 @@ SWEEP_KEYS = (
 )  # fmt: skip
 """Top-level keys of a sweep file."""
 SPACE_PREFIXES = ("hyperparams.", "env_kwargs.")
-SPACE_OPTIONS = ("n_envs", "timesteps")
-"""What a search may vary: a hyperparameter, an env argument, or one of these options."""
+SPACE_OPTIONS = ("env_id", "n_envs", "timesteps")
+"""What a search may vary: a hyperparameter, an env argument, or one of these options (the env
+itself: a grid over the ladder's ids)."""
 DISTRIBUTIONS = (
     "uniform", "quniform", "loguniform", "qloguniform", "randint", "qrandint",
     "lograndint", "qlograndint", "randn", "choice",
