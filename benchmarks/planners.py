@@ -45,17 +45,19 @@ from tether_gym.envs.tether_navigate.spaces import observe_all  # noqa: E402
 TASKS = {"reach": "TetherNavigate_PostsReach-v1", "stop": "TetherNavigate_PostsStop-v1"}
 PLANNERS = {"greedy": GreedyPlanner, "lookahead": LookaheadPlanner}
 SETUP = {"control": "setup"}
-RECORD_ENVS = 64
-"""Episodes played side by side while recording decision states."""
+DECISIONS_PER_COPY = 25
+"""Decision states recorded per copy of the vector env: several whole episodes each (at most
+six maneuvers), so that late decisions count as much as first ones."""
 SAME_ACTION = 1e-6
 """Normalized actions this close in every entry are the same maneuver."""
 
 
 def record(env_id: str, n_states: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """`n_states` decision states the numpy greedy planner meets in its episodes of `env_id`
-    (a vector env of `RECORD_ENVS` copies reset with `seed`, resets included): the env's
-    `STATE` records (n,) and the planner's actions (n, 4)."""
-    envs = gym.make_vec(env_id, num_envs=RECORD_ENVS, vectorization_mode="vector_entry_point",
+    (a vector env of n / `DECISIONS_PER_COPY` copies reset with `seed`, resets included): the
+    env's `STATE` records (n,) and the planner's actions (n, 4)."""
+    copies = -(-n_states // DECISIONS_PER_COPY)
+    envs = gym.make_vec(env_id, num_envs=copies, vectorization_mode="vector_entry_point",
                         **SETUP)  # fmt: skip
     planner = GreedyPlanner(SETUP, env_id)
     obs, _ = envs.reset(seed=seed)
