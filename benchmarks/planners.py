@@ -39,7 +39,11 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 
 import tether_gym  # noqa: E402, F401  (registers the ids)
-from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner  # noqa: E402
+from tether_gym.agents.planners import (  # noqa: E402
+    IMPLEMENTATIONS,
+    GreedyPlanner,
+    LookaheadPlanner,
+)
 from tether_gym.envs.tether_navigate.spaces import observe_all  # noqa: E402
 
 TASKS = {"reach": "TetherNavigate_PostsReach-v1", "stop": "TetherNavigate_PostsStop-v1"}
@@ -99,11 +103,8 @@ def decisions_per_second(planner, obs: dict, batch: int, singles: int) -> float:
     return batch / (time.perf_counter() - start)
 
 
-IMPLEMENTATIONS = ("numpy",)
-
-
 def make_planner(name: str, task: str, implementation: str):
-    return PLANNERS[name](SETUP, TASKS[task])
+    return PLANNERS[name](SETUP, TASKS[task], implementation=implementation)
 
 
 def same_actions(a: np.ndarray, b: np.ndarray) -> np.ndarray:

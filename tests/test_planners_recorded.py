@@ -1,6 +1,7 @@
 """The planners on recorded decision states: `tests/data/planner_decisions.npz` holds, per task
 among 3 posts, decision states the greedy planner met in its own episodes (the env's `STATE`
-records) and the actions the numpy planners chose there. Regenerate it when the env's physics
+records) and the actions the numpy planners chose there, which the compiled implementation
+should choose too. Regenerate it when the env's physics
 or the planners' choices change on purpose:
 
     python benchmarks/planners.py --record tests/data/planner_decisions.npz --states 200
@@ -15,7 +16,7 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
-from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner
+from tether_gym.agents.planners import IMPLEMENTATIONS, GreedyPlanner, LookaheadPlanner
 from tether_gym.envs.tether_navigate.spaces import OBS, observe_all
 
 FIXTURE = Path(__file__).parent / "data" / "planner_decisions.npz"
@@ -53,10 +54,13 @@ def test_the_recorded_states_cover_whole_episodes(task):
 @pytest.mark.parametrize("task", TASKS)
 @pytest.mark.parametrize(("name", "planner"), [("greedy", GreedyPlanner),
                                                ("lookahead", LookaheadPlanner)])  # fmt: skip
-def test_the_numpy_planners_choose_the_recorded_actions(task, name, planner):
-    """The reference implementation still makes the recorded choices."""
+@pytest.mark.parametrize("implementation", IMPLEMENTATIONS)
+def test_the_planners_choose_the_recorded_actions(task, name, planner, implementation):
+    """The reference implementation still makes the recorded choices, and the compiled one
+    makes them in at least 99% of the states."""
     data = recorded(task)
-    actions = planner(SETUP, TASKS[task]).predict(observations(TASKS[task], data["states"]))[0]
+    agent = planner(SETUP, TASKS[task], implementation=implementation)
+    actions = agent.predict(observations(TASKS[task], data["states"]))[0]
     assert agreement(actions, data[name]) >= 0.99
 
 

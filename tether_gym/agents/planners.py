@@ -11,7 +11,9 @@ the bounce (`GreedyPlanner.candidates`); the planners rank their predicted outco
 - `LookaheadPlanner`: beam search over `depth` maneuvers, each node expanded by the same
   candidates and kernel step: the first maneuver of the best plan.
 
-The state is rebuilt from the observation (`decode_observation`).
+The state is rebuilt from the observation (`decode_observation`). `implementation="compiled"`
+computes the flights, the least-speed bounces and the aiming roots, where a decision spends most
+of its time, in numba (`planner_kernels`); "numpy", the reference, is the default.
 """
 
 from __future__ import annotations
@@ -23,10 +25,18 @@ import gymnasium as gym
 import numpy as np
 from scipy.optimize import elementwise
 
+from tether_gym.agents.planner_kernels import (
+    ALPHA_GRID,
+    GYRATION2,
+    SEGMENTS,
+    aim,
+    aim_roots,
+    flight_segments,
+    least_speed_bounces,
+)
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     FLIGHT_HORIZON,
-    INERTIA_RATIO,
     MAX_ANCHORS,
     MAX_POSTS,
     MAX_SPEED,
@@ -43,17 +53,11 @@ from tether_gym.envs.tether_navigate.spaces import OUT, decode_observation
 from tether_gym.physics import PUCK_STATE, free_flight, time_to_wall, wall_bounce, wrap_angle
 from tether_gym.tasks.navigate import GOAL_RADIUS, STOP, TASKS
 
-SEGMENTS = 3
-"""Flight segments searched for a tautening: the straight flight and after the next two walls."""
 AIM_RESTITUTIONS = np.array([1.0, 0.6])
 """Brakes of the bounces aimed at the goal (each its own tautening instants)."""
 ROOT_GRID = 16
 """Samples of a tautening window whose sign changes bracket the aiming roots."""
-ALPHA_GRID = np.linspace(-0.5 * math.pi, 0.5 * math.pi, 181)
-"""Offset angles searched for the bounce that leaves the least speed."""
 LENGTH, BRAKE = ACTION["tether_length"], ACTION["restitution"]
-GYRATION2 = INERTIA_RATIO * PUCK_RADIUS**2
-"""I / m, m^2."""
 LINE_UP_OFFSET = math.sqrt(0.6 * GYRATION2)
 """m: the lateral offset of the peg from the line of a deadspin braked at e = 0.6 (the inline
 tether on the rim: (R sin alpha)^2 = e I / m), mid-range of the brake."""
@@ -64,6 +68,8 @@ FAIL = 1e6
 KINDS = ("aim", "dump", "extreme", "line_up")
 """The kinds of candidate maneuver (`Candidates.kind` indexes this; see `GreedyPlanner`)."""
 AIM, DUMP, EXTREME, LINE_UP = range(len(KINDS))
+IMPLEMENTATIONS = ("numpy", "compiled")
+"""The planners' implementations: numpy (the reference) or with numba's `planner_kernels`."""
 
 
 def observed_states(obs, config: NavigateConfig) -> np.ndarray:
@@ -124,6 +130,11 @@ class Flight:
             elapsed = np.where(hit, FLIGHT_HORIZON, elapsed + duration)
         return cls(*(np.stack(a, 1) for a in (starts, velocities, durations)), blocked)
 
+    @classmethod
+    def compiled(cls, states: np.ndarray, wall_restitution: float) -> Flight:
+        """`of`, computed by `planner_kernels.flight_segments`."""
+        return cls(*flight_segments(states, wall_restitution))
+
     def nearest(self, point: np.ndarray) -> np.ndarray:
         """(n, S): each segment's instant nearest to `point` (n, 2)."""
         v2 = np.sum(self.velocity**2, axis=-1)
@@ -169,23 +180,14 @@ def _entering(start: np.ndarray, velocity: np.ndarray, centres: np.ndarray, radi
         return (-b - np.sqrt(b * b - v2 * (c - radius * radius))) / v2
 
 
-def _aim(t, sx, sy, vx, vy, ax, ay, gx, gy, e):
-    """(sin, cos) of the angle from the velocity after a bounce at instant t of a segment (the
-    tether's line of action through the centre of mass, restitution e: v' = v - (1 + e)
-    (v . u) u) to the direction of (gx, gy)."""
-    px, py = sx + vx * t, sy + vy * t
-    ux, uy = px - ax, py - ay
-    norm = np.hypot(ux, uy)
-    ux, uy = ux / norm, uy / norm
-    dv = (1.0 + e) * (vx * ux + vy * uy)
-    ox, oy = vx - dv * ux, vy - dv * uy
-    dx, dy = gx - px, gy - py
-    scale = np.hypot(ox, oy) * np.hypot(dx, dy)
-    return (ox * dy - oy * dx) / scale, (ox * dx + oy * dy) / scale
-
-
 def _aim_sin(t, *args):
-    return _aim(t, *args)[0]
+    return aim(t, *args)[0]
+
+
+def _find_roots(low: np.ndarray, high: np.ndarray, *args: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(root, success): scipy's batched `find_root` of `aim`'s sin in each [low, high]."""
+    root = elementwise.find_root(_aim_sin, (low, high), args=args)
+    return root.x, root.success
 
 
 def least_speed_bounce(
@@ -304,22 +306,24 @@ def _dump_sites(states: np.ndarray, flight: Flight) -> tuple[np.ndarray, ...]:
     return i, s, j, flight.start[i, s] + flight.velocity[i, s] * t[i, s, j][:, None]
 
 
-def _speed_left(states: np.ndarray, flight: Flight, goal: np.ndarray) -> np.ndarray:
-    """(n,): the least speed a dump on the goal disc leaves on this flight (inf if none)."""
+def _speed_left(states: np.ndarray, flight: Flight, goal: np.ndarray, least_speed) -> np.ndarray:
+    """(n,): the least speed a dump on the goal disc leaves on this flight (inf if none), by
+    `least_speed` (`least_speed_bounce` or its compiled twin)."""
     i, s, j, point = _dump_sites(states, flight)
     near = np.linalg.norm(point - goal[i], axis=-1) < GOAL_RADIUS
     i, s, j, point = i[near], s[near], j[near], point[near]
     left = np.full(len(states), np.inf)
     if len(i):
-        speed = least_speed_bounce(
+        speed = least_speed(
             point, flight.velocity[i, s], states["spin"][i], states["anchors"][i, j]
         )[3]
         np.minimum.at(left, i, speed)
     return left
 
 
-def _aims(states: np.ndarray, flight: Flight) -> Candidates:
-    """Bounces on the centre of mass that leave towards the goal (see `GreedyPlanner`)."""
+def _aims(states: np.ndarray, flight: Flight, roots) -> Candidates:
+    """Bounces on the centre of mass that leave towards the goal (see `GreedyPlanner`), their
+    instants bracketed on a grid and refined by `roots` (`_find_roots` or `aim_roots`)."""
     pegs, present, shortest = _pegs(states)
     t_low, t_high = flight.windows(pegs, shortest)
     valid = (t_low < t_high) & present[:, None]
@@ -331,31 +335,28 @@ def _aims(states: np.ndarray, flight: Flight) -> Candidates:
     goal = _xy(states, "goal_x", "goal_y")[i]
     start, velocity, peg = flight.start[i, s], flight.velocity[i, s], pegs[i, j]
     args = [a[:, None, None] for a in (*start.T, *velocity.T, *peg.T, *goal.T)]
-    sin, cos = _aim(grid, *args, e)
+    sin, cos = aim(grid, *args, e)
     grid = np.broadcast_to(grid, sin.shape)
     bracket = (np.sign(sin[..., :-1]) != np.sign(sin[..., 1:])) & (cos[..., :-1] > 0)
     bracket &= cos[..., 1:] > 0
     k, ei, g = np.nonzero(bracket)
     if not len(k):
         return _none()
-    root = elementwise.find_root(
-        _aim_sin,
-        (grid[k, ei, g], grid[k, ei, g + 1]),
-        args=(*(a[k, 0, 0] for a in args), AIM_RESTITUTIONS[ei]),
+    root, ok = roots(
+        grid[k, ei, g], grid[k, ei, g + 1], *(a[k, 0, 0] for a in args), AIM_RESTITUTIONS[ei]
     )
-    point = start[k] + velocity[k] * root.x[:, None]
+    point = start[k] + velocity[k] * root[:, None]
     length = np.linalg.norm(point - peg[k], axis=-1) - ARM
-    ok = root.success
     n = int(ok.sum())
     return Candidates(
         i[k][ok], j[k][ok], length[ok], np.zeros(n), AIM_RESTITUTIONS[ei][ok], np.full(n, AIM)
     )
 
 
-def _dumps(states: np.ndarray, flight: Flight) -> Candidates:
-    """The least-speed bounces nearest the goal (see `GreedyPlanner`)."""
+def _dumps(states: np.ndarray, flight: Flight, least_speed) -> Candidates:
+    """The least-speed bounces nearest the goal (see `GreedyPlanner`), by `least_speed`."""
     i, s, j, point = _dump_sites(states, flight)
-    alpha, e, length, _ = least_speed_bounce(
+    alpha, e, length, _ = least_speed(
         point, flight.velocity[i, s], states["spin"][i], states["anchors"][i, j]
     )
     ok = np.isfinite(length)
@@ -464,9 +465,23 @@ class GreedyPlanner:
     control = "setup"
     """The control mode the planner acts in: its actions are set-ups, in any env's episodes."""
 
-    def __init__(self, env_kwargs: dict | None = None, env_id: str | None = None):
+    def __init__(
+        self,
+        env_kwargs: dict | None = None,
+        env_id: str | None = None,
+        implementation: str = "numpy",
+    ):
         """`env_kwargs`: the env's arguments, over those its registered `env_id` fixes (the
-        ladder's tasks and tables)."""
+        ladder's tasks and tables); `implementation`: one of `IMPLEMENTATIONS`."""
+        if implementation not in IMPLEMENTATIONS:
+            raise ValueError(
+                f"implementation must be one of {IMPLEMENTATIONS}, got {implementation!r}"
+            )
+        compiled = implementation == "compiled"
+        self.implementation = implementation
+        self.flight = Flight.compiled if compiled else Flight.of
+        self.least_speed = least_speed_bounces if compiled else least_speed_bounce
+        self.aim_roots = aim_roots if compiled else _find_roots
         given = {**(gym.spec(env_id).kwargs if env_id else {}), **(env_kwargs or {})}
         kwargs = {k: v for k, v in given.items() if k in NavigateConfig.names()}
         self.config = NavigateConfig(**{**kwargs, "dynamics": "impulse", "control": "setup"})
@@ -507,11 +522,11 @@ class GreedyPlanner:
         (1 + value), more than any success: tier 1 with the value of its next flight (see the
         class docstring), one more for "stop" without a dump on the goal (the value then its
         distance) and one more if a post ends it."""
-        flight = Flight.of(after, self.config.wall_restitution)
+        flight = self.flight(after, self.config.wall_restitution)
         goal = _xy(after, "goal_x", "goal_y")
         tier, value = 1.0 + flight.blocked, flight.miss(goal)
         if self.stop:
-            left = _speed_left(after, flight, goal)
+            left = _speed_left(after, flight, goal, self.least_speed)
             dumps = np.isfinite(left)
             tier[~dumps] += 1.0
             spin = self.spin_weight * math.sqrt(GYRATION2) * np.abs(after["spin"][dumps])
@@ -524,8 +539,12 @@ class GreedyPlanner:
 
     def candidates(self, states: np.ndarray) -> Candidates:
         """The candidate maneuvers of every state (see the class docstring)."""
-        flight = Flight.of(states, self.config.wall_restitution)
-        parts = [_aims(states, flight), _dumps(states, flight), _extremes(states)]
+        flight = self.flight(states, self.config.wall_restitution)
+        parts = [
+            _aims(states, flight, self.aim_roots),
+            _dumps(states, flight, self.least_speed),
+            _extremes(states),
+        ]
         if self.stop:
             parts.append(_line_ups(states, flight))
         return Candidates.concat(parts)
@@ -552,8 +571,9 @@ class LookaheadPlanner(GreedyPlanner):
         env_id: str | None = None,
         depth: int = 2,
         beam: int = 4,
+        implementation: str = "numpy",
     ):
-        super().__init__(env_kwargs, env_id)
+        super().__init__(env_kwargs, env_id, implementation)
         if not 1 <= depth <= 3 or not 1 <= beam:
             raise ValueError(f"depth must be in [1, 3] and beam >= 1, got {depth}, {beam}")
         self.depth, self.beam = depth, beam
