@@ -134,20 +134,33 @@ def measure_speed(args, states: dict) -> dict:
     return rates
 
 
+def chunked_predict(planner, obs: dict, chunk: int = 256) -> np.ndarray:
+    """The planner's actions for a batch of observations, `chunk` at a time (memory)."""
+    n = len(obs["observation"])
+    return np.concatenate(
+        [planner.predict(rows(obs, slice(a, a + chunk)))[0] for a in range(0, n, chunk)]
+    )
+
+
 def measure_agreement(args) -> dict:
-    """counts[implementation][task]: the states where it picks the numpy greedy action."""
+    """counts[implementation][planner][task]: the recorded decision states where it picks the
+    numpy planner's action, and the largest difference of the actions where it does not."""
     counts: dict = {}
     for task in args.tasks:
-        states, reference = record(TASKS[task], args.agreement, seed=args.seed)
+        states, greedy = record(TASKS[task], args.agreement, seed=args.seed)
         obs = observations(TASKS[task], states)
-        for implementation in args.implementations:
-            if implementation == "numpy":
-                continue
-            actions = make_planner("greedy", task, implementation).predict(obs)[0]
-            same = int(same_actions(actions, reference).sum())
-            counts.setdefault(implementation, {})[task] = {"same": same, "states": len(states)}
-            print(f"  {implementation} greedy {task}: {same} of {len(states)} decision states "
-                  f"pick the numpy action", flush=True)  # fmt: skip
+        for name in args.planners:
+            numpy_planner = make_planner(name, task, "numpy")
+            reference = greedy if name == "greedy" else chunked_predict(numpy_planner, obs)
+            for implementation in args.implementations[1:]:
+                actions = chunked_predict(make_planner(name, task, implementation), obs)
+                same = same_actions(actions, reference)
+                gap = np.abs(actions - reference)[~same].max(initial=0.0)
+                counts.setdefault(implementation, {}).setdefault(name, {})[task] = {
+                    "same": int(same.sum()), "states": len(states), "largest_gap": float(gap)
+                }  # fmt: skip
+                print(f"  {implementation} {name} {task}: {same.sum()} of {len(states)} decision "
+                      f"states pick the numpy action", flush=True)  # fmt: skip
     return counts
 
 
@@ -221,8 +234,7 @@ def main() -> None:
     if args.record:
         write_fixture(args.record, args.states, args.seed)
         return
-    if "numpy" not in args.implementations:
-        args.implementations.insert(0, "numpy")
+    args.implementations = ["numpy", *(i for i in args.implementations if i != "numpy")]
     if args.quick:
         args.repeats, args.singles, args.batches = 2, 4, [1, 16]
     n_states = max(*args.batches, args.singles)

@@ -11,7 +11,12 @@ import pytest
 
 import tether_gym  # noqa: F401
 from tether_gym.agents.evaluate import evaluate, format_table, main, make_agent
-from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner, observed_states
+from tether_gym.agents.planners import (
+    IMPLEMENTATIONS,
+    GreedyPlanner,
+    LookaheadPlanner,
+    observed_states,
+)
 from tether_gym.envs.tether_navigate.config import PUCK_RADIUS
 from tether_gym.envs.tether_navigate.controls.setup import ACTION
 from tether_gym.envs.tether_navigate.spaces import decode_observation
@@ -76,10 +81,11 @@ def test_the_state_is_read_back_from_the_observation():
         )
 
 
+@pytest.mark.parametrize("implementation", IMPLEMENTATIONS)
 @pytest.mark.parametrize("planner", [GreedyPlanner, LookaheadPlanner])
-def test_predict_takes_one_observation_or_a_batch(planner):
+def test_predict_takes_one_observation_or_a_batch(planner, implementation):
     """SB3's signature; the bearing points at a peg (the kernel hooks the nearest bearing)."""
-    agent = planner({"task": "stop", "n_obstacles": 2})
+    agent = planner({"task": "stop", "n_obstacles": 2}, implementation=implementation)
     vector = gym.make_vec("TetherNavigate-v1", num_envs=5, vectorization_mode="vector_entry_point",
                           task="stop", n_obstacles=2)  # fmt: skip
     batch, _ = vector.reset(seed=3)
