@@ -23,7 +23,7 @@ def _episodes(env, seeds, rng):
         done = False
         while not done:
             state = env.unwrapped.state.copy()
-            action = rng.uniform(-1, 1, 4).astype(np.float32)
+            action = rng.uniform(-1, 1, env.action_space.shape).astype(np.float32)
             obs, _, terminated, truncated, info = env.step(action)
             steps.append((state, action, info, obs))
             done = terminated or truncated
@@ -44,13 +44,14 @@ def _replay(env, state, action, goal):
 
 
 @pytest.mark.parametrize(("env_id", "task"), TASKS)
-@pytest.mark.parametrize("control", ["setup", "velocity"])
-def test_a_relabeled_goal_gets_what_a_step_towards_it_returns(env_id, task, control):
+@pytest.mark.parametrize(("control", "coast"), [("setup", False), ("velocity", False),
+                                               ("aim", True)])  # fmt: skip
+def test_a_relabeled_goal_gets_what_a_step_towards_it_returns(env_id, task, control, coast):
     """For transitions of random episodes relabeled with goals the puck reached later in its
     episode (HER's "future") and with random goals, `compute_reward` and `compute_terminated`
     equal the reward and termination of the same maneuver replayed with that goal, and the
     replay's observation is the original's (it holds no goal) but for the maneuvers left."""
-    env = gym.make(env_id, task=task, n_obstacles=2, control=control)
+    env = gym.make(env_id, task=task, n_obstacles=2, control=control, coast=coast)
     rng = np.random.default_rng(0)
     steps = _episodes(env, range(12), rng)
     reached = np.array([info["position"] for _, _, info, _ in steps])

@@ -183,3 +183,49 @@ def test_aim_control_picks_the_peg_that_misses_the_command_least():
                 assert info["command_error"] == chosen["command_error"]
         least.append(chosen["command_error"] <= min(errors) + 1e-6)
     assert np.mean(least) >= 0.75
+
+
+def _drawn_points(path: np.ndarray) -> int:
+    """The points of a padded path before its padding (repeats of the last point)."""
+    last = len(path) - 1
+    while last > 0 and np.array_equal(path[last - 1], path[-1]):
+        last -= 1
+    return last + 1
+
+
+def test_coasting_ends_the_maneuver_at_its_closest_approach_to_the_aim():
+    """With `coast`, the same bounce, then the flight to the aim: a maneuver that meets its
+    command ends on the aim (the achieved goal, the path's last point; within the command's
+    tolerance in the impulse model the inverse solves), so the next decision is taken there."""
+    rng = np.random.default_rng(5)
+    kwargs = {"control": "aim", "dynamics": "impulse"}
+    plain = gym.make("TetherNavigate_OpenReach-v1", **kwargs)
+    coasting = gym.make("TetherNavigate_OpenReach-v1", coast=True, **kwargs)
+    met = 0
+    for seed in range(60):
+        # full speed, aims the puck's centre can reach (the command's miss ignores the walls)
+        action = np.append(rng.uniform(-0.8, 0.8, 2), 1.0).astype(np.float32)
+        aim = np.array([action[0] + 1.0, (action[1] + 1.0) / 2.0])
+        plain.reset(seed=seed)
+        coasting.reset(seed=seed)
+        *_, before = plain.step(action)
+        obs, _, _, _, after = coasting.step(action)
+        released = _drawn_points(before["path"])
+        np.testing.assert_array_equal(after["path"][:released], before["path"][:released])
+        np.testing.assert_array_equal(after["path"][-1], obs["achieved_goal"])
+        if after["command_met"] and not after["hit_post"]:
+            assert np.hypot(*(obs["achieved_goal"] - aim)) < COMMAND_TOLERANCE
+            met += 1
+    assert met >= 10
+
+
+def test_coasting_needs_an_aim_and_the_planners_still_play_set_ups():
+    with pytest.raises(ValueError, match="coast=True needs control"):
+        gym.make("TetherNavigate-v1", coast=True)
+    from tether_gym.agents.evaluate import evaluate
+    from tether_gym.agents.planners import GreedyPlanner
+
+    kwargs = {"control": "aim", "coast": True}
+    planner = GreedyPlanner(kwargs, "TetherNavigate_OpenReach-v1")
+    (result,) = evaluate({"greedy": planner}, kwargs, 20, 7, env_id="TetherNavigate_OpenReach-v1")
+    assert result.episodes == 20 and result.success_rate > 0.5

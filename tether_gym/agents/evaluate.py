@@ -177,8 +177,10 @@ def _run_navigation(
     set-ups) plays in it: the episodes do not depend on the control mode."""
     copies = min(episodes, BATCH)
     quota = episodes // copies + (np.arange(copies) < episodes % copies)
-    if hasattr(agent, "control"):
+    if hasattr(agent, "control"):  # coasting to an aim belongs to the aiming modes
         env_kwargs = {**env_kwargs, "control": agent.control}
+        if agent.control == "setup":
+            env_kwargs.pop("coast", None)
     env = gym.make_vec(
         env_id, num_envs=copies, vectorization_mode="vector_entry_point", **env_kwargs
     )

@@ -484,7 +484,9 @@ class GreedyPlanner:
         self.aim_roots = aim_roots if compiled else _find_roots
         given = {**(gym.spec(env_id).kwargs if env_id else {}), **(env_kwargs or {})}
         kwargs = {k: v for k, v in given.items() if k in NavigateConfig.names()}
-        self.config = NavigateConfig(**{**kwargs, "dynamics": "impulse", "control": "setup"})
+        self.config = NavigateConfig(
+            **{**kwargs, "dynamics": "impulse", "control": "setup", "coast": False}
+        )
         self.kernel = NavigateKernel(self.config)
         self.stop = TASKS.index(self.config.task) == STOP
         # a finite-stiffness tether turns a spinning puck during the contact: unless the env

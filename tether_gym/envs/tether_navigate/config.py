@@ -34,8 +34,15 @@ FLIGHT_HORIZON = 5.0
 """s: a tether not taut by then ends the maneuver unbounced."""
 MAX_WALL_HITS = 8
 """Wall bounces in one flight at most (then the maneuver ends unbounced)."""
-PATH_POINTS = MAX_WALL_HITS + 3
-"""A maneuver's path: its start, the wall hits, the tautening, the slack instant."""
+COAST_STRETCHES = 3
+"""With `coast`, the straight stretches after the release searched for the closest approach to
+the aim: up to the second wall bounce."""
+PATH_TIME = 2.0
+"""s: the path after the bounce that should pass through the aim (`controls.velocity`), and with
+`coast` the flight searched for its closest approach to the aim."""
+PATH_POINTS = MAX_WALL_HITS + 3 + COAST_STRETCHES
+"""A maneuver's path: its start, the wall hits, the tautening, the slack instant, and with
+`coast` the coast's wall hits and its end."""
 DEFAULT_RHO = 850.0
 RHO_LENGTH, RHO_SPEED = 0.8, START_SPEED[1]
 """The stiffness is the one whose rho (eq. 11) is `rho` for the longest tether at the fastest
@@ -65,7 +72,7 @@ PARAMS = np.dtype(
      ("anchors", np.float64, (MAX_ANCHORS, 2)), ("posts", np.float64, (MAX_POSTS, 2)),
      ("n_goals", np.int64), ("goals", np.float64, (GRID[0] * GRID[1], 2)),
      ("n_starts", np.int64), ("starts", np.float64, (GRID[0] * GRID[1], 2)),
-     ("control", np.int64)]
+     ("control", np.int64), ("coast", np.bool_)]
 )  # fmt: skip
 """The configuration as the kernels read it; with a layout, its pegs, posts and the candidate
 cells of the goal and start."""
@@ -142,6 +149,7 @@ class NavigateConfig:
     wheel_rate: float = 20.0
     max_maneuvers: int = 6
     control: str = "setup"
+    coast: bool = False
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -169,6 +177,10 @@ class NavigateConfig:
             raise ValueError(f"reaction_wheel must be True or False, got {self.reaction_wheel!r}")
         if self.control != "setup" and not self.reaction_wheel:
             raise ValueError(f"control={self.control!r} needs reaction_wheel=True (the offset)")
+        if not isinstance(self.coast, (bool, np.bool_)):
+            raise ValueError(f"coast must be True or False, got {self.coast!r}")
+        if self.coast and self.control == "setup":
+            raise ValueError("coast=True needs control='velocity' or 'aim' (it coasts to the aim)")
         set_(self, "wheel_rate", check_float("wheel_rate", self.wheel_rate, 0.0, 1e4))
         if self.layout is not None and not isinstance(self.layout, str):
             raise ValueError(f"layout must be a text map (str) or None, got {self.layout!r}")
@@ -185,7 +197,7 @@ class NavigateConfig:
         p["n_anchors"], p["n_posts"] = self.n_anchors, self.n_obstacles
         p["wall_restitution"], p["stiffness"] = self.wall_restitution, self.stiffness
         p["reaction_wheel"], p["wheel_rate"] = self.reaction_wheel, self.wheel_rate
-        p["max_maneuvers"] = self.max_maneuvers
+        p["max_maneuvers"], p["coast"] = self.max_maneuvers, self.coast
         if self.layout is not None:
             layout = Layout.parse(self.layout)
             p["layout"] = True

@@ -199,6 +199,9 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     | `wheel_rate`       | `20.0`     | rad/s, the wheel's turn rate relative to the free spin   |
     | `max_maneuvers`    | `6`        | maneuvers per episode                                    |
     | `control`          | `"setup"`  | `"setup"`, `"velocity"` or `"aim"` (see Action Space)    |
+    | `coast`            | `False`    | with `"velocity"` or `"aim"`: after the bounce the puck  |
+    |                    |            | coasts to its closest approach to the aim (within 2 s,   |
+    |                    |            | up to the second wall bounce) before the maneuver ends   |
     | `render_mode`      | `None`     | `"rgb_array"`, `"rgb_array_list"` or `"human"`           |
 
     Bad arguments raise `ValueError` naming the argument.
@@ -243,11 +246,12 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
         wheel_rate: float = 20.0,
         max_maneuvers: int = 6,
         control: str = "setup",
+        coast: bool = False,
         render_mode: str | None = None,
     ):
         self.config = NavigateConfig(
             task, reward_type, dynamics, rho, stiffness, n_anchors, n_obstacles, layout,
-            wall_restitution, reaction_wheel, wheel_rate, max_maneuvers, control,
+            wall_restitution, reaction_wheel, wheel_rate, max_maneuvers, control, coast,
         )  # fmt: skip
         super().__init__(NavigateKernel(self.config), render_mode)
 

@@ -22,13 +22,16 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from tether_gym.envs.tether_navigate.config import (
     ARM,
+    COAST_STRETCHES,
     FLIGHT_HORIZON,
     IMPULSE,
     INERTIA_RATIO,
     MAX_WALL_HITS,
+    PATH_TIME,
     POST_RADIUS,
     PUCK_MASS,
     PUCK_RADIUS,
@@ -273,3 +276,34 @@ def _offset_angle(puck, ax, ay):
     rx, ry = ARM * math.cos(puck.angle), ARM * math.sin(puck.angle)
     ux, uy = puck.x + rx - ax, puck.y + ry - ay
     return math.atan2(ux * -ry - uy * -rx, ux * -rx + uy * -ry)
+
+
+@numba.njit(cache=True)
+def coast(puck, s, p, gx, gy, out, n):
+    """Free flight from the release (`puck`) to the closest approach to the aim (gx, gy) within
+    `PATH_TIME` and `COAST_STRETCHES` straight stretches, bouncing off walls, ended by a post:
+    (the puck there, whether it hit a post, the path's next point), the wall hits and the end
+    appended to the path in `out` from point `n`."""
+    starts = np.empty((COAST_STRETCHES, 6))
+    nearest, best, at, hit = math.inf, 0, 0.0, False
+    elapsed = 0.0
+    for k in range(COAST_STRETCHES):
+        for j in range(6):
+            starts[k, j] = puck[j]
+        t_end, t_wall, wall, t_post = stretch_end(puck, s, elapsed)
+        t_end = min(t_end, PATH_TIME - elapsed)
+        v2 = puck.vx * puck.vx + puck.vy * puck.vy
+        t = (gx - puck.x) * puck.vx + (gy - puck.y) * puck.vy
+        t = min(max(t / v2, 0.0), t_end) if v2 > 0.0 else 0.0
+        d = math.hypot(puck.x + puck.vx * t - gx, puck.y + puck.vy * t - gy)
+        if d < nearest:
+            nearest, best, at, hit = d, k, t, t_post <= t_end and t == t_end
+        if t_post <= t_end or t_wall >= PATH_TIME - elapsed:
+            break
+        puck = wall_bounce_row(free_flight_row(puck, t_wall), wall, p.wall_restitution)
+        elapsed += t_wall
+    for k in range(1, best + 1):  # the wall hits on the way
+        n = path_point(out, n, starts[k, 0], starts[k, 1])
+    row = starts[best]
+    end = free_flight_row(PuckState(row[0], row[1], row[2], row[3], row[4], row[5]), at)
+    return end, hit, path_point(out, n, end.x, end.y)

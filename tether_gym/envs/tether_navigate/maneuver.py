@@ -17,7 +17,7 @@ from tether_gym.envs.tether_navigate.config import (
     PUCK_MASS,
     PUCK_RADIUS,
 )
-from tether_gym.envs.tether_navigate.flight import fly, path_point
+from tether_gym.envs.tether_navigate.flight import coast, fly, path_point
 from tether_gym.envs.tether_navigate.spaces import OUT
 from tether_gym.physics.geometry import fold_angle
 from tether_gym.physics.hybrid import damping_ratio, hybrid_contact_row
@@ -26,10 +26,11 @@ from tether_gym.tasks import navigate as task
 
 
 @numba.njit(cache=True, inline="always")
-def maneuver(s, p, anchor, length, alpha, e, out):
+def maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out):
     """Play the set-up (peg `anchor`, tether `length` in m, offset angle `alpha` to meet at
     tautening, restitution `e`) from episode state `s`, advancing it, into outcome row
-    `out`."""
+    `out`; with `p.coast`, the puck then coasts to its closest approach to the aim (aim_x,
+    aim_y) before the maneuver ends."""
     ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
     reach = math.hypot(s.x + ARM * math.cos(s.angle) - ax, s.y + ARM * math.sin(s.angle) - ay)
     length = max(length, reach)  # a tether cannot start stretched
@@ -52,6 +53,8 @@ def maneuver(s, p, anchor, length, alpha, e, out):
                 p.stiffness, damping_ratio(e),
             )  # fmt: skip
         n = path_point(out, n, puck.x, puck.y)
+        if p.coast and not hit_post and math.hypot(puck.vx, puck.vy) >= task.REST_SPEED:
+            puck, hit_post, n = coast(puck, s, p, aim_x, aim_y, out, n)
     for m in range(n, PATH_POINTS):  # pad with the last point
         path_point(out, m, puck.x, puck.y)
     s.x, s.y, s.vx, s.vy, s.angle, s.spin = puck

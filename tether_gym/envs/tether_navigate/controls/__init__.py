@@ -8,6 +8,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numba
 
 from tether_gym.envs.tether_navigate.config import CONTROLS, SETUP
@@ -24,10 +26,11 @@ def play(action, s, p, out):
     """One maneuver of episode `s` from a normalized action in the configured control mode."""
     if p.control == SETUP:
         anchor, length, alpha, e = setup.decode(action, s)
+        aim_x = aim_y = math.nan
         out[OUT.command_met], out[OUT.command_error] = 1.0, 0.0
     else:
-        anchor, length, alpha, e = velocity.solve(action, s, p, out)
-    maneuver(s, p, anchor, length, alpha, e, out)
+        anchor, length, alpha, e, aim_x, aim_y = velocity.solve(action, s, p, out)
+    maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out)
 
 
 __all__ = ["ACTIONS", "CONTROLS", "play"]

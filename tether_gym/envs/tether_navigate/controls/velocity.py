@@ -42,6 +42,7 @@ from tether_gym.envs.tether_navigate.config import (
     ARM,
     FLIGHT_HORIZON,
     INERTIA_RATIO,
+    PATH_TIME,
     PUCK_RADIUS,
     TABLE_HEIGHT,
     TABLE_WIDTH,
@@ -76,8 +77,6 @@ COMMAND_TIME = 1.0
 """s: a stop's speed error weighs as the aim missed by the distance it covers in this time."""
 AIM_TIME = 0.05
 """s: the same at full speed, where the aim matters most (`speed_weight`)."""
-PATH_TIME = 2.0
-"""s: the path after the bounce that should pass through the aim."""
 COMMAND_TOLERANCE = 1e-3
 """m: a command is met when the set-up found misses it by less."""
 ARM_WEIGHT = 0.01
@@ -371,7 +370,7 @@ def solve(action, s, p, out):
     command (`ACTION`; `AIM_ACTION` with `p.control` "aim": every peg searched, the two best
     on the grid refined) from episode state `s`, the tautening after the flight's closest
     approach to the aim where the flight allows one; writes `command_met` and
-    `command_error` into `out`."""
+    `command_error` into `out`; and the aim (m)."""
     pick = p.control == VELOCITY
     gx, gy, fraction = _command(action, 1 if pick else 0)
     flight = _flight(s, p)
@@ -390,7 +389,7 @@ def solve(action, s, p, out):
                 second, runner = j, other
     if found[0] == math.inf:  # no tautening on the stretches searched: the longest tether
         out[OUT.command_met], out[OUT.command_error] = 0.0, math.inf
-        return anchor, LENGTH_HIGH, 0.0, BRAKE_HIGH
+        return anchor, LENGTH_HIGH, 0.0, BRAKE_HIGH, gx, gy
     best = _refine(s, anchor, found, gx, gy, fraction)
     if second != anchor and runner[0] < math.inf:
         other = _refine(s, second, runner, gx, gy, fraction)
@@ -398,4 +397,4 @@ def solve(action, s, p, out):
             anchor, best = second, other
     _, miss, length, arm, e, turns = best
     out[OUT.command_met], out[OUT.command_error] = turns and miss < COMMAND_TOLERANCE, miss
-    return anchor, length, math.asin(arm / ARM), e
+    return anchor, length, math.asin(arm / ARM), e, gx, gy
