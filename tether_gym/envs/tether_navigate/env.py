@@ -101,7 +101,10 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     0.05 s at full speed: slow commands are about the speed, fast ones about the aim), the
     offset angles that the reaction wheel meets first. `info["command_met"]` says whether it
     meets the command, `info["command_error"]` (m) by how much it misses. The configured
-    dynamics then play that set-up like any other.
+    dynamics then play that set-up like any other. With `coast=True` the maneuver goes on
+    after the release: the puck coasts (walls bounce it, a post ends it) to its closest
+    approach to the aim within those 2 s, so a met command ends on the aim: the achieved goal
+    is the commanded point, and the next decision is taken there (waypoint navigation).
 
     The reaction wheel turns the body relative to its free spin, at a constant rate of at most
     `wheel_rate` from the decision, and stops at tautening, so the spin at tautening is the free
@@ -223,9 +226,9 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
 
     * v1: `observation` no longer holds the goal relative to the puck (it holds the puck's
       position): hindsight relabeling leaves it valid; at rest is an absolute speed
-      (0.02 m/s), not 2% of an unobserved start speed; `control="velocity"` and `"aim"`;
-      `compute_reward` refuses an `info` without the maneuver's path; `start_spin` reset
-      option; the difficulty ladder's ids.
+      (0.02 m/s), not 2% of an unobserved start speed; `control="velocity"` and `"aim"`,
+      and `coast`; `compute_reward` refuses an `info` without the maneuver's path;
+      `start_spin` reset option; the difficulty ladder's ids.
     * v0: initial version.
     """
 
