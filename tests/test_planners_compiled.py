@@ -1,15 +1,25 @@
 """The planners' compiled parts (`implementation="compiled"`, `planner_kernels`) against the
-numpy reference: the same flights, least-speed bounces and aiming roots on random inputs (their
-maneuvers on recorded decision states: `test_planners_recorded`)."""
+numpy reference: the same flights, least-speed bounces and aiming roots on random inputs, the
+same costs of the maneuvers from recorded decision states (their choices:
+`test_planners_recorded`)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_planners_recorded import SETUP, TASKS, observations, recorded
 
 from tether_gym.agents import planner_kernels
-from tether_gym.agents.planners import Flight, GreedyPlanner, _find_roots, least_speed_bounce
+from tether_gym.agents.planners import (
+    Flight,
+    GreedyPlanner,
+    LookaheadPlanner,
+    _find_roots,
+    least_speed_bounce,
+    observed_states,
+)
 from tether_gym.envs.tether_navigate.config import STATE
+from tether_gym.envs.tether_navigate.spaces import OUT
 
 ROWS = [7, 2 * planner_kernels.PARALLEL_ROWS]
 """A small batch and one large enough to run across threads where there are several."""
@@ -72,6 +82,29 @@ def test_the_compiled_aiming_roots_are_scipy_s(m):
     compiled, success = planner_kernels.aim_roots(*bracket)
     assert np.all(success == found)
     np.testing.assert_allclose(compiled[found], reference[found], rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("task", TASKS)
+@pytest.mark.parametrize("planner", [GreedyPlanner, LookaheadPlanner])
+def test_the_compiled_costs_are_numpy_s(task, planner):
+    """On every candidate maneuver of recorded decision states, at depths 0 and 1."""
+    numpy_planner = planner(SETUP, TASKS[task])
+    compiled = planner(SETUP, TASKS[task], implementation="compiled")
+    states = observed_states(
+        observations(TASKS[task], recorded(task)["states"][:60]), numpy_planner.config
+    )
+    candidates = numpy_planner.candidates(states)
+    before = states[candidates.rows]
+    after, _, out = numpy_planner.kernel.step(before, candidates.actions(states))
+    success = out[:, OUT.is_success] != 0
+    ended = (out[:, OUT.terminated] != 0) | (out[:, OUT.truncated] != 0)
+    assert success.any() and (ended & ~success).any() and (~ended).any()
+    for depth in (0, 1):
+        np.testing.assert_allclose(
+            compiled.costs(before, after, success, ended, depth),
+            numpy_planner.costs(before, after, success, ended, depth),
+            rtol=1e-12,
+        )
 
 
 def test_an_unknown_implementation_is_refused():

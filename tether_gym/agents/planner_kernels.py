@@ -21,6 +21,7 @@ from tether_gym.envs.tether_navigate.config import (
     ARM,
     FLIGHT_HORIZON,
     INERTIA_RATIO,
+    MAX_SPEED,
     POST_RADIUS,
     PUCK_RADIUS,
     TABLE_HEIGHT,
@@ -31,6 +32,7 @@ from tether_gym.envs.tether_navigate.controls.velocity import _taut
 from tether_gym.physics.events import free_flight_row, time_to_wall_row, wall_bounce_row
 from tether_gym.physics.jit import choose_threading_layer, serial_and_parallel
 from tether_gym.physics.state import PuckState
+from tether_gym.tasks.navigate import GOAL_RADIUS
 
 SEGMENTS = 3
 """Flight segments searched for a tautening: the straight flight and after the next two walls."""
@@ -45,28 +47,36 @@ GYRATION2 = INERTIA_RATIO * PUCK_RADIUS**2
 """I / m, m^2."""
 POST_REACH = POST_RADIUS + PUCK_RADIUS
 """m: a puck's centre this near a post's touches it."""
+FAIL = 1e6
+"""The cost of an episode that ends without success."""
 
 
 def _flight_rows(states, wall_restitution, start, velocity, duration, blocked):
     """`planners.Flight.of` for `STATE` records (n,), into start, velocity (n, S, 2), duration
     (n, S) and blocked (n,)."""
     for i in prange(states.shape[0]):
-        s = states[i]
-        puck = PuckState(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
-        elapsed, hit_post = 0.0, False
-        for k in range(SEGMENTS):
-            t_wall, wall = time_to_wall_row(puck, TABLE_WIDTH, TABLE_HEIGHT, PUCK_RADIUS)
-            t_post = _first_post(puck, s.posts, s.n_posts)
-            t = min(t_wall, FLIGHT_HORIZON - elapsed)
-            hit = t_post <= t
-            hit_post |= hit
-            t = min(t, t_post)
-            start[i, k, 0], start[i, k, 1] = puck.x, puck.y
-            velocity[i, k, 0], velocity[i, k, 1] = puck.vx, puck.vy
-            duration[i, k] = t
-            puck = wall_bounce_row(free_flight_row(puck, t), wall, wall_restitution)
-            elapsed = FLIGHT_HORIZON if hit else elapsed + t
-        blocked[i] = hit_post
+        blocked[i] = _flight(states[i], wall_restitution, start[i], velocity[i], duration[i])
+
+
+@numba.njit(cache=True, inline="always")
+def _flight(s, wall_restitution, start, velocity, duration):
+    """One state's flight into start, velocity (S, 2) and duration (S,): whether a post ends
+    it."""
+    puck = PuckState(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
+    elapsed, blocked = 0.0, False
+    for k in range(SEGMENTS):
+        t_wall, wall = time_to_wall_row(puck, TABLE_WIDTH, TABLE_HEIGHT, PUCK_RADIUS)
+        t_post = _first_post(puck, s.posts, s.n_posts)
+        t = min(t_wall, FLIGHT_HORIZON - elapsed)
+        hit = t_post <= t
+        blocked |= hit
+        t = min(t, t_post)
+        start[k, 0], start[k, 1] = puck.x, puck.y
+        velocity[k, 0], velocity[k, 1] = puck.vx, puck.vy
+        duration[k] = t
+        puck = wall_bounce_row(free_flight_row(puck, t), wall, wall_restitution)
+        elapsed = FLIGHT_HORIZON if hit else elapsed + t
+    return blocked
 
 
 @numba.njit(cache=True, inline="always")
@@ -91,23 +101,126 @@ def _first_post(puck, posts, n_posts):
 def _least_speed_rows(point, velocity, spin, peg, alpha, brake, length, speed):
     """`planners.least_speed_bounce` for rows (m,) into alpha, brake, length and speed (m,)."""
     for i in prange(point.shape[0]):
-        rx, ry = point[i, 0] - peg[i, 0], point[i, 1] - peg[i, 1]
-        radius, direction = math.hypot(rx, ry), math.atan2(ry, rx)
-        vx, vy, w = velocity[i, 0], velocity[i, 1], spin[i]
-        best, least = 0, math.inf
-        for k in range(ALPHA_GRID.shape[0]):
-            left = _bounce(ALPHA_GRID[k], radius, direction, vx, vy, w)[2]
-            if left < least:
-                best, least = k, left
-        centre = ALPHA_GRID[best]
-        alpha[i], brake[i], length[i], speed[i] = centre, 1.0, math.nan, math.inf
-        first = True
-        for k in range(FINE_GRID.shape[0]):
-            a = min(max(centre + ALPHA_STEP * FINE_GRID[k], ALPHA_GRID[0]), ALPHA_GRID[-1])
-            e, tether, left = _bounce(a, radius, direction, vx, vy, w)
-            if first or left < speed[i]:
-                alpha[i], brake[i], length[i], speed[i] = a, e, tether, left
-                first = False
+        alpha[i], brake[i], length[i], speed[i] = _least_speed(
+            point[i, 0], point[i, 1], velocity[i, 0], velocity[i, 1], spin[i], peg[i, 0], peg[i, 1]
+        )
+
+
+def _cost_rows(before, after, success, ended, depth, planner, cost):
+    """`planners.GreedyPlanner.costs` of maneuvers from `before` to `after` (`STATE` records,
+    (m,)) into cost (m,); `planner`: (planner depth, stop task, spin weight, wall restitution)."""
+    planner_depth, stop, spin_weight, wall_restitution = planner
+    for i in prange(after.shape[0]):
+        b = before[i]
+        energy = b.vx**2 + b.vy**2 + GYRATION2 * b.spin**2
+        dumped = math.sqrt(energy) / MAX_SPEED if stop else 0.0
+        if success[i]:
+            cost[i] = depth + 0.5 * min(dumped, 1.0)
+        elif ended[i]:
+            cost[i] = FAIL
+        else:
+            tier, value = _running(after[i], stop, spin_weight, wall_restitution)
+            cost[i] = planner_depth + tier + value / (1.0 + value)
+
+
+@numba.njit(cache=True, inline="always")
+def _running(s, stop, spin_weight, wall_restitution):
+    """(tier, value) of an episode still running in state `s` (`GreedyPlanner.costs`)."""
+    start, velocity, duration = np.empty((SEGMENTS, 2)), np.empty((SEGMENTS, 2)), np.empty(SEGMENTS)
+    tier = 2.0 if _flight(s, wall_restitution, start, velocity, duration) else 1.0
+    value = math.inf
+    for k in range(SEGMENTS):
+        t = _nearest(start[k], velocity[k], duration[k], s.goal_x, s.goal_y)
+        dx = start[k, 0] + velocity[k, 0] * t - s.goal_x
+        dy = start[k, 1] + velocity[k, 1] * t - s.goal_y
+        value = min(value, math.sqrt(dx * dx + dy * dy))
+    if stop:
+        left = _speed_left(s, start, velocity, duration)
+        if math.isfinite(left):
+            value = left + spin_weight * math.sqrt(GYRATION2) * abs(s.spin)
+        else:
+            tier += 1.0
+    return tier, value
+
+
+@numba.njit(cache=True, inline="always")
+def _nearest(start, velocity, duration, x, y):
+    """`planners.Flight.nearest`: the segment's instant nearest to (x, y)."""
+    v2 = velocity[0] ** 2 + velocity[1] ** 2
+    along = (x - start[0]) * velocity[0] + (y - start[1]) * velocity[1]
+    t = along / v2 if v2 > 0.0 else 0.0
+    return min(max(t, 0.0), duration)
+
+
+@numba.njit(cache=True, inline="always")
+def _speed_left(s, start, velocity, duration):
+    """`planners._speed_left` of one state: the least speed a dump on the goal disc leaves on
+    its flight (inf if none)."""
+    ax = s.x + ARM * math.cos(s.angle)
+    ay = s.y + ARM * math.sin(s.angle)
+    left = math.inf
+    for j in range(s.n_anchors):
+        px, py = s.anchors[j, 0], s.anchors[j, 1]
+        dx, dy = ax - px, ay - py
+        shortest = max(math.sqrt(dx * dx + dy * dy), LENGTH_LOW)
+        for k in range(SEGMENTS):
+            t_low, t_high = _window(start[k], velocity[k], duration[k], px, py, shortest)
+            if not t_low <= t_high:
+                continue
+            t = _nearest(start[k], velocity[k], duration[k], s.goal_x, s.goal_y)
+            t = min(max(t, t_low), t_high)
+            x, y = start[k, 0] + velocity[k, 0] * t, start[k, 1] + velocity[k, 1] * t
+            gx, gy = x - s.goal_x, y - s.goal_y
+            if math.sqrt(gx * gx + gy * gy) < GOAL_RADIUS:
+                speed = _least_speed(x, y, velocity[k, 0], velocity[k, 1], s.spin, px, py)[3]
+                left = min(left, speed)
+    return left
+
+
+@numba.njit(cache=True, inline="always")
+def _window(start, velocity, duration, px, py, low):
+    """`planners.Flight.windows` of one segment and peg (px, py): (t_low, t_high), empty
+    (t_low > t_high) where a tether of length in [low, the longest] never goes taut pulling."""
+    rx, ry = start[0] - px, start[1] - py
+    v2 = velocity[0] * velocity[0] + velocity[1] * velocity[1]
+    b = rx * velocity[0] + ry * velocity[1]
+    c = rx * rx + ry * ry
+    if not v2 > 0.0:
+        return max(0.0, -b), -math.inf
+    t_low = max(0.0, -b / v2)
+    inner = _leaving(b, c, v2, low + ARM)
+    if not math.isnan(inner):
+        t_low = max(t_low, inner)
+    outer = _leaving(b, c, v2, LENGTH_HIGH + ARM)
+    return t_low, (-math.inf if math.isnan(outer) else min(duration, outer))
+
+
+@numba.njit(cache=True, inline="always")
+def _leaving(b, c, v2, radius):
+    """The outward crossing of the circle of `radius` about the peg, NaN if never that close."""
+    discriminant = b * b - v2 * (c - radius * radius)
+    return (math.sqrt(discriminant) - b) / v2 if discriminant >= 0.0 else math.nan
+
+
+@numba.njit(cache=True, inline="always")
+def _least_speed(px, py, vx, vy, spin, ax, ay):
+    """`planners.least_speed_bounce` of one tautening at (px, py) moving at (vx, vy) with
+    `spin`, hooked to the peg (ax, ay): (offset angle, brake, tether length, speed left)."""
+    rx, ry = px - ax, py - ay
+    radius, direction = math.hypot(rx, ry), math.atan2(ry, rx)
+    best, least = 0, math.inf
+    for k in range(ALPHA_GRID.shape[0]):
+        left = _bounce(ALPHA_GRID[k], radius, direction, vx, vy, spin)[2]
+        if left < least:
+            best, least = k, left
+    centre = ALPHA_GRID[best]
+    chosen = (centre, 1.0, math.nan, math.inf)
+    for k in range(FINE_GRID.shape[0]):
+        a = min(max(centre + ALPHA_STEP * FINE_GRID[k], ALPHA_GRID[0]), ALPHA_GRID[-1])
+        e, length, left = _bounce(a, radius, direction, vx, vy, spin)
+        if k == 0 or left < chosen[3]:
+            chosen = (a, e, length, left)
+    return chosen
 
 
 def aim(t, sx, sy, vx, vy, ax, ay, gx, gy, e):
@@ -178,6 +291,7 @@ def _bounce(alpha, radius, direction, vx, vy, spin):
 _flights_serial, _flights_parallel = serial_and_parallel(_flight_rows)
 _least_speeds_serial, _least_speeds_parallel = serial_and_parallel(_least_speed_rows)
 _aim_roots_serial, _aim_roots_parallel = serial_and_parallel(_aim_root_rows)
+_costs_serial, _costs_parallel = serial_and_parallel(_cost_rows)
 PARALLEL_ROWS = 1024
 """Rows from which a batch is split across threads."""
 
@@ -224,3 +338,22 @@ def aim_roots(low: np.ndarray, high: np.ndarray, *args: np.ndarray) -> tuple[np.
     rows = (np.ascontiguousarray(a, dtype=np.float64) for a in (low, high, *args))
     kernel(*rows, root, success)
     return root, success
+
+
+def costs(
+    before: np.ndarray,
+    after: np.ndarray,
+    success: np.ndarray,
+    ended: np.ndarray,
+    depth: int,
+    planner: tuple[int, bool, float, float],
+) -> np.ndarray:
+    """`planners.GreedyPlanner.costs` (m,) of maneuvers from `before` to `after` (`STATE`
+    records (m,)) with their `success` and `ended` flags (m,) at `depth`; `planner`: the
+    planner's (depth, stop task, spin weight, wall restitution)."""
+    m = len(after)
+    cost = np.empty(m)
+    kernel = _costs_parallel if _parallel(m) else _costs_serial
+    planner = (int(planner[0]), bool(planner[1]), float(planner[2]), float(planner[3]))
+    kernel(before, after, success, ended, float(depth), planner, cost)
+    return cost

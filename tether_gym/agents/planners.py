@@ -12,8 +12,8 @@ the bounce (`GreedyPlanner.candidates`); the planners rank their predicted outco
   candidates and kernel step: the first maneuver of the best plan.
 
 The state is rebuilt from the observation (`decode_observation`). `implementation="compiled"`
-computes the flights, the least-speed bounces and the aiming roots, where a decision spends most
-of its time, in numba (`planner_kernels`); "numpy", the reference, is the default.
+computes the flights, the least-speed bounces, the aiming roots and the costs, where a decision
+spends most of its time, in numba (`planner_kernels`); "numpy", the reference, is the default.
 """
 
 from __future__ import annotations
@@ -27,10 +27,12 @@ from scipy.optimize import elementwise
 
 from tether_gym.agents.planner_kernels import (
     ALPHA_GRID,
+    FAIL,
     GYRATION2,
     SEGMENTS,
     aim,
     aim_roots,
+    costs,
     flight_segments,
     least_speed_bounces,
 )
@@ -63,8 +65,6 @@ LINE_UP_OFFSET = math.sqrt(0.6 * GYRATION2)
 tether on the rim: (R sin alpha)^2 = e I / m), mid-range of the brake."""
 LINE_UP_ALPHAS = np.radians([0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90, -90])
 """Offset angles of a line-up bounce, least turn first (a spinning puck dumps worse)."""
-FAIL = 1e6
-"""The cost of an episode that ends without success."""
 KINDS = ("aim", "dump", "extreme", "line_up")
 """The kinds of candidate maneuver (`Candidates.kind` indexes this; see `GreedyPlanner`)."""
 AIM, DUMP, EXTREME, LINE_UP = range(len(KINDS))
@@ -306,15 +306,14 @@ def _dump_sites(states: np.ndarray, flight: Flight) -> tuple[np.ndarray, ...]:
     return i, s, j, flight.start[i, s] + flight.velocity[i, s] * t[i, s, j][:, None]
 
 
-def _speed_left(states: np.ndarray, flight: Flight, goal: np.ndarray, least_speed) -> np.ndarray:
-    """(n,): the least speed a dump on the goal disc leaves on this flight (inf if none), by
-    `least_speed` (`least_speed_bounce` or its compiled twin)."""
+def _speed_left(states: np.ndarray, flight: Flight, goal: np.ndarray) -> np.ndarray:
+    """(n,): the least speed a dump on the goal disc leaves on this flight (inf if none)."""
     i, s, j, point = _dump_sites(states, flight)
     near = np.linalg.norm(point - goal[i], axis=-1) < GOAL_RADIUS
     i, s, j, point = i[near], s[near], j[near], point[near]
     left = np.full(len(states), np.inf)
     if len(i):
-        speed = least_speed(
+        speed = least_speed_bounce(
             point, flight.velocity[i, s], states["spin"][i], states["anchors"][i, j]
         )[3]
         np.minimum.at(left, i, speed)
@@ -524,11 +523,14 @@ class GreedyPlanner:
         (1 + value), more than any success: tier 1 with the value of its next flight (see the
         class docstring), one more for "stop" without a dump on the goal (the value then its
         distance) and one more if a post ends it."""
-        flight = self.flight(after, self.config.wall_restitution)
+        if self.implementation == "compiled":
+            planner = (self.depth, self.stop, self.spin_weight, self.config.wall_restitution)
+            return costs(before, after, success, ended, depth, planner)
+        flight = Flight.of(after, self.config.wall_restitution)
         goal = _xy(after, "goal_x", "goal_y")
         tier, value = 1.0 + flight.blocked, flight.miss(goal)
         if self.stop:
-            left = _speed_left(after, flight, goal, self.least_speed)
+            left = _speed_left(after, flight, goal)
             dumps = np.isfinite(left)
             tier[~dumps] += 1.0
             spin = self.spin_weight * math.sqrt(GYRATION2) * np.abs(after["spin"][dumps])
