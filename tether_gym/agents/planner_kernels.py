@@ -1,9 +1,10 @@
-"""Compiled parts of the navigation planners (`planners`, `implementation="compiled"`): the
-flights a decision reads (`flight_segments`), the bounce that leaves the least speed
-(`least_speed_bounces`) and the roots of the aimed bounces (`aim_roots`), numba loops over rows
-computing what `planners.Flight.of`, `planners.least_speed_bounce` and scipy's `find_root` in
-`planners._aims` compute, in the same order of operations where they can, so that the planners
-pick the same maneuvers.
+"""The navigation planners compiled (`planners`, `implementation="compiled"`): a decision's
+candidate maneuvers (`candidates`, one loop per state) and the costs of their predicted outcomes
+(`costs`, one loop per maneuver), numba row functions computing what the numpy planner computes
+(`planners.Flight`, `least_speed_bounce`, scipy's `find_root` in `_aims`, `_dumps`,
+`_line_ups`, `_extremes`, `GreedyPlanner.costs`) in the same order of operations where they can,
+so that the planners pick the same maneuvers; the prediction between them is the env kernel's
+step, as in the numpy planner.
 
 Each batch runs serially, or across `NUMBA_NUM_THREADS` threads once it holds `PARALLEL_ROWS`
 rows (on the env kernels' threading layer, `physics.jit`).
@@ -21,6 +22,7 @@ from tether_gym.envs.tether_navigate.config import (
     ARM,
     FLIGHT_HORIZON,
     INERTIA_RATIO,
+    MAX_ANCHORS,
     MAX_SPEED,
     POST_RADIUS,
     PUCK_RADIUS,
@@ -49,13 +51,27 @@ POST_REACH = POST_RADIUS + PUCK_RADIUS
 """m: a puck's centre this near a post's touches it."""
 FAIL = 1e6
 """The cost of an episode that ends without success."""
-
-
-def _flight_rows(states, wall_restitution, start, velocity, duration, blocked):
-    """`planners.Flight.of` for `STATE` records (n,), into start, velocity (n, S, 2), duration
-    (n, S) and blocked (n,)."""
-    for i in prange(states.shape[0]):
-        blocked[i] = _flight(states[i], wall_restitution, start[i], velocity[i], duration[i])
+AIM_RESTITUTIONS = np.array([1.0, 0.6])
+"""Brakes of the bounces aimed at the goal (each its own tautening instants)."""
+ROOT_GRID = 16
+"""Samples of a tautening window whose sign changes bracket the aiming roots."""
+ROOT_FRACTIONS = np.linspace(0.0, 1.0, ROOT_GRID)
+LINE_UP_OFFSET = math.sqrt(0.6 * GYRATION2)
+"""m: the lateral offset of the peg from the line of a deadspin braked at e = 0.6 (the inline
+tether on the rim: (R sin alpha)^2 = e I / m), mid-range of the brake."""
+LINE_UP_ALPHAS = np.radians([0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90, -90])
+"""Offset angles of a line-up bounce, least turn first (a spinning puck dumps worse)."""
+EXTREME_ALPHAS = (-0.5 * math.pi, 0.0, 0.5 * math.pi)
+"""Offset angles of the extreme candidates, each with the shortest and the longest tether."""
+KINDS = ("aim", "dump", "extreme", "line_up")
+"""The kinds of candidate maneuver (`planners.Candidates.kind` indexes this)."""
+AIM, DUMP, EXTREME, LINE_UP = range(len(KINDS))
+MAX_CANDIDATES = (
+    SEGMENTS * MAX_ANCHORS * (len(AIM_RESTITUTIONS) * (ROOT_GRID - 1) + 1 + 2 * MAX_ANCHORS)
+    + 2 * len(EXTREME_ALPHAS) * MAX_ANCHORS
+)
+"""The most candidates a state can have: aims, dumps and line-ups per segment and peg, extremes
+per peg."""
 
 
 @numba.njit(cache=True, inline="always")
@@ -98,14 +114,6 @@ def _first_post(puck, posts, n_posts):
     return first
 
 
-def _least_speed_rows(point, velocity, spin, peg, alpha, brake, length, speed):
-    """`planners.least_speed_bounce` for rows (m,) into alpha, brake, length and speed (m,)."""
-    for i in prange(point.shape[0]):
-        alpha[i], brake[i], length[i], speed[i] = _least_speed(
-            point[i, 0], point[i, 1], velocity[i, 0], velocity[i, 1], spin[i], peg[i, 0], peg[i, 1]
-        )
-
-
 def _cost_rows(before, after, success, ended, depth, planner, cost):
     """`planners.GreedyPlanner.costs` of maneuvers from `before` to `after` (`STATE` records,
     (m,)) into cost (m,); `planner`: (planner depth, stop task, spin weight, wall restitution)."""
@@ -121,6 +129,151 @@ def _cost_rows(before, after, success, ended, depth, planner, cost):
         else:
             tier, value = _running(after[i], stop, spin_weight, wall_restitution)
             cost[i] = planner_depth + tier + value / (1.0 + value)
+
+
+def _candidate_rows(states, wall_restitution, stop, count, anchor, length, alpha, brake, kind):
+    """`planners.GreedyPlanner.candidates` of `STATE` records (n,): each state's count (n,) and
+    its candidates in the first `count` slots of anchor, length, alpha, brake and kind
+    (n, `MAX_CANDIDATES`), kind by kind in the numpy planner's order."""
+    for i in prange(states.shape[0]):
+        out = (anchor[i], length[i], alpha[i], brake[i], kind[i])
+        count[i] = _candidates(states[i], wall_restitution, stop, out)
+
+
+@numba.njit(cache=True, inline="always")
+def _candidates(s, wall_restitution, stop, out):
+    start, velocity, duration = np.empty((SEGMENTS, 2)), np.empty((SEGMENTS, 2)), np.empty(SEGMENTS)
+    _flight(s, wall_restitution, start, velocity, duration)
+    shortest = np.empty(s.n_anchors)
+    tx, ty = s.x + ARM * math.cos(s.angle), s.y + ARM * math.sin(s.angle)
+    for j in range(s.n_anchors):
+        dx, dy = tx - s.anchors[j, 0], ty - s.anchors[j, 1]
+        shortest[j] = max(math.sqrt(dx * dx + dy * dy), LENGTH_LOW)
+    t_low, t_high = np.empty((SEGMENTS, s.n_anchors)), np.empty((SEGMENTS, s.n_anchors))
+    for k in range(SEGMENTS):
+        for j in range(s.n_anchors):
+            t_low[k, j], t_high[k, j] = _window(
+                start[k], velocity[k], duration[k], s.anchors[j, 0], s.anchors[j, 1], shortest[j]
+            )
+    n = _aims(s, start, velocity, t_low, t_high, out, 0)
+    n = _dumps(s, start, velocity, duration, t_low, t_high, out, n)
+    for j in range(s.n_anchors):
+        for a in EXTREME_ALPHAS:
+            for tether in (LENGTH_LOW, LENGTH_HIGH):
+                n = _add(out, n, j, tether, a, 1.0, EXTREME)
+    if stop:
+        n = _line_ups(s, start, velocity, duration, shortest, out, n)
+    return n
+
+
+@numba.njit(cache=True, inline="always")
+def _add(out, n, j, length, alpha, brake, kind):
+    """Candidate n (peg j) into `out`; the next free slot."""
+    out[0][n], out[1][n], out[2][n], out[3][n], out[4][n] = j, length, alpha, brake, kind
+    return n + 1
+
+
+@numba.njit(cache=True, inline="always")
+def _sign(x):
+    """numpy's sign: -1, 0 or 1 (NaN for NaN)."""
+    return math.nan if math.isnan(x) else (1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0))
+
+
+@numba.njit(cache=True, inline="always")
+def _aims(s, start, velocity, t_low, t_high, out, n):
+    """`planners._aims`: the roots bracketed on `ROOT_GRID` samples of each window."""
+    for k in range(SEGMENTS):
+        for j in range(s.n_anchors):
+            lo, hi = t_low[k, j], t_high[k, j]
+            if not lo < hi:
+                continue
+            px, py = s.anchors[j, 0], s.anchors[j, 1]
+            for e in AIM_RESTITUTIONS:
+                args = (start[k, 0], start[k, 1], velocity[k, 0], velocity[k, 1], px, py,
+                        s.goal_x, s.goal_y, e)  # fmt: skip
+                t_before, sin_before, cos_before = 0.0, 0.0, 0.0
+                for g in range(ROOT_GRID):
+                    t = lo + (hi - lo) * ROOT_FRACTIONS[g]
+                    sin, cos = _aim(t, *args)
+                    crossed = _sign(sin_before) != _sign(sin)
+                    if g > 0 and crossed and cos_before > 0.0 and cos > 0.0:
+                        root, found = _aim_root(t_before, t, args)
+                        if found:
+                            dx = start[k, 0] + velocity[k, 0] * root - px
+                            dy = start[k, 1] + velocity[k, 1] * root - py
+                            n = _add(out, n, j, math.sqrt(dx * dx + dy * dy) - ARM, 0.0, e, AIM)
+                    t_before, sin_before, cos_before = t, sin, cos
+    return n
+
+
+@numba.njit(cache=True, inline="always")
+def _dumps(s, start, velocity, duration, t_low, t_high, out, n):
+    """`planners._dumps`: the least-speed bounce at each window's instant nearest the goal."""
+    for k in range(SEGMENTS):
+        for j in range(s.n_anchors):
+            if not t_low[k, j] <= t_high[k, j]:
+                continue
+            t = _nearest(start[k], velocity[k], duration[k], s.goal_x, s.goal_y)
+            t = min(max(t, t_low[k, j]), t_high[k, j])
+            x, y = start[k, 0] + velocity[k, 0] * t, start[k, 1] + velocity[k, 1] * t
+            a, e, tether, _ = _least_speed(
+                x, y, velocity[k, 0], velocity[k, 1], s.spin, s.anchors[j, 0], s.anchors[j, 1]
+            )
+            if math.isfinite(tether):
+                n = _add(out, n, j, tether, a, e, DUMP)
+    return n
+
+
+@numba.njit(cache=True, inline="always")
+def _line_ups(s, start, velocity, duration, shortest, out, n):
+    """`planners._line_ups`: bounces onto the lines through the goal passing each usable peg at
+    +-`LINE_UP_OFFSET`, where each segment crosses them, off the first peg with an offset angle
+    of `LINE_UP_ALPHAS` that makes the turn."""
+    for k in range(SEGMENTS):
+        vx, vy = velocity[k, 0], velocity[k, 1]
+        for line in range(2 * s.n_anchors):
+            j, side = line // 2, (-1.0 if line % 2 == 0 else 1.0)
+            rx, ry = s.goal_x - s.anchors[j, 0], s.goal_y - s.anchors[j, 1]
+            distance = math.sqrt(rx * rx + ry * ry)
+            if not LENGTH_LOW <= distance - ARM <= LENGTH_HIGH:
+                continue
+            turn = math.asin(min(max(side * LINE_UP_OFFSET / distance, -1.0), 1.0))
+            heading = math.atan2(ry, rx) + turn
+            wx, wy = math.cos(heading), math.sin(heading)
+            across = vx * wy - vy * wx
+            if across == 0.0:
+                continue
+            gx, gy = s.goal_x - start[k, 0], s.goal_y - start[k, 1]
+            t = (gx * wy - gy * wx) / across
+            x, y = start[k, 0] + vx * t, start[k, 1] + vy * t
+            behind = (x - s.goal_x) * wx + (y - s.goal_y) * wy < 0.0
+            if not (t >= 0.0 and t <= duration[k] and behind):
+                continue
+            for q in range(s.n_anchors):
+                n = _line_up(s, x, y, vx, vy, wx, wy, q, shortest[q], out, n)
+    return n
+
+
+@numba.njit(cache=True, inline="always")
+def _line_up(s, x, y, vx, vy, wx, wy, q, shortest, out, n):
+    """The line-up off peg q at (x, y) turning (vx, vy) along (wx, wy), if an offset angle of
+    `LINE_UP_ALPHAS` makes it: v' = v - dv u, dv = cross(v, w) / cross(u, w)."""
+    rx, ry = x - s.anchors[q, 0], y - s.anchors[q, 1]
+    radius, direction = math.sqrt(rx * rx + ry * ry), math.atan2(ry, rx)
+    for alpha in LINE_UP_ALPHAS:
+        arm = ARM * math.sin(alpha)
+        length, ux, uy = _taut(radius, direction, arm)
+        pull = vx * ux + vy * uy + s.spin * ARM * math.sin(alpha)
+        turn = ux * wy - uy * wx
+        if turn == 0.0:
+            continue
+        dv = (vx * wy - vy * wx) / turn
+        e = dv * (1.0 + arm**2 / GYRATION2) / pull - 1.0 if pull != 0.0 else math.nan
+        ok = pull > 0.0 and dv > 0.0 and BRAKE_LOW <= e <= BRAKE_HIGH
+        ok = ok and (vx - dv * ux) * wx + (vy - dv * uy) * wy > 0.0
+        if ok and shortest <= length <= LENGTH_HIGH:
+            return _add(out, n, q, length, alpha, e, LINE_UP)
+    return n
 
 
 @numba.njit(cache=True, inline="always")
@@ -245,26 +398,23 @@ TINY, EPS = np.finfo(np.float64).tiny, np.finfo(np.float64).eps
 4 tiny + 4 eps |x|, or |f| <= tiny)."""
 
 
-def _aim_root_rows(low, high, sx, sy, vx, vy, ax, ay, gx, gy, e, root, success):
-    """The instant in each [low, high] where `aim`'s sin changes sign (bisection to scipy's
-    `find_root` precision: the end with the lesser |sin|), and whether it was found (no NaN)."""
-    for i in prange(low.shape[0]):
-        args = (sx[i], sy[i], vx[i], vy[i], ax[i], ay[i], gx[i], gy[i], e[i])
-        lo, hi = low[i], high[i]
-        f_lo, f_hi = _aim(lo, *args)[0], _aim(hi, *args)[0]
-        while abs(hi - lo) >= 4.0 * TINY + 4.0 * EPS * max(abs(lo), abs(hi)):
-            if min(abs(f_lo), abs(f_hi)) <= TINY or math.isnan(f_lo) or math.isnan(f_hi):
-                break
-            mid = lo + 0.5 * (hi - lo)
-            if mid == lo or mid == hi:
-                break
-            f_mid = _aim(mid, *args)[0]
-            if (f_mid < 0.0) == (f_lo < 0.0):
-                lo, f_lo = mid, f_mid
-            else:
-                hi, f_hi = mid, f_mid
-        root[i] = lo if abs(f_lo) <= abs(f_hi) else hi
-        success[i] = not (math.isnan(f_lo) or math.isnan(f_hi))
+@numba.njit(cache=True, inline="always")
+def _aim_root(lo, hi, args):
+    """(root, found) of `aim`'s sin (its `args` after t) bracketed in [lo, hi]."""
+    f_lo, f_hi = _aim(lo, *args)[0], _aim(hi, *args)[0]
+    while abs(hi - lo) >= 4.0 * TINY + 4.0 * EPS * max(abs(lo), abs(hi)):
+        if min(abs(f_lo), abs(f_hi)) <= TINY or math.isnan(f_lo) or math.isnan(f_hi):
+            break
+        mid = lo + 0.5 * (hi - lo)
+        if mid == lo or mid == hi:
+            break
+        f_mid = _aim(mid, *args)[0]
+        if (f_mid < 0.0) == (f_lo < 0.0):
+            lo, f_lo = mid, f_mid
+        else:
+            hi, f_hi = mid, f_mid
+    root = lo if abs(f_lo) <= abs(f_hi) else hi
+    return root, not (math.isnan(f_lo) or math.isnan(f_hi))
 
 
 @numba.njit(cache=True, inline="always")
@@ -288,10 +438,8 @@ def _bounce(alpha, radius, direction, vx, vy, spin):
     return e, length, speed
 
 
-_flights_serial, _flights_parallel = serial_and_parallel(_flight_rows)
-_least_speeds_serial, _least_speeds_parallel = serial_and_parallel(_least_speed_rows)
-_aim_roots_serial, _aim_roots_parallel = serial_and_parallel(_aim_root_rows)
 _costs_serial, _costs_parallel = serial_and_parallel(_cost_rows)
+_candidates_serial, _candidates_parallel = serial_and_parallel(_candidate_rows)
 PARALLEL_ROWS = 1024
 """Rows from which a batch is split across threads."""
 
@@ -302,42 +450,6 @@ def _parallel(rows: int) -> bool:
         return False
     choose_threading_layer()
     return True
-
-
-def flight_segments(states: np.ndarray, wall_restitution: float) -> tuple[np.ndarray, ...]:
-    """`planners.Flight.of`'s fields for `STATE` records (n,): start, velocity (n, S, 2) m and
-    m/s, duration (n, S) s, blocked (n,)."""
-    n = len(states)
-    start, velocity = np.empty((n, SEGMENTS, 2)), np.empty((n, SEGMENTS, 2))
-    duration, blocked = np.empty((n, SEGMENTS)), np.empty(n, np.bool_)
-    kernel = _flights_parallel if _parallel(n) else _flights_serial
-    kernel(states, float(wall_restitution), start, velocity, duration, blocked)
-    return start, velocity, duration, blocked
-
-
-def least_speed_bounces(
-    point: np.ndarray, velocity: np.ndarray, spin: np.ndarray, peg: np.ndarray
-) -> tuple[np.ndarray, ...]:
-    """`planners.least_speed_bounce`: (offset angle, brake, tether length, speed left), each
-    (m,), for tautenings at `point` (m, 2) moving at `velocity` (m, 2) with `spin` (m,) hooked
-    to `peg` (m, 2)."""
-    m = len(point)
-    alpha, brake, length, speed = (np.empty(m) for _ in range(4))
-    kernel = _least_speeds_parallel if _parallel(m) else _least_speeds_serial
-    args = (np.ascontiguousarray(a, dtype=np.float64) for a in (point, velocity, spin, peg))
-    kernel(*args, alpha, brake, length, speed)
-    return alpha, brake, length, speed
-
-
-def aim_roots(low: np.ndarray, high: np.ndarray, *args: np.ndarray) -> tuple[np.ndarray, ...]:
-    """(root, success), each (m,): the instants in [low, high] (m,) where the sin of `aim`
-    (its args, each (m,)) changes sign, as scipy's `find_root` finds them."""
-    m = len(low)
-    root, success = np.empty(m), np.empty(m, np.bool_)
-    kernel = _aim_roots_parallel if _parallel(m) else _aim_roots_serial
-    rows = (np.ascontiguousarray(a, dtype=np.float64) for a in (low, high, *args))
-    kernel(*rows, root, success)
-    return root, success
 
 
 def costs(
@@ -357,3 +469,19 @@ def costs(
     planner = (int(planner[0]), bool(planner[1]), float(planner[2]), float(planner[3]))
     kernel(before, after, success, ended, float(depth), planner, cost)
     return cost
+
+
+def candidates(states: np.ndarray, wall_restitution: float, stop: bool) -> tuple[np.ndarray, ...]:
+    """`planners.GreedyPlanner.candidates` of `STATE` records (n,), in the numpy planner's
+    order (kind by kind, then state by state): (rows, anchor, length, alpha, brake, kind)."""
+    n = len(states)
+    count = np.empty(n, np.int64)
+    anchor, kind = np.empty((n, MAX_CANDIDATES), np.int64), np.empty((n, MAX_CANDIDATES), np.int64)
+    length, alpha, brake = (np.empty((n, MAX_CANDIDATES)) for _ in range(3))
+    kernel = _candidates_parallel if _parallel(n) else _candidates_serial
+    kernel(states, float(wall_restitution), bool(stop), count, anchor, length, alpha, brake, kind)
+    kept = np.arange(MAX_CANDIDATES) < count[:, None]
+    rows = np.repeat(np.arange(n), count)
+    order = np.argsort(kind[kept], kind="stable")
+    return tuple(a[order] for a in (rows, anchor[kept], length[kept], alpha[kept], brake[kept],
+                                    kind[kept]))  # fmt: skip

@@ -12,8 +12,9 @@ the bounce (`GreedyPlanner.candidates`); the planners rank their predicted outco
   candidates and kernel step: the first maneuver of the best plan.
 
 The state is rebuilt from the observation (`decode_observation`). `implementation="compiled"`
-computes the flights, the least-speed bounces, the aiming roots and the costs, where a decision
-spends most of its time, in numba (`planner_kernels`); "numpy", the reference, is the default.
+generates the candidates and computes the costs in numba (`planner_kernels`, one loop per state
+or per maneuver, the same candidates in the same order); "numpy", the reference, is the
+default. Both predict with the same kernel step.
 """
 
 from __future__ import annotations
@@ -25,16 +26,22 @@ import gymnasium as gym
 import numpy as np
 from scipy.optimize import elementwise
 
+from tether_gym.agents import planner_kernels as compiled
 from tether_gym.agents.planner_kernels import (
+    AIM,
+    AIM_RESTITUTIONS,
     ALPHA_GRID,
+    DUMP,
+    EXTREME,
     FAIL,
     GYRATION2,
+    KINDS,  # noqa: F401  (the planners' names for the kinds, as `planned` reads them)
+    LINE_UP,
+    LINE_UP_ALPHAS,
+    LINE_UP_OFFSET,
+    ROOT_GRID,
     SEGMENTS,
     aim,
-    aim_roots,
-    costs,
-    flight_segments,
-    least_speed_bounces,
 )
 from tether_gym.envs.tether_navigate.config import (
     ARM,
@@ -55,19 +62,7 @@ from tether_gym.envs.tether_navigate.spaces import OUT, decode_observation
 from tether_gym.physics import PUCK_STATE, free_flight, time_to_wall, wall_bounce, wrap_angle
 from tether_gym.tasks.navigate import GOAL_RADIUS, STOP, TASKS
 
-AIM_RESTITUTIONS = np.array([1.0, 0.6])
-"""Brakes of the bounces aimed at the goal (each its own tautening instants)."""
-ROOT_GRID = 16
-"""Samples of a tautening window whose sign changes bracket the aiming roots."""
 LENGTH, BRAKE = ACTION["tether_length"], ACTION["restitution"]
-LINE_UP_OFFSET = math.sqrt(0.6 * GYRATION2)
-"""m: the lateral offset of the peg from the line of a deadspin braked at e = 0.6 (the inline
-tether on the rim: (R sin alpha)^2 = e I / m), mid-range of the brake."""
-LINE_UP_ALPHAS = np.radians([0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90, -90])
-"""Offset angles of a line-up bounce, least turn first (a spinning puck dumps worse)."""
-KINDS = ("aim", "dump", "extreme", "line_up")
-"""The kinds of candidate maneuver (`Candidates.kind` indexes this; see `GreedyPlanner`)."""
-AIM, DUMP, EXTREME, LINE_UP = range(len(KINDS))
 IMPLEMENTATIONS = ("numpy", "compiled")
 """The planners' implementations: numpy (the reference) or with numba's `planner_kernels`."""
 
@@ -130,11 +125,6 @@ class Flight:
             elapsed = np.where(hit, FLIGHT_HORIZON, elapsed + duration)
         return cls(*(np.stack(a, 1) for a in (starts, velocities, durations)), blocked)
 
-    @classmethod
-    def compiled(cls, states: np.ndarray, wall_restitution: float) -> Flight:
-        """`of`, computed by `planner_kernels.flight_segments`."""
-        return cls(*flight_segments(states, wall_restitution))
-
     def nearest(self, point: np.ndarray) -> np.ndarray:
         """(n, S): each segment's instant nearest to `point` (n, 2)."""
         v2 = np.sum(self.velocity**2, axis=-1)
@@ -182,12 +172,6 @@ def _entering(start: np.ndarray, velocity: np.ndarray, centres: np.ndarray, radi
 
 def _aim_sin(t, *args):
     return aim(t, *args)[0]
-
-
-def _find_roots(low: np.ndarray, high: np.ndarray, *args: np.ndarray) -> tuple[np.ndarray, ...]:
-    """(root, success): scipy's batched `find_root` of `aim`'s sin in each [low, high]."""
-    root = elementwise.find_root(_aim_sin, (low, high), args=args)
-    return root.x, root.success
 
 
 def least_speed_bounce(
@@ -320,9 +304,8 @@ def _speed_left(states: np.ndarray, flight: Flight, goal: np.ndarray) -> np.ndar
     return left
 
 
-def _aims(states: np.ndarray, flight: Flight, roots) -> Candidates:
-    """Bounces on the centre of mass that leave towards the goal (see `GreedyPlanner`), their
-    instants bracketed on a grid and refined by `roots` (`_find_roots` or `aim_roots`)."""
+def _aims(states: np.ndarray, flight: Flight) -> Candidates:
+    """Bounces on the centre of mass that leave towards the goal (see `GreedyPlanner`)."""
     pegs, present, shortest = _pegs(states)
     t_low, t_high = flight.windows(pegs, shortest)
     valid = (t_low < t_high) & present[:, None]
@@ -341,10 +324,13 @@ def _aims(states: np.ndarray, flight: Flight, roots) -> Candidates:
     k, ei, g = np.nonzero(bracket)
     if not len(k):
         return _none()
-    root, ok = roots(
-        grid[k, ei, g], grid[k, ei, g + 1], *(a[k, 0, 0] for a in args), AIM_RESTITUTIONS[ei]
+    root = elementwise.find_root(
+        _aim_sin,
+        (grid[k, ei, g], grid[k, ei, g + 1]),
+        args=(*(a[k, 0, 0] for a in args), AIM_RESTITUTIONS[ei]),
     )
-    point = start[k] + velocity[k] * root[:, None]
+    ok = root.success
+    point = start[k] + velocity[k] * root.x[:, None]
     length = np.linalg.norm(point - peg[k], axis=-1) - ARM
     n = int(ok.sum())
     return Candidates(
@@ -352,10 +338,10 @@ def _aims(states: np.ndarray, flight: Flight, roots) -> Candidates:
     )
 
 
-def _dumps(states: np.ndarray, flight: Flight, least_speed) -> Candidates:
-    """The least-speed bounces nearest the goal (see `GreedyPlanner`), by `least_speed`."""
+def _dumps(states: np.ndarray, flight: Flight) -> Candidates:
+    """The least-speed bounces nearest the goal (see `GreedyPlanner`)."""
     i, s, j, point = _dump_sites(states, flight)
-    alpha, e, length, _ = least_speed(
+    alpha, e, length, _ = least_speed_bounce(
         point, flight.velocity[i, s], states["spin"][i], states["anchors"][i, j]
     )
     ok = np.isfinite(length)
@@ -381,9 +367,9 @@ def _line_ups(states: np.ndarray, flight: Flight) -> Candidates:
     w_ = w[:, None]
     gap = goal[:, None, None] - start
     across = _cross(velocity, w_)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):  # at rest or parallel: no crossing
         t = _cross(gap, w_) / across
-    before = np.sum((start + velocity * t[..., None] - goal[:, None, None]) * w_, -1) < 0
+        before = np.sum((start + velocity * t[..., None] - goal[:, None, None]) * w_, -1) < 0
     hit = usable[:, None] & (t >= 0) & (t <= flight.duration[..., None]) & before
     i, s, line = np.nonzero(hit)
     point = flight.start[i, s] + flight.velocity[i, s] * t[i, s, line][:, None]
@@ -476,11 +462,7 @@ class GreedyPlanner:
             raise ValueError(
                 f"implementation must be one of {IMPLEMENTATIONS}, got {implementation!r}"
             )
-        compiled = implementation == "compiled"
         self.implementation = implementation
-        self.flight = Flight.compiled if compiled else Flight.of
-        self.least_speed = least_speed_bounces if compiled else least_speed_bounce
-        self.aim_roots = aim_roots if compiled else _find_roots
         given = {**(gym.spec(env_id).kwargs if env_id else {}), **(env_kwargs or {})}
         kwargs = {k: v for k, v in given.items() if k in NavigateConfig.names()}
         self.config = NavigateConfig(
@@ -525,7 +507,7 @@ class GreedyPlanner:
         distance) and one more if a post ends it."""
         if self.implementation == "compiled":
             planner = (self.depth, self.stop, self.spin_weight, self.config.wall_restitution)
-            return costs(before, after, success, ended, depth, planner)
+            return compiled.costs(before, after, success, ended, depth, planner)
         flight = Flight.of(after, self.config.wall_restitution)
         goal = _xy(after, "goal_x", "goal_y")
         tier, value = 1.0 + flight.blocked, flight.miss(goal)
@@ -543,12 +525,10 @@ class GreedyPlanner:
 
     def candidates(self, states: np.ndarray) -> Candidates:
         """The candidate maneuvers of every state (see the class docstring)."""
-        flight = self.flight(states, self.config.wall_restitution)
-        parts = [
-            _aims(states, flight, self.aim_roots),
-            _dumps(states, flight, self.least_speed),
-            _extremes(states),
-        ]
+        if self.implementation == "compiled":
+            return Candidates(*compiled.candidates(states, self.config.wall_restitution, self.stop))
+        flight = Flight.of(states, self.config.wall_restitution)
+        parts = [_aims(states, flight), _dumps(states, flight), _extremes(states)]
         if self.stop:
             parts.append(_line_ups(states, flight))
         return Candidates.concat(parts)
