@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from test_planners_recorded import SETUP, TASKS, observations, recorded
 
+from tether_gym.agents import planner_kernels
 from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner, observed_states
 from tether_gym.envs.tether_navigate.config import STATE
 from tether_gym.envs.tether_navigate.spaces import OUT
@@ -79,6 +80,20 @@ def test_the_compiled_costs_are_numpy_s(task, planner):
             numpy_planner.costs(before, after, success, ended, depth),
             rtol=1e-12,
         )
+
+
+@pytest.mark.parametrize("task", TASKS)
+@pytest.mark.parametrize("source", ["recorded", "random"])
+def test_the_compiled_planner_reads_the_observation_as_numpy_s(task, source):
+    """The same `STATE` records from the env's observations of recorded and random states."""
+    numpy_planner = GreedyPlanner(SETUP, TASKS[task])
+    states = decision_states(source, task, numpy_planner)
+    obs = observations(TASKS[task], states)
+    rows = np.concatenate([obs["observation"], obs["desired_goal"]], axis=-1)
+    got = planner_kernels.observed_states(rows, numpy_planner.config.max_maneuvers)
+    expected = observed_states(obs, numpy_planner.config)
+    for name in STATE.names:
+        np.testing.assert_array_equal(got[name], expected[name])
 
 
 def test_an_unknown_implementation_is_refused():

@@ -26,11 +26,13 @@ from tether_gym.envs.tether_navigate.config import (
     MAX_SPEED,
     POST_RADIUS,
     PUCK_RADIUS,
+    STATE,
     TABLE_HEIGHT,
     TABLE_WIDTH,
 )
 from tether_gym.envs.tether_navigate.controls.setup import ACTION
 from tether_gym.envs.tether_navigate.controls.velocity import _taut
+from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION
 from tether_gym.physics.events import free_flight_row, time_to_wall_row, wall_bounce_row
 from tether_gym.physics.jit import choose_threading_layer, serial_and_parallel
 from tether_gym.physics.state import PuckState
@@ -66,6 +68,7 @@ EXTREME_ALPHAS = (-0.5 * math.pi, 0.0, 0.5 * math.pi)
 KINDS = ("aim", "dump", "extreme", "line_up")
 """The kinds of candidate maneuver (`planners.Candidates.kind` indexes this)."""
 AIM, DUMP, EXTREME, LINE_UP = range(len(KINDS))
+VX_SCALE, VY_SCALE, SPIN_SCALE = (OBSERVATION[name].scale for name in ("vx", "vy", "spin"))
 MAX_CANDIDATES = (
     SEGMENTS * MAX_ANCHORS * (len(AIM_RESTITUTIONS) * (ROOT_GRID - 1) + 1 + 2 * MAX_ANCHORS)
     + 2 * len(EXTREME_ALPHAS) * MAX_ANCHORS
@@ -112,6 +115,33 @@ def _first_post(puck, posts, n_posts):
             if t >= 0.0:
                 first = min(first, t)
     return first
+
+
+def _observed_rows(obs, max_maneuvers, states):
+    """`planners.observed_states` of plain `OBSERVATION` rows (n, 60) into zeroed `STATE`
+    records (n,), but for the angle: the columns read as `decode_observation` reads them."""
+    for i in range(obs.shape[0]):
+        o, s = obs[i], states[i]
+        s.x, s.y = o[OBS.x], o[OBS.y]
+        s.vx, s.vy = o[OBS.vx] / VX_SCALE, o[OBS.vy] / VY_SCALE
+        s.spin = o[OBS.spin] / SPIN_SCALE
+        s.goal_x, s.goal_y = o[OBS.goal_x], o[OBS.goal_y]
+        s.maneuvers_left = np.rint(o[OBS.maneuvers_left] * max_maneuvers)
+        s.n_anchors = _points(o, OBS.anchor0_present, s.x, s.y, s.anchors)
+        s.n_posts = _points(o, OBS.post0_present, s.x, s.y, s.posts)
+
+
+@numba.njit(cache=True, inline="always")
+def _points(o, first, x, y, points):
+    """The points present among the (present, dx, dy) slots from column `first`, relative to
+    (x, y), into `points` (slots in place, the absent ones left zero): how many are present."""
+    n = 0
+    for slot in range(points.shape[0]):
+        c = first + 3 * slot
+        if o[c] > 0.5:
+            points[slot, 0], points[slot, 1] = x + o[c + 1], y + o[c + 2]
+            n += 1
+    return n
 
 
 def _cost_rows(before, after, success, ended, depth, planner, cost):
@@ -438,6 +468,7 @@ def _bounce(alpha, radius, direction, vx, vy, spin):
     return e, length, speed
 
 
+_observed = numba.njit(cache=True)(_observed_rows)
 _costs_serial, _costs_parallel = serial_and_parallel(_cost_rows)
 _candidates_serial, _candidates_parallel = serial_and_parallel(_candidate_rows)
 PARALLEL_ROWS = 1024
@@ -485,3 +516,12 @@ def candidates(states: np.ndarray, wall_restitution: float, stop: bool) -> tuple
     order = np.argsort(kind[kept], kind="stable")
     return tuple(a[order] for a in (rows, anchor[kept], length[kept], alpha[kept], brake[kept],
                                     kind[kept]))  # fmt: skip
+
+
+def observed_states(obs: np.ndarray, max_maneuvers: int) -> np.ndarray:
+    """`planners.observed_states` of plain `OBSERVATION` rows (n, 60)."""
+    obs = np.ascontiguousarray(obs, dtype=np.float64)
+    states = np.zeros(len(obs), STATE)
+    _observed(obs, int(max_maneuvers), states)
+    states["angle"] = np.arctan2(obs[:, OBS.angle_sin], obs[:, OBS.angle_cos])  # numpy's rounding
+    return states

@@ -63,6 +63,8 @@ from tether_gym.physics import PUCK_STATE, free_flight, time_to_wall, wall_bounc
 from tether_gym.tasks.navigate import GOAL_RADIUS, STOP, TASKS
 
 LENGTH, BRAKE = ACTION["tether_length"], ACTION["restitution"]
+OBSERVED_KEYS = ("observation", "desired_goal")
+"""The goal dict's parts that make up an `OBSERVATION` row, in order."""
 IMPLEMENTATIONS = ("numpy", "compiled")
 """The planners' implementations: numpy (the reference) or with numba's `planner_kernels`."""
 
@@ -478,7 +480,11 @@ class GreedyPlanner:
     def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
         """SB3's interface, for one goal-dict observation or a batch (a dict of arrays):
         normalized actions (4,) or (n, 4)."""
-        states = observed_states(obs, self.config)
+        if self.implementation == "compiled":
+            rows = np.concatenate([np.atleast_2d(obs[key]) for key in OBSERVED_KEYS], axis=-1)
+            states = compiled.observed_states(rows, self.config.max_maneuvers)
+        else:
+            states = observed_states(obs, self.config)
         actions = self.plan(states)
         return (actions if np.ndim(obs["observation"]) > 1 else actions[0]), state
 
