@@ -1,9 +1,9 @@
-"""The navigation planners' decisions per second, and their implementations' agreement, in one
-run: greedy and lookahead, reach and stop among 3 posts (the ladder's
+"""The navigation planners' decisions per second, and their implementations' agreement and
+success, in one run: greedy and lookahead, reach and stop among 3 posts (the ladder's
 `TetherNavigate_Posts{Reach,Stop}-v1`, setup control), at batch 1 and a large batch, on one core.
 
     python benchmarks/planners.py [--implementations numpy ...] [--batches 1 256] [--repeats 5]
-        [--agreement 10000] [--out results/planners/decisions.json] [--quick]
+        [--agreement 10000] [--episodes 1000] [--out results/planners/decisions.json] [--quick]
     python benchmarks/planners.py --record tests/data/planner_decisions.npz --states 200
 
 A decision is one `predict` of one observation (SB3's interface, the decoding included), timed on
@@ -12,8 +12,11 @@ decision states the greedy planner meets in its own seeded episodes (`record`), 
 planner decides for `--singles` states one after the other; at a larger batch it decides for all
 of them in one call. Every implementation is measured in the same run, and its ratio to the
 numpy reference printed. `--agreement N` records N decision states per task and counts the
-states where each implementation picks the numpy reference's action. `--record` writes the
-decision states and the numpy planners' actions as a fixture for the tests.
+states where each implementation picks the numpy reference's action (ties between equal costs
+included: the implementations rank candidates in the same order); `--episodes N` plays every
+implementation on the same N held-out episodes per task (`tether-train`'s test seed) and
+reports their success with its Wilson interval. `--record` writes the decision states and the
+numpy planners' actions as a fixture for the tests.
 
 The thread counts default to one (`NUMBA_NUM_THREADS`, `OMP_NUM_THREADS`; set them to measure
 more), fixed before numba is imported.
@@ -39,12 +42,14 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 
 import tether_gym  # noqa: E402, F401  (registers the ids)
+from tether_gym.agents.evaluate import evaluate  # noqa: E402
 from tether_gym.agents.planners import (  # noqa: E402
     IMPLEMENTATIONS,
     GreedyPlanner,
     LookaheadPlanner,
 )
 from tether_gym.envs.tether_navigate.spaces import observe_all  # noqa: E402
+from tether_gym.training.train import TEST_SEED  # noqa: E402
 
 TASKS = {"reach": "TetherNavigate_PostsReach-v1", "stop": "TetherNavigate_PostsStop-v1"}
 PLANNERS = {"greedy": GreedyPlanner, "lookahead": LookaheadPlanner}
@@ -164,6 +169,31 @@ def measure_agreement(args) -> dict:
     return counts
 
 
+def measure_success(args) -> dict:
+    """success[implementation][planner][task]: the success rate, its Wilson interval and the
+    episodes whose outcome differs from the numpy planner's, on `--episodes` held-out episodes
+    (`tether-train`'s test seed), every implementation on the same episodes."""
+    results: dict = {}
+    for task in args.tasks:
+        for name in args.planners:
+            agents = {i: make_planner(name, task, i) for i in args.implementations}
+            outcomes = evaluate(agents, SETUP, args.episodes, seed=TEST_SEED, env_id=TASKS[task])
+            reference = outcomes[0].success
+            for implementation, result in zip(args.implementations, outcomes, strict=True):
+                differ = int(np.sum(result.success != reference))
+                results.setdefault(implementation, {}).setdefault(name, {})[task] = {
+                    "success_rate": result.success_rate,
+                    "success_ci": list(result.success_ci),
+                    "episodes": result.episodes,
+                    "outcomes_differing_from_numpy": differ,
+                }
+                low, high = result.success_ci
+                print(f"  {implementation} {name} {task}: success {100 * result.success_rate:.1f}% "
+                      f"[{100 * low:.1f}, {100 * high:.1f}], {differ} episodes differ from numpy",
+                      flush=True)  # fmt: skip
+    return results
+
+
 def write_fixture(path: Path, n_states: int, seed: int) -> None:
     """The decision states of each task and the numpy planners' actions there."""
     arrays = {}
@@ -226,6 +256,10 @@ def main() -> None:
         "--agreement", type=int, default=0,
         help="decision states per task to compare actions on (0: none)",
     )  # fmt: skip
+    parser.add_argument(
+        "--episodes", type=int, default=0,
+        help="held-out episodes per task to compare success on (0: none)",
+    )  # fmt: skip
     parser.add_argument("--out", type=Path, default=Path("results/planners/decisions.json"))
     parser.add_argument("--record", type=Path, help="write a test fixture here and stop")
     parser.add_argument("--states", type=int, default=200, help="per task, with --record")
@@ -244,6 +278,7 @@ def main() -> None:
           f"{os.environ['NUMBA_NUM_THREADS']}", flush=True)  # fmt: skip
     rates = measure_speed(args, states)
     agreement = measure_agreement(args) if args.agreement else {}
+    success = measure_success(args) if args.episodes else {}
     print_table(rates, args.implementations)
     if args.quick:
         return
@@ -262,6 +297,7 @@ def main() -> None:
         "decisions_per_second": rates,
         "ratio_to_numpy": ratios(rates),
         "agreement": agreement,
+        "success": success,
     }
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(summary, indent=1) + "\n")
