@@ -172,6 +172,7 @@ def _candidate_rows(states, wall_restitution, stop, count, anchor, length, alpha
 
 @numba.njit(cache=True, inline="always")
 def _candidates(s, wall_restitution, stop, out):
+    """One state's candidates into `out` (anchor, length, alpha, brake, kind): how many."""
     start, velocity, duration = np.empty((SEGMENTS, 2)), np.empty((SEGMENTS, 2)), np.empty(SEGMENTS)
     _flight(s, wall_restitution, start, velocity, duration)
     shortest = np.empty(s.n_anchors)
@@ -339,12 +340,11 @@ def _nearest(start, velocity, duration, x, y):
 def _speed_left(s, start, velocity, duration):
     """`planners._speed_left` of one state: the least speed a dump on the goal disc leaves on
     its flight (inf if none)."""
-    ax = s.x + ARM * math.cos(s.angle)
-    ay = s.y + ARM * math.sin(s.angle)
+    tx, ty = s.x + ARM * math.cos(s.angle), s.y + ARM * math.sin(s.angle)
     left = math.inf
     for j in range(s.n_anchors):
         px, py = s.anchors[j, 0], s.anchors[j, 1]
-        dx, dy = ax - px, ay - py
+        dx, dy = tx - px, ty - py
         shortest = max(math.sqrt(dx * dx + dy * dy), LENGTH_LOW)
         for k in range(SEGMENTS):
             t_low, t_high = _window(start[k], velocity[k], duration[k], px, py, shortest)
