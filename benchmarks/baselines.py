@@ -95,29 +95,32 @@ def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
 
 
 def plot(summaries: list[dict], path: Path) -> None:
-    """Success on the evaluation episodes against timesteps: per summary the seeds' range as a
-    band and their mean as a line."""
+    """Success on the evaluation episodes against timesteps, one panel per algorithm: per
+    summary the seeds' range as a band and their mean as a line."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    figure, axes = plt.subplots(figsize=(7, 4.2))
-    for summary in summaries:
-        curves = summary["curves"]
-        n = min(len(curve) for curve in curves)
-        timesteps = np.array([point[0] for point in curves[0][:n]])
-        rates = np.array([[point[1] for point in curve[:n]] for curve in curves])
-        kwargs = " ".join(f"{k}:{v}" for k, v in summary["env_kwargs"].items())
-        label = f"{summary['algo'].upper()} {summary['env_id']} {kwargs}"
-        line = axes.plot(timesteps, rates.mean(axis=0), label=label)[0]
-        axes.fill_between(timesteps, rates.min(axis=0), rates.max(axis=0), alpha=0.2,
-                          color=line.get_color())  # fmt: skip
-    axes.set_xlabel("timesteps")
-    axes.set_ylabel("success on the evaluation episodes")
-    axes.set_ylim(0, 1)
-    axes.grid(alpha=0.3)
-    axes.legend(fontsize=7)
+    algos = sorted({summary["algo"] for summary in summaries})
+    figure, panels = plt.subplots(1, len(algos), figsize=(5.5 * len(algos), 4.2), squeeze=False)
+    for axes, algo in zip(panels[0], algos, strict=True):
+        for summary in (s for s in summaries if s["algo"] == algo):
+            curves = summary["curves"]
+            n = min(len(curve) for curve in curves)
+            timesteps = np.array([point[0] for point in curves[0][:n]])
+            rates = np.array([[point[1] for point in curve[:n]] for curve in curves])
+            kwargs = " ".join(f"{k}:{v}" for k, v in summary["env_kwargs"].items())
+            label = f"{summary['env_id']} {kwargs} ({len(curves)} seeds)"
+            line = axes.plot(timesteps, rates.mean(axis=0), label=label)[0]
+            axes.fill_between(timesteps, rates.min(axis=0), rates.max(axis=0), alpha=0.2,
+                              color=line.get_color())  # fmt: skip
+        axes.set_title(algo.upper())
+        axes.set_xlabel("timesteps")
+        axes.set_ylabel("success on the evaluation episodes")
+        axes.set_ylim(0, 1)
+        axes.grid(alpha=0.3)
+        axes.legend(fontsize=7, loc="lower right")
     figure.tight_layout()
     figure.savefig(path, dpi=120)
     plt.close(figure)
