@@ -9,6 +9,7 @@ import pytest
 from test_planners_recorded import SETUP, TASKS, observations, recorded
 
 from tether_gym.agents import planner_kernels
+from tether_gym.agents.planned import propose
 from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner, observed_states
 from tether_gym.envs.tether_navigate.config import STATE
 from tether_gym.envs.tether_navigate.spaces import OUT
@@ -94,6 +95,18 @@ def test_the_compiled_planner_reads_the_observation_as_numpy_s(task, source):
     expected = observed_states(obs, numpy_planner.config)
     for name in STATE.names:
         np.testing.assert_array_equal(got[name], expected[name])
+
+
+@pytest.mark.parametrize("task", TASKS)
+@pytest.mark.parametrize("depth", [1, 2])
+def test_the_proposals_are_the_same_with_the_compiled_planner(task, depth):
+    """PPO over the proposals sees the same features and plays the same actions."""
+    obs = observations(TASKS[task], recorded(task)["states"][:80])
+    reference = propose(GreedyPlanner(SETUP, TASKS[task]), obs, 4, depth)
+    got = propose(GreedyPlanner(SETUP, TASKS[task], implementation="compiled"), obs, 4, depth)
+    same = np.all(got[1] == reference[1], axis=(1, 2))
+    assert same.mean() >= 0.98
+    np.testing.assert_allclose(got[0][same], reference[0][same], rtol=1e-6, atol=1e-6)
 
 
 def test_an_unknown_implementation_is_refused():
