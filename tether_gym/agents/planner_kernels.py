@@ -6,8 +6,8 @@ candidate maneuvers (`candidates`, one loop per state) and the costs of their pr
 so that the planners pick the same maneuvers; the prediction between them is the env kernel's
 step, as in the numpy planner.
 
-Each batch runs serially, or across `NUMBA_NUM_THREADS` threads once it holds `PARALLEL_ROWS`
-rows (on the env kernels' threading layer, `physics.jit`).
+Each batch runs serially, or across `NUMBA_NUM_THREADS` threads once it is large enough
+(`PARALLEL_STATES`, `PARALLEL_MANEUVERS`; on the env kernels' threading layer, `physics.jit`).
 """
 
 from __future__ import annotations
@@ -471,13 +471,15 @@ def _bounce(alpha, radius, direction, vx, vy, spin):
 _observed = numba.njit(cache=True)(_observed_rows)
 _costs_serial, _costs_parallel = serial_and_parallel(_cost_rows)
 _candidates_serial, _candidates_parallel = serial_and_parallel(_candidate_rows)
-PARALLEL_ROWS = 1024
-"""Rows from which a batch is split across threads."""
+PARALLEL_STATES, PARALLEL_MANEUVERS = 16, 256
+"""The batches split across threads: from this many states for the candidates (a state's
+search costs as much as tens of maneuvers' costs), this many maneuvers for the costs."""
 
 
-def _parallel(rows: int) -> bool:
-    """Whether a batch of `rows` runs across threads (choosing numba's threading layer first)."""
-    if rows < PARALLEL_ROWS or numba.get_num_threads() == 1:
+def _parallel(rows: int, least: int) -> bool:
+    """Whether a batch of `rows` runs across threads, from `least` rows (numba's threading
+    layer chosen first)."""
+    if rows < least or numba.get_num_threads() == 1:
         return False
     choose_threading_layer()
     return True
@@ -496,7 +498,7 @@ def costs(
     planner's (depth, stop task, spin weight, wall restitution)."""
     m = len(after)
     cost = np.empty(m)
-    kernel = _costs_parallel if _parallel(m) else _costs_serial
+    kernel = _costs_parallel if _parallel(m, PARALLEL_MANEUVERS) else _costs_serial
     planner = (int(planner[0]), bool(planner[1]), float(planner[2]), float(planner[3]))
     kernel(before, after, success, ended, float(depth), planner, cost)
     return cost
@@ -509,7 +511,7 @@ def candidates(states: np.ndarray, wall_restitution: float, stop: bool) -> tuple
     count = np.empty(n, np.int64)
     anchor, kind = np.empty((n, MAX_CANDIDATES), np.int64), np.empty((n, MAX_CANDIDATES), np.int64)
     length, alpha, brake = (np.empty((n, MAX_CANDIDATES)) for _ in range(3))
-    kernel = _candidates_parallel if _parallel(n) else _candidates_serial
+    kernel = _candidates_parallel if _parallel(n, PARALLEL_STATES) else _candidates_serial
     kernel(states, float(wall_restitution), bool(stop), count, anchor, length, alpha, brake, kind)
     kept = np.arange(MAX_CANDIDATES) < count[:, None]
     rows = np.repeat(np.arange(n), count)
