@@ -289,3 +289,23 @@ def test_gif_command_records_tether_navigate(tmp_path, agent):
     record.main([*args, "--out", str(gif), "--size", "96", "--fps", "10"])
     with Image.open(gif) as image:
         assert image.size == (96, 60) and image.n_frames > 5
+
+
+def test_a_coast_to_the_aim_is_drawn_after_the_release():
+    """With `coast`, after the taut tether the puck glides, no tether drawn, from the release
+    to its closest approach to the aim, where the maneuver's last frame holds it."""
+    env = gym.make("TetherNavigate_OpenReach-v1", control="aim", coast=True,
+                   render_mode="rgb_array_list")  # fmt: skip
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(np.array([0.0, 0.0, 1.0], np.float32))  # the table's centre
+    frames = env.render()
+    anchor = info["anchor"]
+    taut = np.flatnonzero([taut_tether(f, anchor) > 50 for f in frames])
+    assert info["bounced"] and len(taut) == navigate_rendering.CONTACT_FRAMES
+    coasting = frames[taut[-1] + 1 :]
+    centres = np.array([table_point(centroid(f, drawing.PUCK)) for f in coasting])
+    np.testing.assert_allclose(centres[-1], info["position"], atol=1.5 / PER_METRE)
+    steps = np.diff(np.hypot(*(centres - centres[0]).T))
+    assert (steps > 1.0 / PER_METRE).sum() > 3 and np.all(steps > -1.0 / PER_METRE)  # then held
+    assert not any(taut_tether(f, anchor) for f in coasting)
+    env.close()

@@ -10,6 +10,8 @@ with its orientation mark and attachment point. A reset is one frame: the puck a
   than about `FLIGHT_PLAY` seconds (the factor is on screen);
 - contact: the tether taut (red) for `CONTACT_FRAMES` frames (slowed down: a contact lasts
   milliseconds), the puck moving from the tautening point to the slack instant's;
+- coast (with `coast`): the tether gone, the puck glides on along the path to its closest
+  approach to the aim, uniformly at its final speed;
 - release: the tether gone, the maneuver's outcome held for `HOLD` seconds.
 
 What is exact and what is approximate. The path (`info["path"]`) has the flight's corners
@@ -196,6 +198,15 @@ def _result(state: np.void, outcome: np.ndarray) -> Lines:
     return lines
 
 
+def _coast_path(path: np.ndarray, release: int) -> np.ndarray:
+    """The path from the slack instant (point `release`) on, its padding dropped: the release
+    alone unless the puck coasted to an aim."""
+    end = len(path) - 1
+    while end > release and np.array_equal(path[end - 1], path[-1]):
+        end -= 1
+    return path[release : end + 1]
+
+
 def flight_times(
     path: np.ndarray, velocity: tuple[float, float], flight_time: float, restitution: float
 ) -> np.ndarray:
@@ -252,9 +263,28 @@ class Maneuver:
             com = np.vstack([com, flight[-1] + s * (path[len(flight)] - flight[-1])])
             spun = fold_angle(outcome[OUT.angle] - taut_angle)
             orientation = np.concatenate([orientation, taut_angle + s[:, 0] * spun])
+        self.coast = _coast_path(path, len(flight)) if bounced else path[:0]
+        """With `coast`: the release, the coast's wall hits and its end."""
+        self.coasting = n_flight + n_contact
+        """The first frame after the contact."""
+        if len(self.coast) > 1:
+            # glide uniformly along the coast at the puck's final speed, its free spin turning it
+            lengths = np.linalg.norm(np.diff(self.coast, axis=0), axis=1)
+            along = np.concatenate([[0.0], np.cumsum(lengths)])
+            speed = math.hypot(*outcome[OUT.velocity : OUT.velocity + 2])
+            seconds = along[-1] / max(speed, 1e-9)
+            n_coast = max(1, round(seconds * fps / self.factor))
+            at = np.linspace(0.0, along[-1], n_coast + 1)[1:]
+            glide = np.column_stack([np.interp(at, along, self.coast[:, k]) for k in (0, 1)])
+            com = np.vstack([com, glide])
+            spin = outcome[OUT.spin]
+            orientation = np.concatenate(
+                [orientation, outcome[OUT.angle] - spin * (seconds - at / max(speed, 1e-9))]
+            )
+            self.coast_passed = np.searchsorted(along, at, side="right")
         self.flight, self.com, self.orientation = flight, com, orientation
-        self.released = n_flight + n_contact
-        """The first frame after the maneuver (the release)."""
+        self.released = len(com)
+        """The first frame after the maneuver (the release, or with `coast` its end)."""
         self.frames = self.released + max(1, round(HOLD * fps))
 
     def __len__(self) -> int:
@@ -267,6 +297,12 @@ class Maneuver:
         anchor = self.outcome[OUT.anchor : OUT.anchor + 2]
         _table(canvas, self.state, anchor)
         centre = self.com[frame]
+        if frame >= self.coasting:  # the tether released, the puck on its way to the aim
+            behind = self.coast[: self.coast_passed[frame - self.coasting]]
+            canvas.path([*self.flight, *behind, centre])
+            _puck(canvas, centre, self.orientation[frame])
+            _header(canvas, self.config, self.state, centre, ["coasting to the aim"])
+            return
         flying = frame < len(self.t)
         behind = self.flight[: self.passed[frame]] if flying else self.flight
         canvas.path([*behind, centre])
