@@ -29,14 +29,19 @@ def _filled_buffer(env_id: str, steps: int = 300) -> tuple[SAC, PathHerReplayBuf
     return model, model.replay_buffer
 
 
+def _transitions(buffer: PathHerReplayBuffer, n: int, seed: int):
+    """(rows, copies) of up to `n` stored transitions of finished episodes (those the buffer
+    samples)."""
+    rng = np.random.default_rng(seed)
+    filled = buffer.buffer_size if buffer.full else buffer.pos
+    batch, envs = rng.integers(0, filled, n), rng.integers(0, buffer.n_envs, n)
+    finished = buffer.ep_length[batch, envs] > 0
+    return batch[finished], envs[finished]
+
+
 def test_reach_goals_lie_on_a_later_path_of_the_episode_and_score_as_the_env_scores_them():
     model, buffer = _filled_buffer("TetherNavigateSparse-v1")
-    rng = np.random.default_rng(0)
-    filled = buffer.buffer_size if buffer.full else buffer.pos
-    batch = rng.integers(0, filled, 512)
-    envs = rng.integers(0, buffer.n_envs, 512)
-    done_episodes = buffer.ep_length[batch, envs] > 0
-    batch, envs = batch[done_episodes], envs[done_episodes]
+    batch, envs = _transitions(buffer, 512, seed=0)
     samples = buffer._get_virtual_samples(batch, envs)
     goals = samples.observations["desired_goal"].numpy().astype(np.float64)
     start, length = buffer.ep_start[batch, envs], buffer.ep_length[batch, envs]
@@ -58,12 +63,8 @@ def test_reach_goals_lie_on_a_later_path_of_the_episode_and_score_as_the_env_sco
 
 def test_stop_goals_are_the_achieved_goals_of_later_steps():
     _, buffer = _filled_buffer("TetherNavigate_OpenStopSparse-v1")
-    rng = np.random.default_rng(1)
+    goals = buffer._sample_goals(*_transitions(buffer, 256, seed=1))
     filled = buffer.buffer_size if buffer.full else buffer.pos
-    batch = rng.integers(0, filled, 256)
-    envs = rng.integers(0, buffer.n_envs, 256)
-    keep = buffer.ep_length[batch, envs] > 0
-    goals = buffer._sample_goals(batch[keep], envs[keep])
     achieved = buffer.next_observations["achieved_goal"][:filled].reshape(-1, 2)
     nearest = np.min(np.linalg.norm(goals[:, None] - achieved[None], axis=-1), axis=1)
     assert np.all(nearest < 1e-6)
