@@ -331,9 +331,9 @@ def _aims(states: np.ndarray, flight: Flight) -> Candidates:
         (grid[k, ei, g], grid[k, ei, g + 1]),
         args=(*(a[k, 0, 0] for a in args), AIM_RESTITUTIONS[ei]),
     )
-    ok = root.success
     point = start[k] + velocity[k] * root.x[:, None]
     length = np.linalg.norm(point - peg[k], axis=-1) - ARM
+    ok = root.success
     n = int(ok.sum())
     return Candidates(
         i[k][ok], j[k][ok], length[ok], np.zeros(n), AIM_RESTITUTIONS[ei][ok], np.full(n, AIM)
