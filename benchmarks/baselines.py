@@ -10,9 +10,9 @@ curves (success on the evaluation episodes against timesteps).
         --figure results/baselines/curves.png
 
 Each seed is `tether-train --seed k --name <config>_seed<k>` in `--runs-dir` (a finished run
-is read, not retrained; an interrupted one resumes). The summary goes to `--out/<config>.json`
-and its learning curves to `--out/<config>.png`; `--plot` draws several summaries in one figure,
-a band (the seeds' range) and the mean per configuration.
+is read, not retrained; an interrupted one resumes). The summary goes to `--out/<config>.json`;
+`--plot` draws the learning curves of summaries in one figure, a panel per algorithm, a band
+(the seeds' range) and the mean per configuration.
 """
 
 from __future__ import annotations
@@ -158,7 +158,6 @@ def main() -> None:
     summary = summarize(args, run_dirs)
     args.out.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(summary, indent=1) + "\n")
-    plot([summary], out.with_suffix(".png"))
     for row in summary["results"]:
         low, high = row["success_ci"]
         print(f"{row['name']:>24}: {100 * row['success_rate']:5.1f}% [{100 * low:.1f}, "

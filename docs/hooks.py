@@ -183,11 +183,11 @@ def ladder_table(
     return header + "\n".join(lines) + sources_line(sources)
 
 
-def seeds_table(sources: dict[str, str], root: Path = ROOT) -> str:
+def seeds_table(sources: dict[str, str], agents: list[str] | None = None, root: Path = ROOT) -> str:
     """One row per agent of each summary over seeds (`benchmarks/baselines.py`): the runs'
     timesteps and median train time, and each agent's mean success on the test episodes over
     the seeds with its 95% t interval and the worst seed (the planners and random play the same
-    episodes in every run)."""
+    episodes in every run). `agents` keeps those agents only."""
     _check_sources(sources)
     rows = []
     for pattern in sources:
@@ -195,6 +195,8 @@ def seeds_table(sources: dict[str, str], root: Path = ROOT) -> str:
             data = json.loads(path.read_text())
             minutes = sorted(data["train_seconds"])[len(data["train_seconds"]) // 2] / 60
             for result in data["results"]:
+                if agents is not None and result["name"] not in agents:
+                    continue
                 rows.append(
                     f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | "
                     f"{result['name']} | {len(data['seeds'])} | {data['timesteps']:,} | "
