@@ -67,7 +67,7 @@ peg's distance, to rounding) is taut at once, before the wheel, at rest, turns t
 
 
 @numba.njit(cache=True, inline="always")
-def _first_post_hit(puck, posts, n_posts, t_end):
+def first_post_hit(puck, posts, n_posts, t_end):
     """When the puck's rim first touches a post within [0, t_end] (inf if never)."""
     first = math.inf
     reach = POST_RADIUS + PUCK_RADIUS
@@ -181,7 +181,7 @@ def stretch_end(puck, s, elapsed):
     next wall, the flight horizon or a post, whichever comes first."""
     t_wall, wall = time_to_wall_row(puck, TABLE_WIDTH, TABLE_HEIGHT, PUCK_RADIUS)
     t_end = min(t_wall, FLIGHT_HORIZON - elapsed)
-    t_post = _first_post_hit(puck, s.posts, s.n_posts, t_end)
+    t_post = first_post_hit(puck, s.posts, s.n_posts, t_end)
     return min(t_end, t_post), t_wall, wall, t_post
 
 

@@ -21,11 +21,12 @@ aim (so that a flight through the aim reaches it first; anywhere on the flight i
 comes after): the tautening points of the first `SEGMENTS` straight stretches of the flight
 (wall bounces between them), where a tether of the allowed lengths goes taut pulling, are
 sampled on a grid and the best is refined by golden-section search. The score is the command's
-miss (the aim's distance from the path over the `PATH_TIME` after the bounce, plus
-`speed_weight` times the speed's error: much for a stop, little at full speed) plus
-`ARM_WEIGHT` |s| (among the set-ups that meet the command, the one nearest a line of action
-through the centre of mass, the least spin), plus `WHEEL_PENALTY` where the reaction wheel
-cannot meet the offset angle. `info` reports `command_met` (a miss under `COMMAND_TOLERANCE`
+miss (the aim's distance from the straight path over the `PATH_TIME` after the bounce, up to
+a post it touches, plus `speed_weight` times the speed's error: much for a stop, little at full
+speed) plus `ARM_WEIGHT` |s| (among the set-ups that meet the command, the one nearest a line of
+action through the centre of mass, the least spin), plus `WHEEL_PENALTY` where the reaction
+wheel cannot meet the offset angle and `POST_PENALTY` where a post stops the path first (the
+episode would end there). `info` reports `command_met` (a miss under `COMMAND_TOLERANCE`
 that the wheel can meet) and `command_error` (the miss, m, in the impulse model, the set-up
 played as planned).
 """
@@ -49,7 +50,12 @@ from tether_gym.envs.tether_navigate.config import (
     VELOCITY,
 )
 from tether_gym.envs.tether_navigate.controls.setup import ACTION as SETUP_ACTION
-from tether_gym.envs.tether_navigate.flight import contact_clearance, stretch_end, wheel_crossing
+from tether_gym.envs.tether_navigate.flight import (
+    contact_clearance,
+    first_post_hit,
+    stretch_end,
+    wheel_crossing,
+)
 from tether_gym.envs.tether_navigate.spaces import OUT
 from tether_gym.physics.events import free_flight_row, wall_bounce_row
 from tether_gym.physics.state import PuckState
@@ -84,6 +90,9 @@ ARM_WEIGHT = 0.01
 (it costs at most 0.4 mm of miss, under `COMMAND_TOLERANCE`)."""
 WHEEL_PENALTY = 1.0
 """Score of a set-up whose offset angle the reaction wheel cannot meet (m, as a miss)."""
+POST_PENALTY = 1.0
+"""Score of a set-up whose path hits a post before its closest approach to the aim (m, as a
+miss): the episode would end there."""
 GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
 
 
@@ -118,14 +127,18 @@ def _taut(radius, direction, arm):
 
 
 @numba.njit(cache=True)
-def _miss(px, py, ox, oy, gx, gy, speed, weight):
-    """The command's miss by a bounce at (px, py) leaving at (ox, oy): the aim's distance from
-    the path over the next `PATH_TIME` (a slow puck's is short, a stopped one's the point
-    itself) plus `weight` (s) times the speed error."""
+def _miss(px, py, ox, oy, gx, gy, speed, weight, posts):
+    """(the command's miss, whether a post stops the path first) for a bounce at (px, py)
+    leaving at (ox, oy): the aim's distance from the straight path over the next `PATH_TIME`,
+    up to the first of the `posts` it touches (a slow puck's path is short, a stopped one's the
+    point itself), plus `weight` (s) times the speed error."""
     dx, dy = gx - px, gy - py
     v2 = ox * ox + oy * oy
     t = min(max((dx * ox + dy * oy) / v2, 0.0), PATH_TIME) if v2 > 0.0 else 0.0
-    return math.hypot(dx - t * ox, dy - t * oy) + weight * abs(math.sqrt(v2) - speed)
+    t_post = first_post_hit(PuckState(px, py, ox, oy, 0.0, 0.0), posts, len(posts), t)
+    t = min(t, t_post)
+    miss = math.hypot(dx - t * ox, dy - t * oy) + weight * abs(math.sqrt(v2) - speed)
+    return miss, t_post < math.inf
 
 
 @numba.njit(cache=True, inline="always")
@@ -137,7 +150,7 @@ def speed_weight(fraction):
 
 
 @numba.njit(cache=True)
-def _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high):
+def _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, posts):
     """The change k in [k_low, k_high] along the tether u at (px, py) that misses the command
     least: towards the aim, or at the commanded speed (either root, or the least speed), or a
     limit."""
@@ -150,14 +163,15 @@ def _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high):
     best_k, best = k_low, math.inf
     for k in (aim, along - root, along + root, k_low, k_high):
         k = min(max(k, k_low), k_high)
-        miss = _miss(px, py, vx - k * ux, vy - k * uy, gx, gy, speed, weight)
+        miss, blocked = _miss(px, py, vx - k * ux, vy - k * uy, gx, gy, speed, weight, posts)
+        miss += POST_PENALTY if blocked else 0.0
         if miss < best:
             best_k, best = k, miss
     return best_k
 
 
 @numba.njit(cache=True)
-def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest):
+def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest, posts):
     """The impulse bounce at tautening point (px, py) for the command, the tether at most
     `longest`: (score, miss, tether length, moment arm R sin(alpha), brake e)."""
     rx, ry = px - ax, py - ay
@@ -176,10 +190,11 @@ def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest):
     compliance = 1.0 + arm * arm / GYRATION2
     k_low = max((1.0 + BRAKE_LOW) * pull / compliance, 0.0)
     k_high = max((1.0 + BRAKE_HIGH) * pull / compliance, 0.0)
-    k = _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high)
+    k = _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, posts)
     e = k * compliance / pull - 1.0 if pull > 0.0 else BRAKE_HIGH
-    miss = _miss(px, py, vx - k * ux, vy - k * uy, gx, gy, speed, weight)
-    return miss + ARM_WEIGHT * abs(arm), miss, length, arm, e
+    miss, blocked = _miss(px, py, vx - k * ux, vy - k * uy, gx, gy, speed, weight, posts)
+    score = miss + ARM_WEIGHT * abs(arm) + (POST_PENALTY if blocked else 0.0)
+    return score, miss, length, arm, e
 
 
 @numba.njit(cache=True)
@@ -215,7 +230,7 @@ def _longest_arm(radius, longest):
 
 
 @numba.njit(cache=True)
-def _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, wheel, bound=math.inf):
+def _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, posts, wheel, bound=math.inf):
     """`_bounce_at` `t` into the straight stretch starting at `puck`, the commanded speed a
     `fraction` of the puck's there, and whether the reaction wheel can meet its offset angle
     there (`flight.wheel_crossing`, with `wheel` = (the stretch's start from the decision, its
@@ -224,7 +239,19 @@ def _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, wheel, bound=math.inf
     x, y = puck.x + puck.vx * t, puck.y + puck.vy * t
     speed = fraction * math.hypot(puck.vx, puck.vy)
     score, miss, length, arm, e = _bounce_at(
-        x, y, puck.vx, puck.vy, puck.spin, ax, ay, gx, gy, speed, speed_weight(fraction), longest
+        x,
+        y,
+        puck.vx,
+        puck.vy,
+        puck.spin,
+        ax,
+        ay,
+        gx,
+        gy,
+        speed,
+        speed_weight(fraction),
+        longest,
+        posts,
     )
     if score >= bound:
         return score, miss, length, arm, e, False
@@ -237,20 +264,20 @@ def _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, wheel, bound=math.inf
 
 
 @numba.njit(cache=True)
-def _golden(puck, lo, hi, ax, ay, gx, gy, fraction, longest, wheel):
+def _golden(puck, lo, hi, ax, ay, gx, gy, fraction, longest, posts, wheel):
     """(t, score): the least score in [lo, hi] by golden-section search, one new point a step."""
     t1, t2 = hi - GOLDEN * (hi - lo), lo + GOLDEN * (hi - lo)
-    m1 = _bounce_on(puck, t1, ax, ay, gx, gy, fraction, longest, wheel)[0]
-    m2 = _bounce_on(puck, t2, ax, ay, gx, gy, fraction, longest, wheel)[0]
+    m1 = _bounce_on(puck, t1, ax, ay, gx, gy, fraction, longest, posts, wheel)[0]
+    m2 = _bounce_on(puck, t2, ax, ay, gx, gy, fraction, longest, posts, wheel)[0]
     for _ in range(REFINEMENTS):
         if m1 <= m2:
             hi, t2, m2 = t2, t1, m1
             t1 = hi - GOLDEN * (hi - lo)
-            m1 = _bounce_on(puck, t1, ax, ay, gx, gy, fraction, longest, wheel)[0]
+            m1 = _bounce_on(puck, t1, ax, ay, gx, gy, fraction, longest, posts, wheel)[0]
         else:
             lo, t1, m1 = t1, t2, m2
             t2 = lo + GOLDEN * (hi - lo)
-            m2 = _bounce_on(puck, t2, ax, ay, gx, gy, fraction, longest, wheel)[0]
+            m2 = _bounce_on(puck, t2, ax, ay, gx, gy, fraction, longest, posts, wheel)[0]
     return (t1, m1) if m1 <= m2 else (t2, m2)
 
 
@@ -318,6 +345,7 @@ def _search(s, p, anchor, flight, gx, gy, fraction, after_stretch, after_t):
     reach = math.hypot(s.x + ARM * math.cos(s.angle) - ax, s.y + ARM * math.sin(s.angle) - ay)
     longest = max(reach, LENGTH_HIGH)  # a tether raised to the peg is taut at once
     r_low, r_high = max(reach, LENGTH_LOW) + ARM, longest + ARM
+    posts = s.posts[: s.n_posts]
     farthest = 0.0
     best, best_stretch, best_low, best_high = math.inf, _stretch(starts, 0), 0.0, 0.0
     clearance = contact_clearance(s, p)
@@ -336,7 +364,9 @@ def _search(s, p, anchor, flight, gx, gy, fraction, after_stretch, after_t):
             step = (t_high - t_low) / (SAMPLES - 1)
             for j in range(SAMPLES):
                 t = t_low + j * step
-                score = _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, wheel, best)[0]
+                score = _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, posts, wheel, best)[
+                    0
+                ]
                 if score < best:
                     best, best_stretch, best_wheel = score, puck, wheel
                     best_low, best_high = max(t - step, t_low), min(t + step, t_high)
@@ -359,8 +389,11 @@ def _refine(s, anchor, found, gx, gy, fraction):
     golden-section refinement of a peg's grid search `found`."""
     _, puck, low, high, wheel, longest = found
     ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
-    t, score = _golden(puck, low, high, ax, ay, gx, gy, fraction, longest, wheel)
-    _, miss, length, arm, e, turns = _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, wheel)
+    posts = s.posts[: s.n_posts]
+    t, score = _golden(puck, low, high, ax, ay, gx, gy, fraction, longest, posts, wheel)
+    _, miss, length, arm, e, turns = _bounce_on(
+        puck, t, ax, ay, gx, gy, fraction, longest, posts, wheel
+    )
     return score, miss, length, arm, e, turns
 
 
