@@ -209,6 +209,43 @@ def seeds_table(sources: dict[str, str], agents: list[str] | None = None, root: 
     return header + "\n".join(rows) + sources_line(sources)
 
 
+def planner_table(sources: dict[str, str], root: Path = ROOT) -> str:
+    """One row per planner and task of a planner benchmark (`benchmarks/planners.py`): each
+    implementation's decisions per second at each batch size on one core (the ratio to numpy's
+    measured in the same run), the recorded decision states where it picks numpy's maneuver,
+    and its success on the held-out episodes."""
+    _check_sources(sources)
+    blocks = []
+    for pattern in sources:
+        for path in files_of(pattern, root):
+            data = json.loads(path.read_text())
+            rates, success = data["decisions_per_second"], data.get("success", {})
+            agreement = data.get("agreement", {})
+            first = next(iter(rates.values()))
+            batches = list(next(iter(next(iter(first.values())).values())))
+            columns = [f"{i} batch {b}" for b in batches for i in rates]
+            columns += [f"{i} same choice" for i in agreement]
+            columns += [f"{i} success" for i in success]
+            lines = ["| planner | task | " + " | ".join(columns) + " |",
+                     "|---|---|" + "---:|" * len(columns)]  # fmt: skip
+            for planner, by_task in first.items():
+                for task in by_task:
+                    cells = []
+                    for batch in batches:
+                        for implementation, by_planner in rates.items():
+                            rate = by_planner[planner][task][batch]
+                            ratio = rate / rates["numpy"][planner][task][batch]
+                            cells.append(f"{rate:,.0f}" + ("" if implementation == "numpy"
+                                                          else f" ({ratio:.1f}x)"))  # fmt: skip
+                    for by_planner in agreement.values():
+                        a = by_planner[planner][task]
+                        cells.append(f"{a['same']:,} of {a['states']:,}")
+                    cells += [percent(by_planner[planner][task]) for by_planner in success.values()]
+                    lines.append(f"| {planner} | {task} | " + " | ".join(cells) + " |")
+            blocks.append("\n".join(lines))
+    return "\n\n".join(blocks) + sources_line(sources)
+
+
 # --- command-line help and ids -------------------------------------------------------------
 
 
@@ -264,11 +301,12 @@ MACROS: dict[str, Callable[..., str]] = {
     "success_table": success_table,
     "ladder_table": ladder_table,
     "seeds_table": seeds_table,
+    "planner_table": planner_table,
     "cli_help": cli_help,
     "ladder_ids": ladder_ids,
 }
 """The placeholders a page may use."""
-RESULTS_MACROS = ("success_table", "ladder_table", "seeds_table")
+RESULTS_MACROS = ("success_table", "ladder_table", "seeds_table", "planner_table")
 
 
 def parse_call(text: str) -> tuple[str, list[Any], dict[str, Any]]:

@@ -117,6 +117,11 @@ def _change(path: Path) -> None:
         path.write_text(text)
         return
     data = json.loads(path.read_text())
+    if "decisions_per_second" in data:  # benchmarks/planners.py
+        implementation = next(iter(data["success"].values()))
+        next(iter(next(iter(implementation.values())).values()))["success_rate"] = 0.123456
+        path.write_text(json.dumps(data))
+        return
     (data["results"][0] if "results" in data else data)["success_rate"] = 0.123456
     path.write_text(json.dumps(data))
 

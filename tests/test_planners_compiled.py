@@ -48,7 +48,7 @@ def decision_states(source: str, task: str, planner: GreedyPlanner) -> np.ndarra
 def test_the_compiled_candidates_are_numpy_s(task, source):
     """The same candidates in the same order; lengths and brakes to rounding, but for the rare
     dump where the tether's pull is zero to rounding (slack, e = 1, or taut, e clipped)."""
-    numpy_planner = GreedyPlanner(SETUP, TASKS[task])
+    numpy_planner = GreedyPlanner(SETUP, TASKS[task], implementation="numpy")
     compiled = GreedyPlanner(SETUP, TASKS[task], implementation="compiled")
     states = decision_states(source, task, numpy_planner)
     reference, got = numpy_planner.candidates(states), compiled.candidates(states)
@@ -64,7 +64,7 @@ def test_the_compiled_candidates_are_numpy_s(task, source):
 @pytest.mark.parametrize("planner", [GreedyPlanner, LookaheadPlanner])
 def test_the_compiled_costs_are_numpy_s(task, planner):
     """On every candidate maneuver of recorded decision states, at depths 0 and 1."""
-    numpy_planner = planner(SETUP, TASKS[task])
+    numpy_planner = planner(SETUP, TASKS[task], implementation="numpy")
     compiled = planner(SETUP, TASKS[task], implementation="compiled")
     states = observed_states(
         observations(TASKS[task], recorded(task)["states"][:60]), numpy_planner.config
@@ -87,7 +87,7 @@ def test_the_compiled_costs_are_numpy_s(task, planner):
 @pytest.mark.parametrize("source", ["recorded", "random"])
 def test_the_compiled_planner_reads_the_observation_as_numpy_s(task, source):
     """The same `STATE` records from the env's observations of recorded and random states."""
-    numpy_planner = GreedyPlanner(SETUP, TASKS[task])
+    numpy_planner = GreedyPlanner(SETUP, TASKS[task], implementation="numpy")
     states = decision_states(source, task, numpy_planner)
     obs = observations(TASKS[task], states)
     rows = np.concatenate([obs["observation"], obs["desired_goal"]], axis=-1)
@@ -102,7 +102,7 @@ def test_the_compiled_planner_reads_the_observation_as_numpy_s(task, source):
 def test_the_proposals_are_the_same_with_the_compiled_planner(task, depth):
     """PPO over the proposals sees the same features and plays the same actions."""
     obs = observations(TASKS[task], recorded(task)["states"][:80])
-    reference = propose(GreedyPlanner(SETUP, TASKS[task]), obs, 4, depth)
+    reference = propose(GreedyPlanner(SETUP, TASKS[task], implementation="numpy"), obs, 4, depth)
     got = propose(GreedyPlanner(SETUP, TASKS[task], implementation="compiled"), obs, 4, depth)
     same = np.all(got[1] == reference[1], axis=(1, 2))
     assert same.mean() >= 0.98

@@ -11,10 +11,10 @@ the bounce (`GreedyPlanner.candidates`); the planners rank their predicted outco
 - `LookaheadPlanner`: beam search over `depth` maneuvers, each node expanded by the same
   candidates and kernel step: the first maneuver of the best plan.
 
-The state is rebuilt from the observation (`decode_observation`). `implementation="compiled"`
-generates the candidates and computes the costs in numba (`planner_kernels`, one loop per state
-or per maneuver, the same candidates in the same order); "numpy", the reference, is the
-default. Both predict with the same kernel step.
+The state is rebuilt from the observation (`decode_observation`). `implementation="compiled"`,
+the default, generates the candidates and computes the costs in numba (`planner_kernels`, one
+loop per state or per maneuver, the same candidates in the same order); "numpy" is the
+reference the tests hold it to. Both predict with the same kernel step.
 """
 
 from __future__ import annotations
@@ -456,7 +456,7 @@ class GreedyPlanner:
         self,
         env_kwargs: dict | None = None,
         env_id: str | None = None,
-        implementation: str = "numpy",
+        implementation: str = "compiled",
     ):
         """`env_kwargs`: the env's arguments, over those its registered `env_id` fixes (the
         ladder's tasks and tables); `implementation`: one of `IMPLEMENTATIONS`."""
@@ -561,7 +561,7 @@ class LookaheadPlanner(GreedyPlanner):
         env_id: str | None = None,
         depth: int = 2,
         beam: int = 4,
-        implementation: str = "numpy",
+        implementation: str = "compiled",
     ):
         super().__init__(env_kwargs, env_id, implementation)
         if not 1 <= depth <= 3 or not 1 <= beam:
