@@ -202,6 +202,21 @@ def test_combine_wraps_the_bearing_and_clips_the_rest():
         residual.make_planner("oracle", {})
 
 
+def test_a_planner_inside_an_agent_plans_for_the_ladder_id_s_task_and_table():
+    """A ladder id fixes the task and the table: the planner behind a residual policy, the
+    proposer and the agent a run's config rebuilds all plan for them, as the env plays."""
+    env_id = "TetherNavigate_WallStop-v1"
+    config = {"env_id": env_id, "env_kwargs": {"dynamics": "impulse"},
+              "hyperparams": {"proposals": "greedy"}}  # fmt: skip
+    planners = [
+        residual.make_planner("lookahead", config["env_kwargs"], env_id),
+        proposals.make_proposer("greedy", config["env_kwargs"], env_id),
+        proposals.with_planner(ZeroPolicy(), config).planner,
+    ]
+    for planner in planners:
+        assert planner.config.task == "stop" and planner.config.layout is not None
+
+
 def test_a_zero_residual_plays_the_planner_through_the_vec_env_and_the_agent():
     kwargs = {"n_obstacles": 3, "dynamics": "impulse", "max_maneuvers": 2, "task": "stop"}
     planner = residual.make_planner("greedy", kwargs)

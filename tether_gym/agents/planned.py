@@ -36,11 +36,12 @@ def combine(base: np.ndarray, correction: np.ndarray, scale: float) -> np.ndarra
     return action.astype(np.float32)
 
 
-def make_planner(name: str, env_kwargs: dict[str, Any]):
-    """The base planner `name` for the env's arguments (ValueError for an unknown name)."""
+def make_planner(name: str, env_kwargs: dict[str, Any], env_id: str | None = None):
+    """The base planner `name` for the env `env_id` with its arguments `env_kwargs` (a ladder
+    id fixes the task and the table; ValueError for an unknown name)."""
     if name not in PLANNERS:
         raise ValueError(f"residual must be one of {sorted(PLANNERS)}, got {name!r}")
-    return PLANNERS[name](env_kwargs)
+    return PLANNERS[name](env_kwargs, env_id)
 
 
 def check_scale(scale: Any) -> float:
@@ -98,12 +99,14 @@ def settings(params: dict[str, Any]) -> tuple[int, int]:
     return check_count(k), check_depth(params.get("proposals_depth", 1))
 
 
-def make_proposer(name: str, env_kwargs: dict[str, Any]) -> GreedyPlanner:
-    """The planner that proposes (only "greedy": its one-maneuver ranking is what is learned
-    past; ValueError otherwise)."""
+def make_proposer(
+    name: str, env_kwargs: dict[str, Any], env_id: str | None = None
+) -> GreedyPlanner:
+    """The planner that proposes for the env `env_id` with its arguments (only "greedy": its
+    one-maneuver ranking is what is learned past; ValueError otherwise)."""
     if name != "greedy":
         raise ValueError(f"proposals must be 'greedy', got {name!r}")
-    return GreedyPlanner(env_kwargs)
+    return GreedyPlanner(env_kwargs, env_id)
 
 
 def propose(
@@ -192,9 +195,9 @@ def with_planner(agent, config: dict[str, Any]):
     picks among a planner's proposals."""
     params = config["hyperparams"]
     if params.get("residual") is not None:
-        planner = make_planner(params["residual"], config["env_kwargs"])
+        planner = make_planner(params["residual"], config["env_kwargs"], config["env_id"])
         return ResidualAgent(agent, planner, params.get("residual_scale", 1.0))
     if params.get("proposals") is not None:
-        planner = make_proposer(params["proposals"], config["env_kwargs"])
+        planner = make_proposer(params["proposals"], config["env_kwargs"], config["env_id"])
         return ProposalAgent(agent, planner, *settings(params))
     return agent

@@ -83,7 +83,7 @@ def clone_planner(
     the policy stays the planner and only the critic learns, the burn-in of Silver et al.'s
     "Residual Policy Learning" (2018)."""
     options = check_pretrain(spec, config["env_kwargs"])
-    planner = make_planner(options["planner"], config["env_kwargs"])
+    planner = make_planner(options["planner"], config["env_kwargs"], config["env_id"])
     obs, actions, returns = demonstrations(
         planner, config["env_id"], config["env_kwargs"], config["n_envs"],
         options["decisions"], model.gamma,

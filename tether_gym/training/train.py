@@ -248,14 +248,14 @@ def check_config(config: dict[str, Any]) -> None:
     if params.get("residual") is not None:
         if not navigates(config["env_id"]):
             raise ValueError(f"residual: the planners solve TetherNavigate, not {config['env_id']}")
-        make_planner(params["residual"], config["env_kwargs"])
+        make_planner(params["residual"], config["env_kwargs"], config["env_id"])
         check_scale(params.get("residual_scale", 1.0))
     if params.get("proposals") is not None:
         if config["algo"] != "ppo" or not navigates(config["env_id"]):
             raise ValueError("proposals: PPO on TetherNavigate only (the action is discrete)")
         if params.get("residual") is not None or params.get("pretrain") is not None:
             raise ValueError("proposals: not with residual or pretrain")
-        make_proposer(params["proposals"], config["env_kwargs"])
+        make_proposer(params["proposals"], config["env_kwargs"], config["env_id"])
         proposal_settings(params)
         if params.get("policy") == "ProposalPolicy" and params.get("normalize"):
             raise ValueError("policy ProposalPolicy: not with normalize (it reads slot flags)")
@@ -526,10 +526,10 @@ def make_venv(config: dict[str, Any]) -> VecMonitor:
     env_id, env_kwargs, params = config["env_id"], config["env_kwargs"], config["hyperparams"]
     venv = make_sb3_vec_env(config["n_envs"], config["seed"], env_id, **env_kwargs)
     if params.get("residual") is not None:
-        planner = make_planner(params["residual"], env_kwargs)
+        planner = make_planner(params["residual"], env_kwargs, env_id)
         venv = ResidualVecEnv(venv, planner, params.get("residual_scale", 1.0))
     if params.get("proposals") is not None:
-        planner = make_proposer(params["proposals"], env_kwargs)
+        planner = make_proposer(params["proposals"], env_kwargs, env_id)
         venv = ProposalVecEnv(venv, planner, *proposal_settings(params))
     return VecMonitor(venv)
 
