@@ -16,10 +16,10 @@ pytest.importorskip("stable_baselines3")
 import torch
 
 from tether_gym.agents.evaluate import NavigationResult, evaluate, load_agent
+from tether_gym.agents.networks import NavigateExtractor, ProposalPolicy
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS
 from tether_gym.envs.tether_navigate.spaces import decode_observation
 from tether_gym.training import pretrain, proposals, residual, summary, train
-from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.her import PathHerReplayBuffer
 from tether_gym.training.sb3 import make_sb3_vec_env
 
@@ -256,7 +256,7 @@ def test_a_zero_residual_plays_the_planner_through_the_vec_env_and_the_agent():
      (["proposals:greedy", "proposals_k:4", "policy:ProposalPolicy"],
       "PPO over greedy's proposals",
       lambda agent: isinstance(agent, proposals.ProposalAgent) and agent.k == 4
-      and isinstance(agent.policy.model.policy, proposals.ProposalPolicy))],
+      and isinstance(agent.policy.model.policy, ProposalPolicy))],
 )  # fmt: skip
 def test_a_run_with_a_planner_names_it_and_loads_with_it(tmp_path, overrides, name, loaded):
     tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY, *overrides]

@@ -12,10 +12,10 @@ pytest.importorskip("stable_baselines3")
 import torch
 from stable_baselines3.common.torch_layers import CombinedExtractor
 
+from tether_gym.agents.networks import NavigateExtractor, ProposalPolicy
 from tether_gym.agents.planned import PROPOSALS_KEY
 from tether_gym.agents.planners import KINDS, GreedyPlanner, observed_states
 from tether_gym.training import proposals, train
-from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.sb3 import make_sb3_vec_env
 
 KWARGS = {"n_obstacles": 3, "dynamics": "impulse", "max_maneuvers": 2, "task": "stop"}
@@ -146,7 +146,7 @@ def scorer_policy(k: int = 4, **policy_kwargs):
     env = proposals.ProposalVecEnv(
         make_sb3_vec_env(2, seed=5, env_id="TetherNavigate-v1", **KWARGS), planner, k
     )
-    policy = proposals.ProposalPolicy(
+    policy = ProposalPolicy(
         env.observation_space, env.action_space, lambda _: 1e-3, **policy_kwargs
     )
     return policy, env.reset()

@@ -15,8 +15,9 @@ slot holds in all; SB3's default policy learns each slot apart.
 This is not plain RL: the planner is part of the agent, and tables name it so ("PPO over
 greedy's proposals").
 
-Playing one (`propose`, `ProposalAgent`, `with_planner`) is `tether_gym.agents.planned`'s;
-training it, the `ProposalVecEnv` and the `ProposalPolicy` here.
+Playing one (`propose`, `ProposalAgent`, `with_planner`) is `tether_gym.agents.planned`'s, its
+network (`ProposalPolicy`) `tether_gym.agents.networks`'; training it, the `ProposalVecEnv`
+here.
 """
 
 from __future__ import annotations
@@ -24,12 +25,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import torch
 from gymnasium import spaces
-from stable_baselines3.common.policies import MultiInputActorCriticPolicy
-from stable_baselines3.common.torch_layers import create_mlp
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
-from torch import nn
 
 from tether_gym.agents.planned import (
     COST_CAP,
@@ -96,100 +93,11 @@ class ProposalVecEnv(VecEnvWrapper):
         return obs, rewards, dones, infos
 
 
-EMPTY = -1e4
-"""The logit of an empty slot: never picked, and finite (no NaN in the entropy)."""
-
-
-class ProposalScorer(nn.Module):
-    """The policy's networks over the features `(context, proposals)`, the proposals' k *
-    PROPOSAL_FEATURES columns last (where `NavigateExtractor` and SB3's `CombinedExtractor` put
-    the dict's "proposals" entry; `ProposalPolicy` checks it): one MLP scores each proposal from
-    its features and the context, the same weights for every slot, so what it learns of one
-    slot holds for all (a pointer network's bias, where a flat MLP must learn each slot apart);
-    an empty slot scores `EMPTY`. The value is an MLP over all features. `net_arch` gives the
-    hidden layers of both, "pi" and "vf"."""
-
-    def __init__(
-        self, features_dim: int, k: int, net_arch: dict[str, list[int]], activation_fn: type
-    ):
-        super().__init__()
-        self.k, size = k, k * PROPOSAL_FEATURES
-        if features_dim <= size:
-            raise ValueError(f"the features ({features_dim}) hold no context besides {k} proposals")
-        context = features_dim - size
-        self.score = nn.Sequential(
-            *create_mlp(context + PROPOSAL_FEATURES, 1, net_arch["pi"], activation_fn)
-        )
-        self.value = nn.Sequential(*create_mlp(features_dim, -1, net_arch["vf"], activation_fn))
-        self.latent_dim_pi = k
-        self.latent_dim_vf = net_arch["vf"][-1] if net_arch["vf"] else features_dim
-
-    def forward(self, features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        return self.forward_actor(features), self.forward_critic(features)
-
-    def forward_actor(self, features: torch.Tensor) -> torch.Tensor:
-        """The logits (n, k) of picking each slot."""
-        size = self.k * PROPOSAL_FEATURES
-        slots = features[:, -size:].reshape(-1, self.k, PROPOSAL_FEATURES)
-        context = features[:, None, :-size].expand(-1, self.k, -1)
-        scores = self.score(torch.cat([context, slots], dim=-1))[..., 0]
-        return torch.where(slots[..., 0] > 0.5, scores, torch.full_like(scores, EMPTY))
-
-    def forward_critic(self, features: torch.Tensor) -> torch.Tensor:
-        return self.value(features)
-
-
-class ProposalPolicy(MultiInputActorCriticPolicy):
-    """SB3's actor-critic over goal dicts with a `ProposalScorer`: its logits are the slots'
-    scores (no linear layer after them, which would tie the slots apart again). `net_arch` as
-    SB3 reads it: a list for both networks, or "pi" for the scorer's hidden layers and "vf" for
-    the value's. The observation must not be normalized: a slot's presence is its flag."""
-
-    def _build_mlp_extractor(self) -> None:
-        arch = self.net_arch
-        if not isinstance(arch, dict):  # a list: the same hidden layers for both
-            arch = {"pi": arch, "vf": arch}
-        arch = {key: list(arch.get(key, [])) for key in ("pi", "vf")}
-        self._check_layout()
-        self.mlp_extractor = ProposalScorer(
-            self.features_dim, self.action_space.n, arch, self.activation_fn
-        )
-
-    def _check_layout(self) -> None:
-        """ValueError unless the features end with the "proposals" entry as it is (the
-        scorer's assumption), checked on a random observation."""
-        rng = np.random.default_rng(0)
-        sample = {
-            key: rng.standard_normal(space.shape).astype(space.dtype)
-            for key, space in self.observation_space.spaces.items()
-        }
-        tensors, _ = self.obs_to_tensor(sample)
-        with torch.no_grad():
-            features = self.features_extractor(tensors)
-        proposals = tensors[PROPOSALS_KEY].flatten(1)
-        if not torch.equal(features[:, -proposals.shape[1] :], proposals):
-            raise ValueError(
-                f"ProposalPolicy: the features extractor {type(self.features_extractor).__name__} "
-                f"must end its features with the {PROPOSALS_KEY!r} entry unchanged"
-            )
-
-    def _build(self, lr_schedule) -> None:
-        super()._build(lr_schedule)
-        self.action_net = nn.Identity()
-        if self.ortho_init:  # the scores start near equal, as SB3's action net would
-            self.init_weights(self.mlp_extractor.score[-1], gain=0.01)
-        self.optimizer = self.optimizer_class(
-            self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
-        )
-
-
 __all__ = [
     "COST_CAP",
     "PROPOSALS_K",
     "PROPOSAL_FEATURES",
     "ProposalAgent",
-    "ProposalPolicy",
-    "ProposalScorer",
     "ProposalVecEnv",
     "make_proposer",
     "propose",

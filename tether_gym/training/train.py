@@ -61,6 +61,7 @@ from tether_gym.agents.evaluate import (
     navigates,
     read_config,
 )
+from tether_gym.agents.networks import NavigateExtractor, ProposalPolicy
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 from tether_gym.agents.planned import check_scale, make_planner, make_proposer, with_planner
 from tether_gym.agents.planned import settings as proposal_settings
@@ -75,10 +76,9 @@ from tether_gym.cli import (
     env_from_args,
     given_env_options,
 )
-from tether_gym.training.features import NavigateExtractor
 from tether_gym.training.her import PathHerReplayBuffer
 from tether_gym.training.pretrain import check_pretrain, clone_planner
-from tether_gym.training.proposals import ProposalPolicy, ProposalVecEnv
+from tether_gym.training.proposals import ProposalVecEnv
 from tether_gym.training.residual import ResidualVecEnv
 from tether_gym.training.sb3 import make_sb3_vec_env
 from tether_gym.training.summary import RESULTS

@@ -1,0 +1,189 @@
+"""The policies' networks (torch, stable-baselines3), in the agents layer so that a saved
+policy loads for play without the training package.
+
+`NavigateExtractor`: a features extractor for TetherNavigate's goal dicts, the observation in
+the puck's frame of flight, for SB3's `MultiInputPolicy` (`policy_kwargs:
+features_extractor_class`). The action names the peg to hook by its bearing from the puck's
+velocity, and where a tether sends the puck depends on where the peg lies relative to the line
+of flight. The env observes the pegs, the posts and the goal in the table's frame; turning them
+into the velocity's frame is an atan2 of a rotated vector, which a small MLP learns only
+roughly. `NavigateExtractor` computes it exactly, from the observation alone (no physics,
+nothing the env does not show):
+
+- the observation as the env gives it (nothing in it depends on the goal) and the goal
+  relative to the puck, `desired_goal - achieved_goal` (under hindsight relabeling, the
+  relabeled goal: the one the reward is for);
+- the achieved and desired goals, the speed, the velocity's direction, and the orientation
+  relative to it;
+- the goal, each peg and each post in the frame of flight: along and across the velocity, the
+  distance, and the bearing over pi (a peg's is the action that hooks it); zero for padding;
+- any other entry of the dict as it is (a residual policy's base action).
+
+`ProposalPolicy`: PPO's actor-critic over a planner's proposals
+(`tether_gym.agents.planned.propose`), one network scoring every proposal alike
+(`ProposalScorer`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+from gymnasium import spaces
+from stable_baselines3.common.policies import MultiInputActorCriticPolicy
+from stable_baselines3.common.torch_layers import BaseFeaturesExtractor, create_mlp
+from torch import nn
+
+from tether_gym.agents.planned import PROPOSAL_FEATURES, PROPOSALS_KEY
+from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_POSTS
+from tether_gym.envs.tether_navigate.spaces import GOAL_KEYS, OBS
+
+ANCHORS = slice(OBS.anchor0_present, OBS.anchor0_present + 3 * MAX_ANCHORS)
+POSTS = slice(OBS.post0_present, OBS.post0_present + 3 * MAX_POSTS)
+POINT_FEATURES = 4
+"""Per point in the frame of flight: along, across, distance, bearing / pi."""
+
+
+def frame_of_flight(
+    points: torch.Tensor, heading: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Points (..., k, 2) relative to the puck in the frame of the unit `heading` (..., 2), and
+    their bearings from it over pi, in [-1, 1] (the action's scale): ((..., k, 2), (..., k))."""
+    hx, hy = heading[..., None, 0], heading[..., None, 1]
+    px, py = points[..., 0], points[..., 1]
+    along, across = px * hx + py * hy, hx * py - hy * px
+    return torch.stack([along, across], dim=-1), torch.atan2(across, along) / math.pi
+
+
+class NavigateExtractor(BaseFeaturesExtractor):
+    """TetherNavigate's goal dict as a flat vector with the frame-of-flight features (see the
+    module docstring)."""
+
+    def __init__(self, observation_space: spaces.Dict):
+        size = observation_space["observation"].shape[0]
+        points = 1 + MAX_ANCHORS + MAX_POSTS
+        self.extra = sorted(set(observation_space) - set(GOAL_KEYS))
+        extra = sum(int(np.prod(observation_space[key].shape)) for key in self.extra)
+        dim = size + 2 + 4 + 5 + POINT_FEATURES * points + extra
+        super().__init__(observation_space, features_dim=dim)
+
+    def forward(self, observations: dict[str, torch.Tensor]) -> torch.Tensor:
+        obs = observations["observation"]
+        achieved, desired = observations["achieved_goal"], observations["desired_goal"]
+        goal = desired - achieved
+        velocity = obs[:, OBS.vx : OBS.vy + 1]
+        speed = velocity.norm(dim=-1, keepdim=True)
+        heading = velocity / speed.clamp_min(1e-6)
+        cos, sin = obs[:, OBS.angle_cos, None], obs[:, OBS.angle_sin, None]
+        hx, hy = heading[:, :1], heading[:, 1:]
+        orientation = torch.cat([cos * hx + sin * hy, sin * hx - cos * hy], dim=-1)
+        anchors = obs[:, ANCHORS].reshape(-1, MAX_ANCHORS, 3)
+        posts = obs[:, POSTS].reshape(-1, MAX_POSTS, 3)
+        present = torch.cat([torch.ones_like(speed), anchors[..., 0], posts[..., 0]], dim=-1)
+        offsets = torch.cat([goal[:, None], anchors[..., 1:], posts[..., 1:]], dim=1)
+        local, bearing = frame_of_flight(offsets, heading)
+        distance = offsets.norm(dim=-1)
+        points = torch.cat([local, distance[..., None], bearing[..., None]], dim=-1)
+        points = points * present[..., None]
+        extra = [observations[key].flatten(1) for key in self.extra]
+        return torch.cat(
+            [obs, goal, achieved, desired, speed, heading, orientation, points.flatten(1), *extra],
+            dim=-1,
+        )
+
+
+EMPTY = -1e4
+"""The logit of an empty slot: never picked, and finite (no NaN in the entropy)."""
+
+
+class ProposalScorer(nn.Module):
+    """The policy's networks over the features `(context, proposals)`, the proposals' k *
+    PROPOSAL_FEATURES columns last (where `NavigateExtractor` and SB3's `CombinedExtractor` put
+    the dict's "proposals" entry; `ProposalPolicy` checks it): one MLP scores each proposal from
+    its features and the context, the same weights for every slot, so what it learns of one
+    slot holds for all (a pointer network's bias, where a flat MLP must learn each slot apart);
+    an empty slot scores `EMPTY`. The value is an MLP over all features. `net_arch` gives the
+    hidden layers of both, "pi" and "vf"."""
+
+    def __init__(
+        self, features_dim: int, k: int, net_arch: dict[str, list[int]], activation_fn: type
+    ):
+        super().__init__()
+        self.k, size = k, k * PROPOSAL_FEATURES
+        if features_dim <= size:
+            raise ValueError(f"the features ({features_dim}) hold no context besides {k} proposals")
+        context = features_dim - size
+        self.score = nn.Sequential(
+            *create_mlp(context + PROPOSAL_FEATURES, 1, net_arch["pi"], activation_fn)
+        )
+        self.value = nn.Sequential(*create_mlp(features_dim, -1, net_arch["vf"], activation_fn))
+        self.latent_dim_pi = k
+        self.latent_dim_vf = net_arch["vf"][-1] if net_arch["vf"] else features_dim
+
+    def forward(self, features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        return self.forward_actor(features), self.forward_critic(features)
+
+    def forward_actor(self, features: torch.Tensor) -> torch.Tensor:
+        """The logits (n, k) of picking each slot."""
+        size = self.k * PROPOSAL_FEATURES
+        slots = features[:, -size:].reshape(-1, self.k, PROPOSAL_FEATURES)
+        context = features[:, None, :-size].expand(-1, self.k, -1)
+        scores = self.score(torch.cat([context, slots], dim=-1))[..., 0]
+        return torch.where(slots[..., 0] > 0.5, scores, torch.full_like(scores, EMPTY))
+
+    def forward_critic(self, features: torch.Tensor) -> torch.Tensor:
+        return self.value(features)
+
+
+class ProposalPolicy(MultiInputActorCriticPolicy):
+    """SB3's actor-critic over goal dicts with a `ProposalScorer`: its logits are the slots'
+    scores (no linear layer after them, which would tie the slots apart again). `net_arch` as
+    SB3 reads it: a list for both networks, or "pi" for the scorer's hidden layers and "vf" for
+    the value's. The observation must not be normalized: a slot's presence is its flag."""
+
+    def _build_mlp_extractor(self) -> None:
+        arch = self.net_arch
+        if not isinstance(arch, dict):  # a list: the same hidden layers for both
+            arch = {"pi": arch, "vf": arch}
+        arch = {key: list(arch.get(key, [])) for key in ("pi", "vf")}
+        self._check_layout()
+        self.mlp_extractor = ProposalScorer(
+            self.features_dim, self.action_space.n, arch, self.activation_fn
+        )
+
+    def _check_layout(self) -> None:
+        """ValueError unless the features end with the "proposals" entry as it is (the
+        scorer's assumption), checked on a random observation."""
+        rng = np.random.default_rng(0)
+        sample = {
+            key: rng.standard_normal(space.shape).astype(space.dtype)
+            for key, space in self.observation_space.spaces.items()
+        }
+        tensors, _ = self.obs_to_tensor(sample)
+        with torch.no_grad():
+            features = self.features_extractor(tensors)
+        proposals = tensors[PROPOSALS_KEY].flatten(1)
+        if not torch.equal(features[:, -proposals.shape[1] :], proposals):
+            raise ValueError(
+                f"ProposalPolicy: the features extractor {type(self.features_extractor).__name__} "
+                f"must end its features with the {PROPOSALS_KEY!r} entry unchanged"
+            )
+
+    def _build(self, lr_schedule) -> None:
+        super()._build(lr_schedule)
+        self.action_net = nn.Identity()
+        if self.ortho_init:  # the scores start near equal, as SB3's action net would
+            self.init_weights(self.mlp_extractor.score[-1], gain=0.01)
+        self.optimizer = self.optimizer_class(
+            self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
+        )
+
+
+__all__ = [
+    "EMPTY",
+    "NavigateExtractor",
+    "ProposalPolicy",
+    "ProposalScorer",
+    "frame_of_flight",
+]
