@@ -94,6 +94,30 @@ def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
     }  # fmt: skip
 
 
+def paired_against(args: argparse.Namespace, run_dirs: list[Path], env_kwargs: dict) -> dict:
+    """Each seed's best model against the agent `args.paired` on the same test episodes: its
+    success, the episodes it wins and loses, and the exact McNemar p-value."""
+    from tether_gym.agents.evaluate import evaluate, load_agent, make_agent, paired
+
+    def play(agent):
+        (result,) = evaluate({"agent": agent}, env_kwargs, args.eval_episodes, TEST_SEED,
+                             env_id=args.env)  # fmt: skip
+        return result.success
+
+    reference = play(make_agent(args.paired, env_kwargs, env_id=args.env))
+    per_seed = []
+    for seed, run_dir in enumerate(run_dirs):
+        success = play(load_agent(run_dir / "best" / "model.zip"))
+        wins, losses, p = paired(success, reference)
+        per_seed.append({"seed": seed, "success_rate": float(success.mean()), "wins": wins,
+                         "losses": losses, "mcnemar_p": p})  # fmt: skip
+        print(f"seed {seed} (best) against {args.paired}: {100 * success.mean():.1f}% vs "
+              f"{100 * reference.mean():.1f}%, wins {wins}, losses {losses}, "
+              f"p {p:.2g}")  # fmt: skip
+    return {"reference": args.paired, "reference_success_rate": float(reference.mean()),
+            "episodes": args.eval_episodes, "per_seed": per_seed}  # fmt: skip
+
+
 def plot(summaries: list[dict], path: Path) -> None:
     """Success on the evaluation episodes against timesteps, one panel per algorithm: per
     summary the seeds' range as a band and their mean as a line."""
@@ -140,6 +164,12 @@ def main() -> None:
     parser.add_argument("--runs-dir", type=Path, default=Path("runs/baselines"))
     parser.add_argument("--out", type=Path, default=Path("results/baselines"))
     parser.add_argument("--overwrite", action="store_true")
+    parser.add_argument("--name", help="the configuration's name: its runs and summary file "
+                        "(default: from the algo, the env and its arguments)")  # fmt: skip
+    parser.add_argument("--paired", metavar="AGENT",
+                        help="also play each seed's best model and AGENT (an --agents name "
+                        "of tether-evaluate) on the test episodes: wins, losses, McNemar "
+                        "p")  # fmt: skip
     parser.add_argument("--plot", nargs="+", type=Path, help="summaries to draw in one figure")
     parser.add_argument("--figure", type=Path, help="the --plot figure's file")
     args = parser.parse_args()
@@ -148,7 +178,7 @@ def main() -> None:
             parser.error("--plot needs --figure")
         plot([json.loads(path.read_text()) for path in args.plot], args.figure)
         return
-    name = config_name(args)
+    name = args.name or config_name(args)
     out = args.out / f"{name}.json"
     if out.exists() and not args.overwrite:
         parser.error(f"{out} exists: pass --overwrite to replace it")
@@ -156,6 +186,8 @@ def main() -> None:
     with ThreadPoolExecutor(args.jobs) as pool:
         list(pool.map(lambda seed: run_seed(args, seed, run_dirs[seed]), range(args.seeds)))
     summary = summarize(args, run_dirs)
+    if args.paired:
+        summary["paired"] = paired_against(args, run_dirs, summary["env_kwargs"])
     args.out.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(summary, indent=1) + "\n")
     for row in summary["results"]:

@@ -1,6 +1,7 @@
 """benchmarks/baselines.py, the learned baselines over seeds, on a tiny budget: every seed
 trains, the summary holds each agent's mean, interval and worst seed over the runs' test
-episodes and the learning curves, and a finished run is read rather than retrained."""
+episodes and the learning curves, a finished run is read rather than retrained, and the paired
+comparison replays each seed against an agent on the same episodes."""
 
 from __future__ import annotations
 
@@ -38,6 +39,16 @@ def test_seeds_train_once_and_are_summarized_with_their_curves(tmp_path):
     logs = sorted(runs.glob("*.log"))
     stamps = [log.stat().st_mtime for log in logs]
     summary_file.unlink()
-    subprocess.run(argv, check=True, capture_output=True)  # the finished runs are read
+    paired = [*argv, "--paired", "greedy"]
+    subprocess.run(paired, check=True, capture_output=True)  # the finished runs are read
     assert [log.stat().st_mtime for log in logs] == stamps
-    assert json.loads(summary_file.read_text())["results"] == summary["results"]
+    again = json.loads(summary_file.read_text())
+    assert again["results"] == summary["results"]
+    # --paired replays each seed's best model on the test episodes beside the reference
+    pairs = again["paired"]
+    assert pairs["reference"] == "greedy" and len(pairs["per_seed"]) == 2
+    assert pairs["reference_success_rate"] == rows["greedy planner"]["per_seed"][0]
+    for row, rate in zip(pairs["per_seed"], policy["per_seed"], strict=True):
+        assert row["success_rate"] == rate
+        gap = (row["success_rate"] - pairs["reference_success_rate"]) * 10
+        assert row["wins"] - row["losses"] == round(gap) and 0 <= row["mcnemar_p"] <= 1

@@ -338,6 +338,16 @@ def _navigation_table(results: list[NavigationResult]) -> str:
     return "\n".join(lines)
 
 
+def paired(success: np.ndarray, reference: np.ndarray) -> tuple[int, int, float]:
+    """(wins, losses, exact McNemar p) of `success` against `reference`, two boolean arrays
+    over the same episodes: the episodes only the first succeeds on, those only the reference
+    does, and the two-sided binomial test of the wins among the episodes where they differ."""
+    if len(success) != len(reference):
+        raise ValueError("paired results must cover the same episodes")
+    wins, losses = int(np.sum(success & ~reference)), int(np.sum(~success & reference))
+    return wins, losses, float(binomtest(wins, wins + losses).pvalue) if wins + losses else 1.0
+
+
 def paired_table(results: list[EvalResult] | list[NavigationResult], reference: str) -> str:
     """Every other agent against the one named `reference` on the same episodes, as Markdown:
     the episodes it wins (succeeds where the reference fails) and loses, and the exact McNemar
@@ -348,8 +358,6 @@ def paired_table(results: list[EvalResult] | list[NavigationResult], reference: 
     if reference not in named:
         raise ValueError(f"reference must be one of {sorted(named)}, got {reference!r}")
     base = named[reference].success
-    if any(len(r.success) != len(base) for r in results):
-        raise ValueError("paired results must cover the same episodes")
     lines = [
         f"| agent | success | {reference} | wins | losses | McNemar p |",
         "|---|---:|---:|---:|---:|---:|",
@@ -357,8 +365,7 @@ def paired_table(results: list[EvalResult] | list[NavigationResult], reference: 
     for r in results:
         if r.name == reference:
             continue
-        wins, losses = int(np.sum(r.success & ~base)), int(np.sum(~r.success & base))
-        p = binomtest(wins, wins + losses).pvalue if wins + losses else 1.0
+        wins, losses, p = paired(r.success, base)
         lines.append(
             f"| {r.name} | {100 * r.success.mean():.1f}% | {100 * base.mean():.1f}% | {wins} | "
             f"{losses} | {p:.2g} |"
@@ -450,9 +457,12 @@ def agent_choices(env_id: str) -> tuple[str, ...]:
     """The agent names `make_agent` takes on `env_id` (besides a saved model's path)."""
     from tether_gym.agents import pretrained  # which imports this module
 
-    if navigates(env_id):
-        return ("greedy", "lookahead", "random")
-    return ("oracle", "shooting", *pretrained.AGENTS, "random")
+    navigation = navigates(env_id)
+    shipped = [name for name in pretrained.AGENTS
+               if navigates(pretrained.card(name)["env_id"]) == navigation]  # fmt: skip
+    if navigation:
+        return ("greedy", "lookahead", "pretrained", *shipped, "random")
+    return ("oracle", "shooting", *shipped, "random")
 
 
 def looks_like_path(spec: str) -> bool:
@@ -462,9 +472,10 @@ def looks_like_path(spec: str) -> bool:
 
 
 def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT_ENV_ID):
-    """ "oracle", "shooting", a pretrained agent ("pretrained", "pretrained-low-stiffness":
-    `pretrained.AGENTS`; TetherBounce-v0), "greedy", "lookahead" (TetherNavigate), "random" or
-    the path of a saved SB3 model zip. ValueError for an unknown name, listing the env's."""
+    """ "oracle", "shooting" (TetherBounce-v0), "greedy", "lookahead" (TetherNavigate), a
+    pretrained agent (`pretrained.AGENTS`: on TetherNavigate "pretrained" is the one of the
+    env's task, with its planner), "random" or the path of a saved SB3 model zip. ValueError
+    for an unknown name, listing the env's."""
     from tether_gym.agents import pretrained  # which imports this module
 
     navigation = navigates(env_id)
@@ -475,9 +486,7 @@ def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT
             "or a saved model's .zip path"
         )
     if spec in pretrained.AGENTS:
-        if navigation:
-            raise ValueError(f"the agent {spec!r} solves {DEFAULT_ENV_ID} only, not {env_id}")
-        return pretrained.load(spec)
+        return pretrained.load(pretrained.for_env(spec, env_id, env_kwargs))
     planner = spec in ("greedy", "lookahead")
     if (planner or spec in ("oracle", "shooting")) and planner != navigation:
         solves = "TetherNavigate" if planner else DEFAULT_ENV_ID
@@ -568,9 +577,10 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
     add("--agents", nargs="+", metavar="AGENT",
         help="oracle (impulse), shooting (model-based), pretrained, pretrained-low-stiffness "
         "(shipped policies, trained on the default env and on rho 5-100) on TetherBounce-v0; "
-        "greedy, lookahead (planners) on TetherNavigate; random, or a saved SB3 model zip "
-        "path (default: oracle shooting random, or greedy lookahead random on "
-        "TetherNavigate)")  # fmt: skip
+        "greedy, lookahead (planners), pretrained (the shipped agent of the env's task: "
+        "pretrained-reach or pretrained-stop, the greedy planner inside) on TetherNavigate; "
+        "random, or a saved SB3 model zip path (default: oracle shooting random, or greedy "
+        "lookahead random on TetherNavigate)")  # fmt: skip
     add("--episodes", type=int, default=1000, help="episodes per agent (default 1000)")
     add("--seed", type=int, default=0, help="seed of the episodes (default 0)")
     add("--csv", type=Path, metavar="PATH", help="write the table as CSV")
