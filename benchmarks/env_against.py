@@ -1,6 +1,6 @@
 """`benchmarks/env.py` on the working tree and on another revision, interleaved in one run.
 
-    python benchmarks/env_against.py REV [--repeats 7] [--quick]
+    python benchmarks/env_against.py REV [--repeats 7] [--quick] [--only TetherNavigate]
 
 REV is checked out into a temporary git worktree. Each repeat runs `env.py --json --repeats 1`
 once against each tree, alternating which goes first, so both see the same machine; the table
@@ -25,12 +25,15 @@ ROOT = Path(__file__).resolve().parent.parent
 ENV_BENCHMARK = Path(__file__).resolve().parent / "env.py"
 
 
-def run_once(tree: Path, quick: bool) -> dict[str, dict[str, float]]:
-    """One repeat of every case with `tree`'s tether_gym first on the path."""
+def run_once(tree: Path, quick: bool, only: str | None) -> dict[str, dict[str, float]]:
+    """One repeat of every case (those whose name holds `only`) with `tree`'s tether_gym first
+    on the path."""
     env = {**os.environ, "PYTHONPATH": str(tree)}
     command = [sys.executable, str(ENV_BENCHMARK), "--json", "--repeats", "1"]
     if quick:
         command.append("--quick")
+    if only:
+        command += ["--only", only]
     run = subprocess.run(command, cwd=tree, env=env, capture_output=True, text=True, check=True)
     return json.loads(run.stdout.splitlines()[-1])
 
@@ -40,6 +43,7 @@ def main() -> None:
     parser.add_argument("rev", help="the revision to compare with, e.g. a commit or main~3")
     parser.add_argument("--repeats", type=int, default=7, help="runs per tree (median)")
     parser.add_argument("--quick", action="store_true", help="a short smoke run")
+    parser.add_argument("--only", help="run only the cases whose name holds this")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:
         base = Path(folder) / "base"
@@ -50,7 +54,7 @@ def main() -> None:
             for repeat in range(args.repeats):
                 order = (ROOT, base) if repeat % 2 == 0 else (base, ROOT)
                 for tree in order:
-                    runs[tree].append(run_once(tree, args.quick))
+                    runs[tree].append(run_once(tree, args.quick, args.only))
         finally:
             subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(base)],
                            check=True)  # fmt: skip

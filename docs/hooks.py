@@ -55,8 +55,10 @@ def read_results(path: Path) -> dict[str, Any]:
 
         front = yaml.safe_load(path.read_text().split("---\n", 2)[1])
         held_out = front["held_out"]
+        planner = (front.get("hyperparams") or {}).get("proposals")
+        name = front["name"] + (f" (over the {planner} planner's proposals)" if planner else "")
         agents = {
-            (front["name"] if key == "policy" else key): value
+            (name if key == "policy" else key): value
             for key, value in held_out.items()
             if isinstance(value, dict)
         }

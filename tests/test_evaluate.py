@@ -174,7 +174,8 @@ def test_cli_rejects_bad_options(tmp_path):
 @pytest.mark.parametrize(
     ("env", "names"),
     [("TetherBounce-v0", "oracle, shooting, pretrained, pretrained-low-stiffness, random"),
-     ("TetherNavigate-v1", "greedy, lookahead, random")],
+     ("TetherNavigate-v1", "greedy, lookahead, pretrained, pretrained-reach, pretrained-stop, "
+                           "random")],
 )  # fmt: skip
 def test_an_unknown_agent_name_lists_the_names_the_env_takes(capsys, env, names):
     with pytest.raises(SystemExit):

@@ -11,31 +11,33 @@ pytest.importorskip("stable_baselines3")
 import torch
 
 from tether_gym.agents import pretrained
-from tether_gym.agents.evaluate import main, make_agent, wilson_interval
+from tether_gym.agents.evaluate import main, make_agent, navigates, wilson_interval
+from tether_gym.agents.planned import ProposalAgent
 from tether_gym.training import train
 
 TOLERANCE = 5
-"""Episodes of the card's first 1000 whose outcome may differ: the held-out episodes are
+"""Episodes of the card's first ones whose outcome may differ: the held-out episodes are
 seeded, so on one machine the count is exact; another CPU's float rounding may move an action
-that sits at a 2-degree or 2% tolerance across it."""
+that sits at a 2-degree or 2% tolerance across it, or a planner's tie between two proposals."""
 MAX_BYTES = 2_000_000
 
 
 @pytest.mark.parametrize("name", sorted(pretrained.AGENTS))
-def test_a_shipped_agent_reaches_its_cards_success_on_1000_held_out_episodes(name):
+def test_a_shipped_agent_reaches_its_cards_success_on_its_first_held_out_episodes(name):
+    """The card's count over its first held-out episodes (1000 on TetherBounce, 200 for a
+    navigation agent, which plays with its planner), replayed."""
     facts = pretrained.card(name)
     held = facts["held_out"]
-    result = pretrained.held_out(
-        pretrained.load(name), facts["env_kwargs"], pretrained.TEST_EPISODES, facts["env_id"]
-    )
-    expected = held["policy"][f"successes_first_{pretrained.TEST_EPISODES}"]
-    assert abs(int(result.success.sum()) - expected) <= TOLERANCE
+    first = pretrained.test_episodes(held)
+    result = pretrained.held_out(pretrained.load(name), facts["env_kwargs"], first, facts["env_id"])
+    assert abs(int(result.success.sum()) - held["policy"][f"successes_first_{first}"]) <= TOLERANCE
 
 
 @pytest.mark.parametrize("name", sorted(pretrained.AGENTS))
 def test_a_cards_success_and_interval_agree_with_its_counts(name):
-    held = pretrained.card(name)["held_out"]
-    for agent in ("policy", "impulse oracle", "shooting oracle"):
+    facts = pretrained.card(name)
+    held = facts["held_out"]
+    for agent in ("policy", *pretrained.YARDSTICKS[navigates(facts["env_id"])]):
         r = held[agent]
         assert r["success_rate"] == pytest.approx(r["successes"] / held["episodes"], abs=1e-4)
         interval = wilson_interval(r["successes"], held["episodes"])
@@ -66,6 +68,28 @@ def test_evaluate_runs_the_pretrained_agents_by_name(capsys):
     agent = make_agent("pretrained-low-stiffness", {"rho": (5.0, 100.0)})
     action, _ = agent.predict(np.zeros((3, 10), np.float32))
     assert action.shape == (3, 4)
+
+
+def test_tether_evaluate_plays_the_navigation_agent_of_the_env_s_task(capsys):
+    """On TetherNavigate "pretrained" is the shipped agent of the env's task, its planner
+    inside; an agent of one env is refused on the other."""
+    main(["--env", "TetherNavigate_OpenStop-v1", "--agents", "pretrained", "greedy",
+          "--episodes", "10", "--no-progress-bar"])  # fmt: skip
+    assert "| pretrained | 10 |" in capsys.readouterr().out
+    for env_id, task in (("TetherNavigate_PostsReach-v1", "reach"),
+                         ("TetherNavigate_WallStop-v1", "stop")):  # fmt: skip
+        agent = make_agent("pretrained", {}, env_id=env_id)
+        assert isinstance(agent, ProposalAgent) and agent.planner.config.task == task
+    card = pretrained.card("pretrained-stop")
+    assert card["hyperparams"]["proposals"] == "greedy"
+    assert (
+        "planner is inside this agent"
+        in pretrained.agent_file("pretrained-stop", ".md").read_text()
+    )
+    with pytest.raises(ValueError, match="solves"):
+        make_agent("pretrained-reach", {}, env_id="TetherBounce-v0")
+    with pytest.raises(ValueError, match="solves"):
+        make_agent("pretrained-low-stiffness", {}, env_id="TetherNavigate-v1")
 
 
 def test_unknown_names_and_unsupported_runs_are_refused(tmp_path):

@@ -36,6 +36,11 @@ PACKAGED = [
     "tether_gym/agents/pretrained/default.md",
     "tether_gym/agents/pretrained/low-stiffness.pt",
     "tether_gym/agents/pretrained/low-stiffness.md",
+    "tether_gym/agents/pretrained/navigate-reach.pt",
+    "tether_gym/agents/pretrained/navigate-reach.md",
+    "tether_gym/agents/pretrained/navigate-stop.pt",
+    "tether_gym/agents/pretrained/navigate-stop.md",
+    "tether_gym/agents/networks.py",
 ]
 SCRIPTS = {
     "tether-train": "tether_gym.training:main",
@@ -142,6 +147,10 @@ def test_tether_evaluate_runs_the_pretrained_agents_without_training(fresh_venv,
     command = [bin_dir / "tether-evaluate", "--agents", "pretrained-low-stiffness", "--rho", "5",
                "100", "--episodes", "20", "--no-progress"]  # fmt: skip
     assert "| pretrained-low-stiffness | 20 |" in run(command, outside).stdout
+    for env_id in ("TetherNavigate_PostsReach-v1", "TetherNavigate_OpenStop-v1"):  # the planner
+        command = [bin_dir / "tether-evaluate", "--env", env_id, "--agents", "pretrained",
+                   "--episodes", "20", "--no-progress"]  # fmt: skip
+        assert "| pretrained | 20 |" in run(command, outside).stdout
     assert not (outside / "runs").exists()
 
 

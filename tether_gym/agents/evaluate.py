@@ -457,12 +457,11 @@ def agent_choices(env_id: str) -> tuple[str, ...]:
     """The agent names `make_agent` takes on `env_id` (besides a saved model's path)."""
     from tether_gym.agents import pretrained  # which imports this module
 
-    navigation = navigates(env_id)
-    shipped = [name for name in pretrained.AGENTS
-               if navigates(pretrained.card(name)["env_id"]) == navigation]  # fmt: skip
-    if navigation:
-        return ("greedy", "lookahead", "pretrained", *shipped, "random")
-    return ("oracle", "shooting", *shipped, "random")
+    navigation = pretrained.NAVIGATION_AGENTS.values()
+    if navigates(env_id):
+        return ("greedy", "lookahead", "pretrained", *navigation, "random")
+    return ("oracle", "shooting", *(name for name in pretrained.AGENTS if name not in navigation),
+            "random")  # fmt: skip
 
 
 def looks_like_path(spec: str) -> bool:

@@ -2,12 +2,15 @@
 
     tether-evaluate --agents pretrained oracle
     tether-evaluate --agents pretrained-low-stiffness shooting --rho 5 100
+    tether-evaluate --env TetherNavigate_PostsReach-v1 --agents pretrained greedy lookahead
 
 Each agent is two package files here: `<name>.pt`, the policy alone as stable-baselines3's
 `BasePolicy.save` writes it (weights and constructor arguments: no optimizer state, no replay
 buffer, no value of training), and `<name>.md`, its model card: YAML front matter (the
 machine-readable facts, read by `card`) and the text. `AGENTS` maps the names that
-`tether-evaluate --agents` takes to the files.
+`tether-evaluate --agents` takes to the files; on TetherNavigate, "pretrained" is the agent of
+the env's task (`for_env`). A navigation agent picks among the greedy planner's proposals: its
+planner is part of it, rebuilt from the card's settings when it loads, and its card says so.
 
 The card's success is measured on held-out episodes (`HELD_OUT_SEED`), apart from the
 episodes that picked the best model of a run (`train.EVAL_SEED`) and from those that picked
@@ -23,17 +26,36 @@ from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
-from tether_gym.agents.evaluate import SB3Agent, evaluate, read_config
+import gymnasium as gym
+
+from tether_gym.agents.evaluate import SB3Agent, evaluate, make_agent, navigates, read_config
+from tether_gym.agents.planned import with_planner
 from tether_gym.cli import DEFAULT_ENV_ID, require_extra
 
-AGENTS = {"pretrained": "default", "pretrained-low-stiffness": "low-stiffness"}
+AGENTS = {
+    "pretrained": "default",
+    "pretrained-low-stiffness": "low-stiffness",
+    "pretrained-reach": "navigate-reach",
+    "pretrained-stop": "navigate-stop",
+}
 """`tether-evaluate --agents` name -> file stem in this package."""
+NAVIGATION_AGENTS = {"reach": "pretrained-reach", "stop": "pretrained-stop"}
+"""TetherNavigate's task -> its agent (the others solve TetherBounce-v0)."""
+YARDSTICKS = {
+    False: {"impulse oracle": "oracle", "shooting oracle": "shooting"},
+    True: {"greedy planner": "greedy", "lookahead planner": "lookahead"},
+}
+"""The agents a card measures beside the policy (label -> `tether-evaluate` name), by whether
+the agent navigates."""
 HELD_OUT_SEED = 3_000_000
 """Seed of the card's episodes (`evaluate`'s seed): not used in training or in picking."""
 CARD_EPISODES = 10_000
 """Episodes behind the card's success rate and its 95% interval."""
 TEST_EPISODES = 1000
-"""The first episodes of the card's, whose successes the card also records for the test."""
+"""The first episodes of the card's, whose successes the card also records for the test
+(`NAVIGATION_TEST_EPISODES` for a navigation agent, whose decisions cost a planner's)."""
+NAVIGATION_EPISODES = 1000
+NAVIGATION_TEST_EPISODES = 200
 POLICIES = {"ppo": "PPO", "sac": "SAC"}
 """The algorithms whose policies a card may name, and their SB3 classes."""
 
@@ -61,16 +83,38 @@ def load_policy(path: Path, algo: str, policy: str = "MlpPolicy") -> Any:
     require_extra(f"the pretrained policy {str(path)!r}", ("stable_baselines3", "torch"))
     import stable_baselines3
 
+    from tether_gym.agents import networks
+
     if algo not in POLICIES:
         raise ValueError(f"algo must be one of {sorted(POLICIES)}, got {algo!r}")
     algorithm = getattr(stable_baselines3, POLICIES[algo])
-    return algorithm.policy_aliases[policy].load(str(path), device="cpu")
+    classes = {**algorithm.policy_aliases, "ProposalPolicy": networks.ProposalPolicy}
+    return classes[policy].load(str(path), device="cpu")
 
 
-def load(name: str, folder: Path | None = None) -> SB3Agent:
-    """The pretrained agent `name` (a key of `AGENTS`): its policy, deterministic by default."""
+def test_episodes(held: dict[str, Any]) -> int:
+    """How many of a card's first held-out episodes its `successes_first_*` counts cover."""
+    return held.get("test_episodes", TEST_EPISODES)
+
+
+def for_env(name: str, env_id: str, env_kwargs: dict) -> str:
+    """The pretrained agent `name` means on `env_id`: on TetherNavigate, "pretrained" is the
+    agent of the env's task; ValueError for an agent of the other env."""
+    navigation = navigates(env_id)
+    if navigation and name == "pretrained":
+        name = NAVIGATION_AGENTS[{**gym.spec(env_id).kwargs, **env_kwargs}.get("task", "reach")]
+    if (name in NAVIGATION_AGENTS.values()) != navigation:
+        solves = "TetherNavigate" if name in NAVIGATION_AGENTS.values() else DEFAULT_ENV_ID
+        raise ValueError(f"the agent {name!r} solves {solves} only, not {env_id}")
+    return name
+
+
+def load(name: str, folder: Path | None = None):
+    """The pretrained agent `name` (a key of `AGENTS`): its policy, deterministic by default,
+    with its planner if it has one (`planned.with_planner`, from the card's settings)."""
     facts = card(name, folder)
-    return SB3Agent(load_policy(agent_file(name, ".pt", folder), facts["algo"], facts["policy"]))
+    policy = load_policy(agent_file(name, ".pt", folder), facts["algo"], facts["policy"])
+    return with_planner(SB3Agent(policy), facts)
 
 
 def held_out(agent: object, env_kwargs: dict, episodes: int, env_id: str = DEFAULT_ENV_ID):
@@ -85,22 +129,21 @@ def export(
     command: str,
     note: str = "",
     folder: Path | None = None,
-    episodes: int = CARD_EPISODES,
+    episodes: int | None = None,
 ) -> tuple[Path, Path]:
     """Write the policy of `run_dir/best/` and its card as the pretrained agent `name` (into
     `folder`, default this package's).
 
     The card's facts come from the run's saved config; its success is measured here on
-    `episodes` held-out episodes (and the first `TEST_EPISODES` of them), beside the impulse
-    and shooting oracles on the same episodes. `note` is appended to the card's text.
+    `episodes` held-out episodes (default `CARD_EPISODES`, `NAVIGATION_EPISODES` for a
+    navigation agent) and on the first `test_episodes` of them, beside the `YARDSTICKS` on the
+    same episodes. `note` is appended to the card's text.
 
     Raises:
         ValueError: for an unknown name, a run without `best/`, or a model that normalizes its
             observations (a policy file cannot carry VecNormalize statistics).
     """
     import stable_baselines3
-
-    from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 
     policy_file, card_file = agent_file(name, ".pt", folder), agent_file(name, ".md", folder)
     best = run_dir / "best"
@@ -117,21 +160,26 @@ def export(
     model.policy.save(str(policy_file))
     policy = load_policy(policy_file, config["algo"], config["hyperparams"]["policy"])
     env_id, env_kwargs = config["env_id"], config["env_kwargs"]
-    agents = {
-        "policy": SB3Agent(policy),
-        "impulse oracle": ImpulseOracle(),
-        "shooting oracle": ShootingOracle(env_kwargs),
-    }
+    navigation = navigates(env_id)
+    if episodes is None:
+        episodes = NAVIGATION_EPISODES if navigation else CARD_EPISODES
+    first_episodes = NAVIGATION_TEST_EPISODES if navigation else TEST_EPISODES
+    agents = {"policy": with_planner(SB3Agent(policy), config)}
+    for label, spec in YARDSTICKS[navigation].items():
+        agents[label] = make_agent(spec, env_kwargs, env_id=env_id)
     results = {}
     for label, agent in agents.items():
         full = held_out(agent, env_kwargs, episodes, env_id)
-        first = int(full.success[:TEST_EPISODES].sum())
         results[label] = {
             "successes": int(full.success.sum()),
             "success_rate": round(float(full.success_rate), 4),
             "success_ci": [round(float(x), 4) for x in full.success_ci],
-            f"successes_first_{TEST_EPISODES}": first,
+            f"successes_first_{first_episodes}": int(full.success[:first_episodes].sum()),
         }
+    held = {"seed": HELD_OUT_SEED, "episodes": episodes}
+    if navigation:
+        held["test_episodes"] = first_episodes
+    held.update(results)
     facts = {
         "name": name,
         "algo": config["algo"],
@@ -143,7 +191,7 @@ def export(
         "trained_timesteps": int(last["num_timesteps"]),
         "train_seconds": last.get("train_seconds"),
         "command": command,
-        "held_out": {"seed": HELD_OUT_SEED, "episodes": episodes, **results},
+        "held_out": held,
         "hyperparams": config["hyperparams"],
     }
     card_file.write_text(_card_text(facts, note))
@@ -155,7 +203,10 @@ def _card_text(facts: dict[str, Any], note: str) -> str:
     import yaml
 
     held = facts["held_out"]
+    first = test_episodes(held)
     env = facts["env_kwargs"] or "default arguments"
+    yardsticks = YARDSTICKS[navigates(facts["env_id"])]
+    planner = facts["hyperparams"].get("proposals")
     lines = [
         "---",
         yaml.safe_dump(facts, sort_keys=False).rstrip(),
@@ -167,28 +218,37 @@ def _card_text(facts: dict[str, Any], note: str) -> str:
         f"evaluation) of a {facts['trained_timesteps']:,}-timestep run that trained for "
         f"{facts['train_seconds']:.0f} s on one CPU thread. The policy file holds the weights "
         "and constructor arguments only (no optimizer state).",
+    ]
+    if planner:
+        lines += [
+            "",
+            f"**The {planner} planner is inside this agent**: at every decision it proposes its "
+            "best maneuvers (`proposals_k`, predicted `proposals_depth` maneuvers ahead) and the "
+            "policy picks one. Loading the agent rebuilds the planner from this card.",
+        ]
+    lines += [
         "",
         f"Command: `{facts['command']}`",
         "",
         f"Held-out episodes: {held['episodes']:,}, used neither in training nor to pick the "
         "model or the seed. Success with its 95% Wilson interval; tests/test_pretrained.py "
-        f"reruns the first {TEST_EPISODES} episodes. The same table:",
+        f"reruns the first {first} episodes. The same table:",
         "",
         "```bash",
-        f"tether-evaluate --agents {facts['name']} oracle shooting --episodes {held['episodes']} "
-        f"--seed {held['seed']}{_env_flags(facts)}",
+        f"tether-evaluate --agents {facts['name']} {' '.join(yardsticks.values())} --episodes "
+        f"{held['episodes']} --seed {held['seed']}{_env_flags(facts)}",
         "```",
         "",
-        f"| agent | success (95% CI) | successes in the first {TEST_EPISODES} |",
+        f"| agent | success (95% CI) | successes in the first {first} |",
         "|---|---|---:|",
     ]
-    for label in ("policy", "impulse oracle", "shooting oracle"):
+    for label in ("policy", *yardsticks):
         r = held[label]
         low, high = r["success_ci"]
         shown = facts["name"] if label == "policy" else label
         lines.append(
             f"| {shown} | {100 * r['success_rate']:.1f}% [{100 * low:.1f}, {100 * high:.1f}] "
-            f"| {r[f'successes_first_{TEST_EPISODES}']} |"
+            f"| {r[f'successes_first_{first}']} |"
         )
     lines += ["", "Hyperparameters (rl-baselines3-zoo format): see `hyperparams` above."]
     if note:
