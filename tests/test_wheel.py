@@ -150,7 +150,8 @@ def test_tether_evaluate_runs_the_pretrained_agents_without_training(fresh_venv,
     for env_id in ("TetherNavigate_PostsReach-v1", "TetherNavigate_OpenStop-v1"):  # the planner
         command = [bin_dir / "tether-evaluate", "--env", env_id, "--agents", "pretrained",
                    "--episodes", "20", "--no-progress"]  # fmt: skip
-        assert "| pretrained | 20 |" in run(command, outside).stdout
+        out = run(command, outside).stdout
+        assert "| pretrained | 20 |" in out, out
     assert not (outside / "runs").exists()
 
 
