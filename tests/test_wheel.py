@@ -147,12 +147,25 @@ def test_tether_evaluate_runs_the_pretrained_agents_without_training(fresh_venv,
     command = [bin_dir / "tether-evaluate", "--agents", "pretrained-low-stiffness", "--rho", "5",
                "100", "--episodes", "20", "--no-progress"]  # fmt: skip
     assert "| pretrained-low-stiffness | 20 |" in run(command, outside).stdout
-    for env_id in ("TetherNavigate_PostsReach-v1", "TetherNavigate_OpenStop-v1"):  # the planner
-        command = [bin_dir / "tether-evaluate", "--env", env_id, "--agents", "pretrained",
-                   "--episodes", "20", "--no-progress"]  # fmt: skip
-        out = run(command, outside).stdout
-        assert "| pretrained | 20 |" in out, out
     assert not (outside / "runs").exists()
+
+
+def test_the_navigation_agents_load_from_the_wheel_without_training(fresh_venv, outside):
+    """Each navigation agent of the installed package loads with its planner, for its task,
+    and training's modules stay unimported (tests/test_pretrained.py plays them: playing here
+    would compile the navigation kernels afresh for the new install)."""
+    bin_dir, site = fresh_venv
+    code = (
+        "import sys; from tether_gym.agents import pretrained\n"
+        "for env_id in ('TetherNavigate_PostsReach-v1', 'TetherNavigate_OpenStop-v1'):\n"
+        "    agent = pretrained.load(pretrained.for_env('pretrained', env_id, {}))\n"
+        "    print(type(agent).__name__, agent.planner.config.task)\n"
+        "print(pretrained.__file__, any(m.startswith('tether_gym.training') for m in sys.modules))"
+    )
+    *agents, last = run([bin_dir / "python", "-c", code], outside).stdout.splitlines()
+    assert agents == ["ProposalAgent reach", "ProposalAgent stop"]
+    module, training = last.split()
+    assert Path(module).is_relative_to(site) and training == "False"
 
 
 def test_tether_train_reads_its_packaged_hyperparameters_and_writes_under_cwd(fresh_venv, outside):
