@@ -28,7 +28,7 @@ def test_a_shipped_agent_reaches_its_cards_success_on_its_first_held_out_episode
     navigation agent, which plays with its planner), replayed."""
     facts = pretrained.card(name)
     held = facts["held_out"]
-    first = pretrained.test_episodes(held)
+    first = pretrained.replayed_episodes(held)
     result = pretrained.held_out(pretrained.load(name), facts["env_kwargs"], first, facts["env_id"])
     assert abs(int(result.success.sum()) - held["policy"][f"successes_first_{first}"]) <= TOLERANCE
 

@@ -55,7 +55,9 @@ TEST_EPISODES = 1000
 """The first episodes of the card's, whose successes the card also records for the test
 (`NAVIGATION_TEST_EPISODES` for a navigation agent, whose decisions cost a planner's)."""
 NAVIGATION_EPISODES = 1000
+"""`CARD_EPISODES` of a navigation agent."""
 NAVIGATION_TEST_EPISODES = 200
+"""`TEST_EPISODES` of a navigation agent."""
 POLICIES = {"ppo": "PPO", "sac": "SAC"}
 """The algorithms whose policies a card may name, and their SB3 classes."""
 
@@ -92,7 +94,7 @@ def load_policy(path: Path, algo: str, policy: str = "MlpPolicy") -> Any:
     return classes[policy].load(str(path), device="cpu")
 
 
-def test_episodes(held: dict[str, Any]) -> int:
+def replayed_episodes(held: dict[str, Any]) -> int:
     """How many of a card's first held-out episodes its `successes_first_*` counts cover."""
     return held.get("test_episodes", TEST_EPISODES)
 
@@ -136,8 +138,8 @@ def export(
 
     The card's facts come from the run's saved config; its success is measured here on
     `episodes` held-out episodes (default `CARD_EPISODES`, `NAVIGATION_EPISODES` for a
-    navigation agent) and on the first `test_episodes` of them, beside the `YARDSTICKS` on the
-    same episodes. `note` is appended to the card's text.
+    navigation agent) and on the first `TEST_EPISODES` (`NAVIGATION_TEST_EPISODES`) of them,
+    beside the `YARDSTICKS` on the same episodes. `note` is appended to the card's text.
 
     Raises:
         ValueError: for an unknown name, a run without `best/`, or a model that normalizes its
@@ -203,7 +205,7 @@ def _card_text(facts: dict[str, Any], note: str) -> str:
     import yaml
 
     held = facts["held_out"]
-    first = test_episodes(held)
+    first = replayed_episodes(held)
     env = facts["env_kwargs"] or "default arguments"
     yardsticks = YARDSTICKS[navigates(facts["env_id"])]
     planner = facts["hyperparams"].get("proposals")
