@@ -191,10 +191,12 @@ def seeds_table(sources: dict[str, str], agents: list[str] | None = None, root: 
     the seeds with its 95% t interval and the worst seed (the planners and random play the same
     episodes in every run). `agents` keeps those agents only."""
     _check_sources(sources)
-    rows = []
+    rows, notes = [], []
     for pattern in sources:
         for path in files_of(pattern, root):
             data = json.loads(path.read_text())
+            if "paired" in data:
+                notes.append(_paired_line(data))
             minutes = sorted(data["train_seconds"])[len(data["train_seconds"]) // 2] / 60
             for result in data["results"]:
                 if agents is not None and result["name"] not in agents:
@@ -208,7 +210,22 @@ def seeds_table(sources: dict[str, str], agents: list[str] | None = None, root: 
         "| env | arguments | agent | seeds | timesteps | train min (median) | "
         "success, mean [95% CI] | worst seed |\n|---|---|---|---:|---:|---:|---|---:|\n"
     )
-    return header + "\n".join(rows) + sources_line(sources)
+    return header + "\n".join(rows) + "".join(notes) + sources_line(sources)
+
+
+def _paired_line(data: dict[str, Any]) -> str:
+    """A summary's paired comparison (`baselines.py --paired`) in words: per seed, the best
+    model's wins and losses against the reference on the same episodes, and McNemar's p."""
+    paired = data["paired"]
+    seeds = "; ".join(
+        f"seed {row['seed']}: {row['wins']} won, {row['losses']} lost (p {row['mcnemar_p']:.2g})"
+        for row in paired["per_seed"]
+    )
+    return (
+        f"\n\n`{data['env_id']}`, each seed's best model against {paired['reference']} "
+        f"({100 * paired['reference_success_rate']:.1f}%) on the same {paired['episodes']:,} "
+        f"episodes: {seeds}."
+    )
 
 
 def planner_table(sources: dict[str, str], root: Path = ROOT) -> str:

@@ -227,3 +227,21 @@ def test_chromium_shows_the_site(site):
     finally:
         with contextlib.suppress(Exception):
             chrome.close()
+
+
+def test_a_seeds_table_says_each_seed_s_paired_comparison(tmp_path):
+    """A summary with `baselines.py --paired` results gets a line per file under its table:
+    each seed's wins and losses against the reference, from the file."""
+    summary = {
+        "env_id": "TetherNavigate_PostsReach-v1", "env_kwargs": {}, "seeds": [0, 1],
+        "timesteps": 1024, "train_seconds": [60.0, 90.0],
+        "results": [{"name": "PPO (best)", "success_rate": 0.5, "success_ci": [0.4, 0.6],
+                     "worst": 0.45, "episodes": 10}],
+        "paired": {"reference": "lookahead", "reference_success_rate": 0.4, "episodes": 10,
+                   "per_seed": [{"seed": 0, "wins": 3, "losses": 1, "mcnemar_p": 0.625},
+                                {"seed": 1, "wins": 2, "losses": 2, "mcnemar_p": 1.0}]},
+    }  # fmt: skip
+    (tmp_path / "summary.json").write_text(json.dumps(summary))
+    table = hooks.seeds_table({"summary.json": "python benchmarks/baselines.py"}, root=tmp_path)
+    assert "against lookahead (40.0%) on the same 10 episodes" in table
+    assert "seed 0: 3 won, 1 lost (p 0.62); seed 1: 2 won, 2 lost (p 1)" in table
