@@ -151,23 +151,27 @@ def speed_weight(fraction):
 
 @numba.njit(cache=True)
 def _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, posts):
-    """The change k in [k_low, k_high] along the tether u at (px, py) that misses the command
-    least: towards the aim, or at the commanded speed (either root, or the least speed), or a
-    limit."""
+    """(k, its miss, whether a post stops its path): the change k in [k_low, k_high] along the
+    tether u at (px, py) that misses the command least, `POST_PENALTY` counted: towards the
+    aim, or at the commanded speed (either root, or the least speed), or a limit."""
     along = vx * ux + vy * uy
     dx, dy = gx - px, gy - py
     across = ux * dy - uy * dx
     disc = along * along - (vx * vx + vy * vy) + speed * speed
     root = math.sqrt(disc) if disc > 0.0 else 0.0
     aim = (vx * dy - vy * dx) / across if across != 0.0 else k_low
-    best_k, best = k_low, math.inf
+    best_k, best, best_miss, best_blocked = k_low, math.inf, math.nan, False
     for k in (aim, along - root, along + root, k_low, k_high):
         k = min(max(k, k_low), k_high)
         miss, blocked = _miss(px, py, vx - k * ux, vy - k * uy, gx, gy, speed, weight, posts)
-        miss += POST_PENALTY if blocked else 0.0
-        if miss < best:
-            best_k, best = k, miss
-    return best_k
+        if miss + (POST_PENALTY if blocked else 0.0) < best:
+            best_k, best = k, miss + (POST_PENALTY if blocked else 0.0)
+            best_miss, best_blocked = miss, blocked
+    if best == math.inf:  # no candidate compared (a degenerate command): the least change
+        best_miss, best_blocked = _miss(
+            px, py, vx - k_low * ux, vy - k_low * uy, gx, gy, speed, weight, posts
+        )
+    return best_k, best_miss, best_blocked
 
 
 @numba.njit(cache=True)
@@ -190,9 +194,8 @@ def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest, pos
     compliance = 1.0 + arm * arm / GYRATION2
     k_low = max((1.0 + BRAKE_LOW) * pull / compliance, 0.0)
     k_high = max((1.0 + BRAKE_HIGH) * pull / compliance, 0.0)
-    k = _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, posts)
+    k, miss, blocked = _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, posts)
     e = k * compliance / pull - 1.0 if pull > 0.0 else BRAKE_HIGH
-    miss, blocked = _miss(px, py, vx - k * ux, vy - k * uy, gx, gy, speed, weight, posts)
     score = miss + ARM_WEIGHT * abs(arm) + (POST_PENALTY if blocked else 0.0)
     return score, miss, length, arm, e
 
@@ -237,21 +240,9 @@ def _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, posts, wheel, bound=m
     length, the wheel's rate, the contact's clearance)); `WHEEL_PENALTY` on the score if not.
     A score over `bound` is returned as it is (the wheel unchecked, not turning)."""
     x, y = puck.x + puck.vx * t, puck.y + puck.vy * t
-    speed = fraction * math.hypot(puck.vx, puck.vy)
+    speed, weight = fraction * math.hypot(puck.vx, puck.vy), speed_weight(fraction)
     score, miss, length, arm, e = _bounce_at(
-        x,
-        y,
-        puck.vx,
-        puck.vy,
-        puck.spin,
-        ax,
-        ay,
-        gx,
-        gy,
-        speed,
-        speed_weight(fraction),
-        longest,
-        posts,
+        x, y, puck.vx, puck.vy, puck.spin, ax, ay, gx, gy, speed, weight, longest, posts
     )
     if score >= bound:
         return score, miss, length, arm, e, False
