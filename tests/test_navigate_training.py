@@ -4,6 +4,7 @@ resume, evaluate against the planners), and the frame-of-flight features extract
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import gymnasium as gym
@@ -14,10 +15,13 @@ import yaml
 pytest.importorskip("stable_baselines3")
 
 import torch
+from stable_baselines3 import PPO
+from stable_baselines3.common.torch_layers import CombinedExtractor
 
 from tether_gym.agents.evaluate import NavigationResult, evaluate, load_agent
-from tether_gym.agents.networks import NavigateExtractor, ProposalPolicy
+from tether_gym.agents.networks import AimPolicy, NavigateExtractor, ProposalPolicy
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS
+from tether_gym.envs.tether_navigate.controls import ACTIONS
 from tether_gym.envs.tether_navigate.spaces import decode_observation
 from tether_gym.training import pretrain, proposals, residual, summary, train
 from tether_gym.training.her import PathHerReplayBuffer
@@ -315,3 +319,79 @@ def test_a_ppo_run_cloned_from_the_planner_names_it(tmp_path, capsys):
     assert train.main(argv) == 0
     assert "[pretrain] cloned in" in capsys.readouterr().out
     assert "| PPO from greedy demos (last) |" in (tmp_path / "bc" / "results.md").read_text()
+
+
+def aim_of(action, control: str) -> np.ndarray:
+    """The aim (m) of a normalized action in `control`."""
+    physical = ACTIONS[control].decode(ACTIONS[control].denormalize(action))
+    return np.array([physical["aim_x"], physical["aim_y"]])
+
+
+@pytest.mark.parametrize("control", ["aim", "velocity"])
+def test_an_untrained_aim_policy_aims_at_the_goal_it_is_given(control):
+    """AimPolicy's starting point: the deterministic action's aim is the desired goal, also a
+    relabeled one (the goal reaches the action through desired_goal)."""
+    env = gym.make("TetherNavigate_PostsReach-v1", control=control)
+    kwargs = dict(features_extractor_class=NavigateExtractor, net_arch=[32], control=control)
+    model = PPO(AimPolicy, env, policy_kwargs=kwargs, seed=0, device="cpu")
+    misses = []
+    for seed in range(10):
+        obs, _ = env.reset(seed=seed)
+        relabeled = {**obs, "desired_goal": env.observation_space["desired_goal"].sample()}
+        for goal_dict in (obs, relabeled):
+            action, _ = model.predict(goal_dict, deterministic=True)
+            misses.append(np.abs(aim_of(action, control) - goal_dict["desired_goal"]).max())
+    assert len(misses) == 20 and max(misses) < 0.02
+
+
+def test_an_aim_policy_round_trips_through_a_saved_model(tmp_path):
+    env = gym.make("TetherNavigate_PostsReach-v1", control="velocity")
+    kwargs = dict(features_extractor_class=NavigateExtractor, net_arch=[16], control="velocity")
+    model = PPO(AimPolicy, env, policy_kwargs=kwargs, n_steps=32, batch_size=32, seed=0,
+                device="cpu")  # fmt: skip
+    model.learn(64)  # the weights move away from their start
+    model.save(tmp_path / "model.zip")
+    loaded = PPO.load(tmp_path / "model.zip", device="cpu")
+    obs, _ = env.reset(seed=3)
+    assert loaded.policy.control == "velocity"
+    np.testing.assert_array_equal(
+        loaded.predict(obs, deterministic=True)[0], model.predict(obs, deterministic=True)[0]
+    )
+
+
+@pytest.mark.parametrize(
+    ("control", "kwargs", "message"),
+    [("setup", {}, "control must be one of ('aim', 'velocity')"),
+     ("aim", {"control": "velocity"}, "acts with 4 numbers, the action space holds 3"),
+     ("aim", {"features_extractor_class": CombinedExtractor}, "must name the desired goal")],
+)  # fmt: skip
+def test_an_aim_policy_refuses_what_it_cannot_aim(control, kwargs, message):
+    env = gym.make("TetherNavigate_PostsReach-v1", control=control)
+    policy_kwargs = {"features_extractor_class": NavigateExtractor, "control": control, **kwargs}
+    with pytest.raises(ValueError, match=re.escape(message)):
+        PPO(AimPolicy, env, policy_kwargs=policy_kwargs, device="cpu")
+
+
+@pytest.mark.parametrize(
+    ("argv", "hyperparams", "message"),
+    [(["--env", "TetherNavigate-v1"], [], "TetherNavigate with control one of ('aim', 'velocity')"),
+     (["--env", "TetherNavigate-v1", "--env-kwargs", "control:aim"], ["normalize:true"],
+      "not with normalize"),
+     (["--env", "TetherNavigateSparse-v1", "--env-kwargs", "control:aim", "--algo", "sac"], [],
+      "policy AimPolicy: for ppo only")],
+)  # fmt: skip
+def test_tether_train_checks_an_aim_policy_s_env(tmp_path, capsys, argv, hyperparams, message):
+    run = ["--timesteps", "64", "--runs-dir", str(tmp_path), *OPTIONS]
+    with pytest.raises(SystemExit):
+        train.main([*run, *argv, "--hyperparams", "policy:AimPolicy", *hyperparams])
+    assert message in capsys.readouterr().err
+
+
+def test_tether_train_gives_an_aim_policy_the_env_s_control_mode(tmp_path):
+    tiny = ["policy:AimPolicy", "n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY]
+    run = ["--timesteps", "512", "--eval-freq", "0", "--runs-dir", str(tmp_path), *OPTIONS]
+    argv = ["--env", "TetherNavigate_PostsReach-v1", "--env-kwargs", "control:velocity",
+            "--name", "run", *run, "--hyperparams", *tiny]  # fmt: skip
+    assert train.main(argv) == 0
+    model = load_agent(tmp_path / "run" / "last" / "model.zip").model
+    assert isinstance(model.policy, AimPolicy) and model.policy.control == "velocity"

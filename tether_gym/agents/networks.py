@@ -19,6 +19,10 @@ nothing the env does not show):
   distance, and the bearing over pi (a peg's is the action that hooks it); zero for padding;
 - any other entry of the dict as it is (a residual policy's base action).
 
+`AimPolicy`: PPO's actor-critic for aim and velocity control whose untrained action aims at
+the desired goal (`GoalAim`, a skip connection from the goal to the action), so that learning
+starts from the direct shot rather than from a random aim.
+
 `ProposalPolicy`: PPO's actor-critic over a planner's proposals
 (`tether_gym.agents.planned.propose`), one network scoring every proposal alike
 (`ProposalScorer`).
@@ -37,10 +41,13 @@ from torch import nn
 
 from tether_gym.agents.planned import PROPOSAL_FEATURES, PROPOSALS_KEY
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_POSTS
+from tether_gym.envs.tether_navigate.controls import ACTIONS
 from tether_gym.envs.tether_navigate.spaces import GOAL_KEYS, OBS
 
 ANCHORS = slice(OBS.anchor0_present, OBS.anchor0_present + 3 * MAX_ANCHORS)
 POSTS = slice(OBS.post0_present, OBS.post0_present + 3 * MAX_POSTS)
+AIMED_CONTROLS = ("aim", "velocity")
+"""The control modes whose action holds an aim (`AimPolicy`)."""
 POINT_FEATURES = 4
 """Per point in the frame of flight: along, across, distance, bearing / pi."""
 
@@ -67,6 +74,8 @@ class NavigateExtractor(BaseFeaturesExtractor):
         extra = sum(int(np.prod(observation_space[key].shape)) for key in self.extra)
         dim = size + 2 + 4 + 5 + POINT_FEATURES * points + extra
         super().__init__(observation_space, features_dim=dim)
+        self.desired_goal = slice(size + 4, size + 6)
+        """The desired goal's columns in the features (m, on the table)."""
 
     def forward(self, observations: dict[str, torch.Tensor]) -> torch.Tensor:
         obs = observations["observation"]
@@ -91,6 +100,97 @@ class NavigateExtractor(BaseFeaturesExtractor):
             [obs, goal, achieved, desired, speed, heading, orientation, points.flatten(1), *extra],
             dim=-1,
         )
+
+
+class GoalAim(nn.Module):
+    """The desired goal as an action's aim: its columns of the features (m, on the table)
+    mapped onto [-1, 1] as the control mode's `aim_x`, `aim_y` are."""
+
+    def __init__(self, features_extractor: nn.Module, control: str):
+        super().__init__()
+        if control not in AIMED_CONTROLS:
+            raise ValueError(f"AimPolicy: control must be one of {AIMED_CONTROLS}, got {control!r}")
+        self.columns = getattr(features_extractor, "desired_goal", None)
+        if self.columns is None:
+            raise ValueError(
+                f"AimPolicy: the features extractor {type(features_extractor).__name__} "
+                "must name the desired goal's columns (`desired_goal`), as NavigateExtractor does"
+            )
+        fields = ACTIONS[control]
+        self.action_size = len(fields)
+        self.aim = [getattr(fields.columns, name) for name in ("aim_x", "aim_y")]
+        low = torch.tensor([fields[name].low for name in ("aim_x", "aim_y")], dtype=torch.float32)
+        high = torch.tensor([fields[name].high for name in ("aim_x", "aim_y")], dtype=torch.float32)
+        self.register_buffer("low", low)
+        self.register_buffer("high", high)
+
+    def forward(self, features: torch.Tensor) -> torch.Tensor:
+        return 2.0 * (features[:, self.columns] - self.low) / (self.high - self.low) - 1.0
+
+    def start(self, action_net: nn.Linear) -> None:
+        """Set the weights of `action_net`, whose last two inputs are this aim, on them to
+        pass it to the action's aim and nothing else."""
+        if action_net.out_features != self.action_size:
+            raise ValueError(
+                f"AimPolicy: its control mode acts with {self.action_size} numbers, the action "
+                f"space holds {action_net.out_features}"
+            )
+        with torch.no_grad():
+            action_net.weight[:, -2:] = 0.0
+            for axis, column in enumerate(self.aim):
+                action_net.weight[column, -2 + axis] = 1.0
+                action_net.bias[column] = 0.0
+
+
+class AimSkip(nn.Module):
+    """SB3's two networks over the features, the goal as an aim (`GoalAim`) beside the actor's
+    last hidden layer."""
+
+    def __init__(self, features_dim: int, goal_aim: GoalAim, net_arch: dict, activation_fn):
+        super().__init__()
+        self.goal_aim = goal_aim
+        self.policy = nn.Sequential(*create_mlp(features_dim, -1, net_arch["pi"], activation_fn))
+        self.value = nn.Sequential(*create_mlp(features_dim, -1, net_arch["vf"], activation_fn))
+        self.latent_dim_pi = (net_arch["pi"][-1] if net_arch["pi"] else features_dim) + 2
+        self.latent_dim_vf = net_arch["vf"][-1] if net_arch["vf"] else features_dim
+
+    def forward(self, features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        return self.forward_actor(features), self.forward_critic(features)
+
+    def forward_actor(self, features: torch.Tensor) -> torch.Tensor:
+        return torch.cat([self.policy(features), self.goal_aim(features)], dim=-1)
+
+    def forward_critic(self, features: torch.Tensor) -> torch.Tensor:
+        return self.value(features)
+
+
+class AimPolicy(MultiInputActorCriticPolicy):
+    """PPO's actor-critic for TetherNavigate's aim and velocity control (`control="aim"`,
+    `"velocity"`) whose untrained action aims at the goal: the action net reads the goal as an
+    aim beside the last hidden layer and starts by passing it through (`GoalAim`: a skip
+    connection, learned like any weight). Learning then shapes the detours round posts, the
+    speed and the peg, rather than first finding the goal's coordinates in the features. No
+    planner: the policy is a network. `control` is the env's control mode; the features
+    extractor must name the goal's columns (`NavigateExtractor.desired_goal`)."""
+
+    def __init__(self, *args, control: str = "aim", **kwargs):
+        self.control = control
+        super().__init__(*args, **kwargs)
+
+    def _get_constructor_parameters(self) -> dict:
+        return {**super()._get_constructor_parameters(), "control": self.control}
+
+    def _build_mlp_extractor(self) -> None:
+        arch = self.net_arch
+        if not isinstance(arch, dict):
+            arch = {"pi": arch, "vf": arch}
+        arch = {key: list(arch.get(key, [])) for key in ("pi", "vf")}
+        goal_aim = GoalAim(self.features_extractor, self.control)
+        self.mlp_extractor = AimSkip(self.features_dim, goal_aim, arch, self.activation_fn)
+
+    def _build(self, lr_schedule) -> None:
+        super()._build(lr_schedule)  # the action net's other weights at SB3's small gain
+        self.mlp_extractor.goal_aim.start(self.action_net)
 
 
 EMPTY = -1e4
@@ -182,6 +282,9 @@ class ProposalPolicy(MultiInputActorCriticPolicy):
 
 __all__ = [
     "EMPTY",
+    "AimPolicy",
+    "AimSkip",
+    "GoalAim",
     "NavigateExtractor",
     "ProposalPolicy",
     "ProposalScorer",

@@ -61,7 +61,12 @@ from tether_gym.agents.evaluate import (
     navigates,
     read_config,
 )
-from tether_gym.agents.networks import NavigateExtractor, ProposalPolicy
+from tether_gym.agents.networks import (
+    AIMED_CONTROLS,
+    AimPolicy,
+    NavigateExtractor,
+    ProposalPolicy,
+)
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 from tether_gym.agents.planned import check_scale, make_planner, make_proposer, with_planner
 from tether_gym.agents.planned import settings as proposal_settings
@@ -126,7 +131,11 @@ REPLAY_BUFFERS = {"HerReplayBuffer": HerReplayBuffer, "PathHerReplayBuffer": Pat
 """`replay_buffer_class` names a zoo entry may give (hindsight relabeling for goal envs)."""
 EXPRESSION_NAMES = {"dict": dict, "nn": torch.nn, "NavigateExtractor": NavigateExtractor}
 """What a zoo expression (`policy_kwargs`, `replay_buffer_kwargs`) may name."""
-POLICIES = {"ProposalPolicy": ProposalPolicy}
+POLICIES = {
+    "AimPolicy": {"ppo": AimPolicy},
+    "ProposalPolicy": {"ppo": ProposalPolicy},
+}
+"""The package's policies a zoo entry may name, by algorithm (as SB3 resolves its own names)."""
 """Policy names of ours a zoo entry's `policy` may give, besides SB3's ("MlpPolicy", ...)."""
 
 
@@ -261,6 +270,18 @@ def check_config(config: dict[str, Any]) -> None:
             raise ValueError("policy ProposalPolicy: not with normalize (it reads slot flags)")
     elif params.get("policy") == "ProposalPolicy":
         raise ValueError("policy ProposalPolicy scores a planner's proposals: give `proposals`")
+    policy = params.get("policy")
+    if policy in POLICIES and config["algo"] not in POLICIES[policy]:
+        raise ValueError(f"policy {policy}: for {' and '.join(POLICIES[policy])} only")
+    if policy == "AimPolicy":
+        control = config["env_kwargs"].get("control", "setup")
+        if not navigates(config["env_id"]) or control not in AIMED_CONTROLS:
+            raise ValueError(
+                f"policy AimPolicy: TetherNavigate with control one of {AIMED_CONTROLS} "
+                f"(--env-kwargs control:aim), got {config['env_id']} with control {control!r}"
+            )
+        if params.get("normalize"):
+            raise ValueError("policy AimPolicy: not with normalize (it reads the goal in metres)")
     if params.get("pretrain") is not None:
         if config["algo"] != "ppo" or not navigates(config["env_id"]) or params.get("normalize"):
             raise ValueError("pretrain: PPO on TetherNavigate without normalize only")
@@ -558,14 +579,18 @@ def make_model(config: dict[str, Any], run_dir: Path, resume: bool) -> BaseAlgor
     if normalize:  # as in the zoo: true, or a dict of VecNormalize arguments
         options = expression(normalize) if isinstance(normalize, str) else {}
         venv = VecNormalize(venv, gamma=params.get("gamma", 0.99), **options)
+    kwargs, policy = algo_kwargs(params), params.get("policy", "MlpPolicy")
+    if policy == "AimPolicy":  # the policy maps the goal onto the env's action
+        control = config["env_kwargs"]["control"]
+        kwargs["policy_kwargs"] = {**kwargs.get("policy_kwargs", {}), "control": control}
     return ALGOS[config["algo"]](
-        POLICIES.get(params.get("policy"), params.get("policy", "MlpPolicy")),
+        POLICIES.get(policy, {}).get(config["algo"], policy),
         venv,
         seed=seed,
         device="cpu",
         verbose=0,
         tensorboard_log=str(run_dir / "tb"),
-        **algo_kwargs(params),
+        **kwargs,
     )
 
 
