@@ -87,6 +87,7 @@ def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
                         "per_seed": values.tolist()})  # fmt: skip
     return {
         "algo": args.algo, "env_id": args.env, "env_kwargs": runs[0]["env_kwargs"],
+        "hyperparams": dict(kv.split(":", 1) for kv in args.hyperparams),
         "timesteps": args.timesteps, "seeds": list(range(args.seeds)), "test_seed": TEST_SEED,
         "command": " ".join(["python benchmarks/baselines.py", *sys.argv[1:]]),
         "train_seconds": [round(run["train_seconds"], 1) for run in runs],

@@ -36,6 +36,8 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 """The repository: results paths in placeholders are relative to it."""
 PLACEHOLDER = re.compile(r"\{\{\s*(\w+\(.*?\))\s*\}\}", re.DOTALL)
+LADDER_YARDSTICKS = ("greedy planner", "lookahead planner", "random")
+"""The agents every baseline summary also plays, in the order `ladder_seeds_table` shows."""
 README_BLOCK = re.compile(r"(<!-- results: (.*?) -->\n)(.*?)(<!-- /results -->)", re.DOTALL)
 
 
@@ -213,6 +215,37 @@ def seeds_table(sources: dict[str, str], agents: list[str] | None = None, root: 
     return header + "\n".join(rows) + "".join(notes) + sources_line(sources)
 
 
+def ladder_seeds_table(sources: dict[str, str], root: Path = ROOT) -> str:
+    """One row per summary over seeds (`benchmarks/baselines.py`), for comparing rungs and
+    control modes at a glance: the env, its arguments and the zoo overrides, the learned
+    agent's best models' mean success with its 95% t interval and worst seed, the median train
+    time, and the planners and random on the same test episodes."""
+    _check_sources(sources)
+    rows = []
+    for pattern in sources:
+        for path in files_of(pattern, root):
+            data = json.loads(path.read_text())
+            by_name = {result["name"]: result for result in data["results"]}
+            learned = next(r for name, r in by_name.items() if name.endswith("(best)"))
+            overrides = [f"{k}:{v}" for k, v in data.get("hyperparams", {}).items()]
+            minutes = sorted(data["train_seconds"])[len(data["train_seconds"]) // 2] / 60
+            yardsticks = " | ".join(
+                f"{100 * by_name[name]['success_rate']:.1f}%" for name in LADDER_YARDSTICKS
+            )
+            rows.append(
+                f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | "
+                f"{' '.join([data['algo'].upper(), *overrides])} | {len(data['seeds'])} | "
+                f"{data['timesteps']:,} | {minutes:.0f} | {percent(learned)} | "
+                f"{100 * learned['worst']:.1f}% | {yardsticks} |"
+            )
+    header = (
+        "| env | arguments | agent | seeds | timesteps | train min (median) | "
+        "success, mean [95% CI] | worst seed | greedy | lookahead | random |\n"
+        "|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|\n"
+    )
+    return header + "\n".join(rows) + sources_line(sources)
+
+
 def _paired_line(data: dict[str, Any]) -> str:
     """A summary's paired comparison (`baselines.py --paired`) in words: per seed, the best
     model's wins and losses against the reference on the same episodes, and McNemar's p."""
@@ -320,12 +353,19 @@ MACROS: dict[str, Callable[..., str]] = {
     "success_table": success_table,
     "ladder_table": ladder_table,
     "seeds_table": seeds_table,
+    "ladder_seeds_table": ladder_seeds_table,
     "planner_table": planner_table,
     "cli_help": cli_help,
     "ladder_ids": ladder_ids,
 }
 """The placeholders a page may use."""
-RESULTS_MACROS = ("success_table", "ladder_table", "seeds_table", "planner_table")
+RESULTS_MACROS = (
+    "success_table",
+    "ladder_table",
+    "seeds_table",
+    "ladder_seeds_table",
+    "planner_table",
+)
 
 
 def parse_call(text: str) -> tuple[str, list[Any], dict[str, Any]]:

@@ -245,3 +245,24 @@ def test_a_seeds_table_says_each_seed_s_paired_comparison(tmp_path):
     table = hooks.seeds_table({"summary.json": "python benchmarks/baselines.py"}, root=tmp_path)
     assert "against lookahead (40.0%) on the same 10 episodes" in table
     assert "seed 0: 3 won, 1 lost (p 0.62); seed 1: 2 won, 2 lost (p 1)" in table
+
+
+def test_a_ladder_seeds_table_reads_each_summary_s_agent_and_yardsticks(tmp_path):
+    """One row per summary: the zoo overrides beside the algorithm, the learned agent's best
+    models over seeds, and the planners and random from the same file."""
+    summary = {
+        "algo": "ppo", "env_id": "TetherNavigate_OpenStop-v1",
+        "env_kwargs": {"control": "aim", "coast": True}, "hyperparams": {"policy": "AimPolicy"},
+        "seeds": [0, 1, 2], "timesteps": 1024, "train_seconds": [60.0, 120.0, 90.0],
+        "results": [{"name": "PPO (best)", "success_rate": 0.5, "success_ci": [0.4, 0.6],
+                     "worst": 0.45},
+                    {"name": "PPO (last)", "success_rate": 0.2, "worst": 0.1},
+                    {"name": "greedy planner", "success_rate": 0.551},
+                    {"name": "lookahead planner", "success_rate": 0.731},
+                    {"name": "random", "success_rate": 0.012}],
+    }  # fmt: skip
+    (tmp_path / "summary.json").write_text(json.dumps(summary))
+    table = hooks.ladder_seeds_table({"*.json": "python benchmarks/baselines.py"}, root=tmp_path)
+    row = ("| `TetherNavigate_OpenStop-v1` | control:aim coast:True | PPO policy:AimPolicy | 3 | "
+           "1,024 | 2 | 50.0% [40.0, 60.0] | 45.0% | 55.1% | 73.1% | 1.2% |")  # fmt: skip
+    assert row in table.splitlines()
