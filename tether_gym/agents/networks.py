@@ -102,6 +102,13 @@ class NavigateExtractor(BaseFeaturesExtractor):
         )
 
 
+def split_arch(net_arch: list[int] | dict[str, list[int]]) -> dict[str, list[int]]:
+    """SB3's `net_arch` as the hidden layers of "pi" and "vf": a list is both's."""
+    if not isinstance(net_arch, dict):
+        net_arch = {"pi": net_arch, "vf": net_arch}
+    return {key: list(net_arch.get(key, [])) for key in ("pi", "vf")}
+
+
 class GoalAim(nn.Module):
     """The desired goal as an action's aim: its columns of the features (m, on the table)
     mapped onto [-1, 1] as the control mode's `aim_x`, `aim_y` are."""
@@ -181,10 +188,7 @@ class AimPolicy(MultiInputActorCriticPolicy):
         return {**super()._get_constructor_parameters(), "control": self.control}
 
     def _build_mlp_extractor(self) -> None:
-        arch = self.net_arch
-        if not isinstance(arch, dict):
-            arch = {"pi": arch, "vf": arch}
-        arch = {key: list(arch.get(key, [])) for key in ("pi", "vf")}
+        arch = split_arch(self.net_arch)
         goal_aim = GoalAim(self.features_extractor, self.control)
         self.mlp_extractor = AimSkip(self.features_dim, goal_aim, arch, self.activation_fn)
 
@@ -243,10 +247,7 @@ class ProposalPolicy(MultiInputActorCriticPolicy):
     the value's. The observation must not be normalized: a slot's presence is its flag."""
 
     def _build_mlp_extractor(self) -> None:
-        arch = self.net_arch
-        if not isinstance(arch, dict):  # a list: the same hidden layers for both
-            arch = {"pi": arch, "vf": arch}
-        arch = {key: list(arch.get(key, [])) for key in ("pi", "vf")}
+        arch = split_arch(self.net_arch)
         self._check_layout()
         self.mlp_extractor = ProposalScorer(
             self.features_dim, self.action_space.n, arch, self.activation_fn
@@ -289,4 +290,5 @@ __all__ = [
     "ProposalPolicy",
     "ProposalScorer",
     "frame_of_flight",
+    "split_arch",
 ]
