@@ -144,9 +144,9 @@ def test_the_example_sweeps_are_valid():
     tune_ppo = sweep.load_sweep(SWEEPS / "tune_ppo.yml")
     assert tune_ppo.search == "optuna" and tune_ppo.num_trials() == 40
     assert sweep.load_sweep(SWEEPS / "seeds.yml").num_trials() == 5
-    for algo in ("ppo", "sac"):  # every rung of the ladder, each control mode, 5 seeds
-        ladder_sweep = sweep.load_sweep(SWEEPS / f"navigate_ladder_{algo}.yml")
-        assert ladder_sweep.num_trials() == 6 * 3 * 5
+    for name, modes in (("ppo", 2), ("sac", 2), ("ppo_setup", 1)):  # every rung, 5 seeds
+        ladder_sweep = sweep.load_sweep(SWEEPS / f"navigate_ladder_{name}.yml")
+        assert ladder_sweep.num_trials() == 6 * modes * 5
 
 
 def test_the_interval_over_seeds():
