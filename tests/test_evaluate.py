@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
+from tether_gym.agents.direct import DirectShot
 from tether_gym.agents.evaluate import (
     agent_names,
     evaluate,
@@ -25,6 +26,7 @@ from tether_gym.agents.evaluate import (
 )
 from tether_gym.agents.oracle import ImpulseOracle
 from tether_gym.agents.random_agent import RandomAgent
+from tether_gym.envs.tether_navigate.controls.velocity import AIM_ACTION
 
 
 def test_two_agents_see_identical_episodes():
@@ -175,7 +177,7 @@ def test_cli_rejects_bad_options(tmp_path):
     ("env", "names"),
     [("TetherBounce-v0", "oracle, shooting, pretrained, pretrained-low-stiffness, random"),
      ("TetherNavigate-v1", "greedy, lookahead, pretrained, pretrained-reach, pretrained-stop, "
-                           "random")],
+                           "direct, random")],
 )  # fmt: skip
 def test_an_unknown_agent_name_lists_the_names_the_env_takes(capsys, env, names):
     with pytest.raises(SystemExit):
@@ -189,6 +191,8 @@ def test_agents_and_plots_are_refused_on_the_wrong_env(tmp_path):
     other with an error naming the agent; --plot draws TetherBounce's heading errors only."""
     with pytest.raises(ValueError, match="greedy"):
         make_agent("greedy", {})
+    with pytest.raises(ValueError, match="direct"):
+        make_agent("direct", {})
     with pytest.raises(ValueError, match="oracle"):
         make_agent("oracle", {}, env_id="TetherNavigate-v1")
     with pytest.raises(SystemExit):
@@ -197,3 +201,23 @@ def test_agents_and_plots_are_refused_on_the_wrong_env(tmp_path):
     with pytest.raises(SystemExit):
         main(["--env", "TetherNavigate-v1", "--agents", "random", "--episodes", "5",
               "--no-progress", "--plot", str(tmp_path / "p.png")])  # fmt: skip
+
+
+@pytest.mark.parametrize(("env_id", "speed"), [("TetherNavigate_PostsReach-v1", 1.0),
+                                               ("TetherNavigate_OpenStop-v1", 0.0)])  # fmt: skip
+def test_the_direct_shot_aims_at_the_goal_at_its_task_s_speed(env_id, speed):
+    env = gym.make_vec(env_id, num_envs=8, vectorization_mode="vector_entry_point", control="aim")
+    obs, _ = env.reset(seed=0)
+    action, _ = DirectShot(env_id=env_id).predict(obs)
+    command = AIM_ACTION.decode(AIM_ACTION.denormalize(action))
+    np.testing.assert_allclose(np.stack([command["aim_x"], command["aim_y"]], axis=-1),
+                               obs["desired_goal"], atol=1e-6)  # fmt: skip
+    np.testing.assert_array_equal(command["speed"], speed)
+
+
+def test_the_direct_shot_plays_in_aim_control_and_reaches_across_an_open_table():
+    """Evaluated on a ladder id in set-up control, the harness plays it in aim control (its
+    own); on the open table its straight shots reach the goal nearly always."""
+    (result,) = evaluate({"direct": make_agent("direct", {}, env_id="TetherNavigate_OpenReach-v1")},
+                         {"coast": True}, 100, 5, env_id="TetherNavigate_OpenReach-v1")  # fmt: skip
+    assert result.success_rate > 0.85

@@ -1,0 +1,35 @@
+"""The direct shot: in aim control, the goal itself as the aim, at full speed for "reach" and
+as a dead stop for "stop". The operational-space mode's trivial policy (no search, no
+learning): the mark a learned aim policy has to beat, as random is the floor."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+
+from tether_gym.envs.tether_navigate.config import NavigateConfig
+from tether_gym.envs.tether_navigate.controls.velocity import AIM_ACTION
+from tether_gym.tasks.navigate import TASKS
+
+
+class DirectShot:
+    """Aim at the desired goal, in `control="aim"` whatever the env's mode (the evaluation
+    harness plays it there). `env_kwargs`: the env's arguments, over those its registered
+    `env_id` fixes (the ladder's tasks): the task sets the speed."""
+
+    control = "aim"
+    """The control mode the agent acts in."""
+
+    def __init__(self, env_kwargs: dict | None = None, env_id: str | None = None):
+        given = {**(gym.spec(env_id).kwargs if env_id else {}), **(env_kwargs or {})}
+        task = given.get("task", NavigateConfig.task)
+        if task not in TASKS:
+            raise ValueError(f"task must be one of {TASKS}, got {task!r}")
+        self.speed = 1.0 if task == "reach" else 0.0
+
+    def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
+        """SB3's interface, for one goal dict or a batch: normalized actions (3,) or (n, 3)."""
+        goal = np.asarray(obs["desired_goal"], dtype=np.float64)
+        speed = np.full(goal.shape[:-1], self.speed)
+        aim = AIM_ACTION.encode(aim_x=goal[..., 0], aim_y=goal[..., 1], speed=speed)
+        return AIM_ACTION.normalize(aim).astype(np.float32), state
