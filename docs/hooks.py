@@ -236,14 +236,30 @@ def ladder_seeds_table(sources: dict[str, str], root: Path = ROOT) -> str:
                 f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | "
                 f"{' '.join([data['algo'].upper(), *overrides])} | {len(data['seeds'])} | "
                 f"{data['timesteps']:,} | {minutes:.0f} | {percent(learned)} | "
-                f"{100 * learned['worst']:.1f}% | {yardsticks} |"
+                f"{100 * learned['worst']:.1f}% | {yardsticks} | {_paired_cell(data)} |"
             )
     header = (
         "| env | arguments | agent | seeds | timesteps | train min (median) | "
-        "success, mean [95% CI] | worst seed | greedy | lookahead | random |\n"
-        "|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|\n"
+        "success, mean [95% CI] | worst seed | greedy | lookahead | random | paired |\n"
+        "|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---|\n"
     )
     return header + "\n".join(rows) + sources_line(sources)
+
+
+def _paired_cell(data: dict[str, Any]) -> str:
+    """A summary's paired comparison in a few words: the reference's success and on how many
+    seeds the best model won or lost significantly (McNemar p < 0.05) on the same episodes."""
+    paired = data.get("paired")
+    if paired is None:
+        return "-"
+    seeds = paired["per_seed"]
+    significant = [row for row in seeds if row["mcnemar_p"] < 0.05]
+    ahead = sum(row["wins"] > row["losses"] for row in significant)
+    behind = len(significant) - ahead
+    return (
+        f"{paired['reference']} {100 * paired['reference_success_rate']:.1f}%: "
+        f"ahead on {ahead}, behind on {behind} of {len(seeds)} seeds (p < 0.05)"
+    )
 
 
 def _paired_line(data: dict[str, Any]) -> str:

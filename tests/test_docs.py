@@ -249,7 +249,8 @@ def test_a_seeds_table_says_each_seed_s_paired_comparison(tmp_path):
 
 def test_a_ladder_seeds_table_reads_each_summary_s_agent_and_yardsticks(tmp_path):
     """One row per summary: the zoo overrides beside the algorithm, the learned agent's best
-    models over seeds, and the planners and random from the same file."""
+    models over seeds, the planners and random from the same file, and the paired comparison
+    counted by seed."""
     summary = {
         "algo": "ppo", "env_id": "TetherNavigate_OpenStop-v1",
         "env_kwargs": {"control": "aim", "coast": True}, "hyperparams": {"policy": "AimPolicy"},
@@ -260,9 +261,14 @@ def test_a_ladder_seeds_table_reads_each_summary_s_agent_and_yardsticks(tmp_path
                     {"name": "greedy planner", "success_rate": 0.551},
                     {"name": "lookahead planner", "success_rate": 0.731},
                     {"name": "random", "success_rate": 0.012}],
+        "paired": {"reference": "direct", "reference_success_rate": 0.6, "episodes": 10,
+                   "per_seed": [{"seed": 0, "wins": 1, "losses": 9, "mcnemar_p": 0.02},
+                                {"seed": 1, "wins": 3, "losses": 4, "mcnemar_p": 1.0},
+                                {"seed": 2, "wins": 9, "losses": 0, "mcnemar_p": 0.004}]},
     }  # fmt: skip
     (tmp_path / "summary.json").write_text(json.dumps(summary))
     table = hooks.ladder_seeds_table({"*.json": "python benchmarks/baselines.py"}, root=tmp_path)
     row = ("| `TetherNavigate_OpenStop-v1` | control:aim coast:True | PPO policy:AimPolicy | 3 | "
-           "1,024 | 2 | 50.0% [40.0, 60.0] | 45.0% | 55.1% | 73.1% | 1.2% |")  # fmt: skip
+           "1,024 | 2 | 50.0% [40.0, 60.0] | 45.0% | 55.1% | 73.1% | 1.2% | "
+           "direct 60.0%: ahead on 1, behind on 1 of 3 seeds (p < 0.05) |")  # fmt: skip
     assert row in table.splitlines()
