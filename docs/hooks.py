@@ -217,7 +217,7 @@ def seeds_table(sources: dict[str, str], agents: list[str] | None = None, root: 
 
 def ladder_seeds_table(sources: dict[str, str], root: Path = ROOT) -> str:
     """One row per summary over seeds (`benchmarks/baselines.py`), for comparing rungs and
-    control modes at a glance: the env, its arguments and the zoo overrides, the learned
+    control modes at a glance: the env, its arguments and the zoo's overridden policy, the learned
     agent's best models' mean success with its 95% t interval and worst seed, the median train
     time, and the planners and random on the same test episodes."""
     _check_sources(sources)
@@ -227,14 +227,14 @@ def ladder_seeds_table(sources: dict[str, str], root: Path = ROOT) -> str:
             data = json.loads(path.read_text())
             by_name = {result["name"]: result for result in data["results"]}
             learned = next(r for name, r in by_name.items() if name.endswith("(best)"))
-            overrides = [f"{k}:{v}" for k, v in data.get("hyperparams", {}).items()]
+            agent = _agent_cell(data["algo"], data.get("hyperparams", {}))
             minutes = sorted(data["train_seconds"])[len(data["train_seconds"]) // 2] / 60
             yardsticks = " | ".join(
                 f"{100 * by_name[name]['success_rate']:.1f}%" for name in LADDER_YARDSTICKS
             )
             rows.append(
                 f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | "
-                f"{' '.join([data['algo'].upper(), *overrides])} | {len(data['seeds'])} | "
+                f"{agent} | {len(data['seeds'])} | "
                 f"{data['timesteps']:,} | {minutes:.0f} | {percent(learned)} | "
                 f"{100 * learned['worst']:.1f}% | {yardsticks} | {_paired_cell(data)} |"
             )
@@ -244,6 +244,15 @@ def ladder_seeds_table(sources: dict[str, str], root: Path = ROOT) -> str:
         "|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---|\n"
     )
     return header + "\n".join(rows) + sources_line(sources)
+
+
+def _agent_cell(algo: str, hyperparams: dict[str, str]) -> str:
+    """The algorithm and the policy a summary's runs overrode the zoo with; other overrides by
+    name only (their values are in the command under the table)."""
+    policy = hyperparams.get("policy")
+    others = [key for key in hyperparams if key != "policy"]
+    text = algo.upper() + (f" {policy}" if policy else "")
+    return text + (f", {' '.join(others)} as in the command" if others else "")
 
 
 def _paired_cell(data: dict[str, Any]) -> str:

@@ -248,12 +248,13 @@ def test_a_seeds_table_says_each_seed_s_paired_comparison(tmp_path):
 
 
 def test_a_ladder_seeds_table_reads_each_summary_s_agent_and_yardsticks(tmp_path):
-    """One row per summary: the zoo overrides beside the algorithm, the learned agent's best
+    """One row per summary: the overridden policy beside the algorithm, the learned agent's best
     models over seeds, the planners and random from the same file, and the paired comparison
     counted by seed."""
     summary = {
         "algo": "ppo", "env_id": "TetherNavigate_OpenStop-v1",
-        "env_kwargs": {"control": "aim", "coast": True}, "hyperparams": {"policy": "AimPolicy"},
+        "env_kwargs": {"control": "aim", "coast": True},
+        "hyperparams": {"policy": "AimPolicy", "policy_kwargs": "dict(log_std_init=-2.5)"},
         "seeds": [0, 1, 2], "timesteps": 1024, "train_seconds": [60.0, 120.0, 90.0],
         "results": [{"name": "PPO (best)", "success_rate": 0.5, "success_ci": [0.4, 0.6],
                      "worst": 0.45},
@@ -268,7 +269,8 @@ def test_a_ladder_seeds_table_reads_each_summary_s_agent_and_yardsticks(tmp_path
     }  # fmt: skip
     (tmp_path / "summary.json").write_text(json.dumps(summary))
     table = hooks.ladder_seeds_table({"*.json": "python benchmarks/baselines.py"}, root=tmp_path)
-    row = ("| `TetherNavigate_OpenStop-v1` | control:aim coast:True | PPO policy:AimPolicy | 3 | "
+    row = ("| `TetherNavigate_OpenStop-v1` | control:aim coast:True | PPO AimPolicy, "
+           "policy_kwargs as in the command | 3 | "
            "1,024 | 2 | 50.0% [40.0, 60.0] | 45.0% | 55.1% | 73.1% | 1.2% | "
            "direct 60.0%: ahead on 1, behind on 1 of 3 seeds (p < 0.05) |")  # fmt: skip
     assert row in table.splitlines()
