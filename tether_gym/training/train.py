@@ -135,8 +135,8 @@ POLICIES = {
     "AimPolicy": {"ppo": AimPolicy},
     "ProposalPolicy": {"ppo": ProposalPolicy},
 }
-"""The package's policies a zoo entry may name, by algorithm (as SB3 resolves its own names)."""
-"""Policy names of ours a zoo entry's `policy` may give, besides SB3's ("MlpPolicy", ...)."""
+"""Policy names of ours a zoo entry's `policy` may give, besides SB3's ("MlpPolicy", ...), with
+their class for each algorithm that takes them (SB3 too resolves a name by algorithm)."""
 
 
 def parse_overrides(items: list[str]) -> dict[str, Any]:
