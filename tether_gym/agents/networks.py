@@ -21,7 +21,7 @@ nothing the env does not show):
 
 `AimPolicy`: PPO's actor-critic for aim and velocity control whose untrained action aims at
 the desired goal (`GoalAim`, a skip connection from the goal to the action), so that learning
-starts from the direct shot rather than from a random aim.
+starts from a shot at the goal rather than from a random aim.
 
 `ProposalPolicy`: PPO's actor-critic over a planner's proposals
 (`tether_gym.agents.planned.propose`), one network scoring every proposal alike
@@ -175,9 +175,9 @@ class AimPolicy(MultiInputActorCriticPolicy):
     """PPO's actor-critic for TetherNavigate's aim and velocity control (`control="aim"`,
     `"velocity"`) whose untrained action aims at the goal: the action net reads the goal as an
     aim beside the last hidden layer and starts by passing it through (`GoalAim`: a skip
-    connection, learned like any weight). Learning then shapes the detours round posts, the
-    speed and the peg, rather than first finding the goal's coordinates in the features. No
-    planner: the policy is a network. `control` is the env's control mode; the features
+    connection, learned like any weight), so what is left to learn is the detours round posts,
+    the speed and the peg, not the goal's coordinates in the features. No planner: the policy
+    is a network. `control` is the env's control mode; the features
     extractor must name the goal's columns (`NavigateExtractor.desired_goal`)."""
 
     def __init__(self, *args, control: str = "aim", **kwargs):
