@@ -31,7 +31,6 @@ from tether_gym.envs.tether_navigate.config import (
     TABLE_WIDTH,
 )
 from tether_gym.envs.tether_navigate.controls.setup import ACTION
-from tether_gym.envs.tether_navigate.controls.velocity import _taut
 from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION
 from tether_gym.physics.events import free_flight_row, time_to_wall_row, wall_bounce_row
 from tether_gym.physics.jit import choose_threading_layer, serial_and_parallel
@@ -43,6 +42,7 @@ SEGMENTS = 3
 ALPHA_GRID = np.linspace(-0.5 * math.pi, 0.5 * math.pi, 181)
 """Offset angles searched for the bounce that leaves the least speed."""
 ALPHA_STEP = ALPHA_GRID[1] - ALPHA_GRID[0]
+ALPHA_SIN, ALPHA_COS = np.sin(ALPHA_GRID), np.cos(ALPHA_GRID)
 FINE_GRID = np.linspace(-1.0, 1.0, 81)
 """The finer search about the best of `ALPHA_GRID`, in its steps: 40 times finer."""
 LENGTH_LOW, LENGTH_HIGH = ACTION["tether_length"].low, ACTION["tether_length"].high
@@ -63,6 +63,7 @@ LINE_UP_OFFSET = math.sqrt(0.6 * GYRATION2)
 tether on the rim: (R sin alpha)^2 = e I / m), mid-range of the brake."""
 LINE_UP_ALPHAS = np.radians([0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90, -90])
 """Offset angles of a line-up bounce, least turn first (a spinning puck dumps worse)."""
+LINE_UP_SIN, LINE_UP_COS = np.sin(LINE_UP_ALPHAS), np.cos(LINE_UP_ALPHAS)
 EXTREME_ALPHAS = (-0.5 * math.pi, 0.0, 0.5 * math.pi)
 """Offset angles of the extreme candidates, each with the shortest and the longest tether."""
 KINDS = ("aim", "dump", "extreme", "line_up")
@@ -290,11 +291,11 @@ def _line_up(s, x, y, vx, vy, wx, wy, q, shortest, out, n):
     """The line-up off peg q at (x, y) turning (vx, vy) along (wx, wy), if an offset angle of
     `LINE_UP_ALPHAS` makes it: v' = v - dv u, dv = cross(v, w) / cross(u, w)."""
     rx, ry = x - s.anchors[q, 0], y - s.anchors[q, 1]
-    radius, direction = math.sqrt(rx * rx + ry * ry), math.atan2(ry, rx)
-    for alpha in LINE_UP_ALPHAS:
-        arm = ARM * math.sin(alpha)
-        length, ux, uy = _taut(radius, direction, arm)
-        pull = vx * ux + vy * uy + s.spin * ARM * math.sin(alpha)
+    radius = math.sqrt(rx * rx + ry * ry)
+    for a in range(LINE_UP_ALPHAS.shape[0]):
+        alpha, arm = LINE_UP_ALPHAS[a], ARM * LINE_UP_SIN[a]
+        length, ux, uy = _taut(rx, ry, radius, arm, ARM * LINE_UP_COS[a])
+        pull = vx * ux + vy * uy + s.spin * ARM * LINE_UP_SIN[a]
         turn = ux * wy - uy * wx
         if turn == 0.0:
             continue
@@ -390,17 +391,17 @@ def _least_speed(px, py, vx, vy, spin, ax, ay):
     """`planners.least_speed_bounce` of one tautening at (px, py) moving at (vx, vy) with
     `spin`, hooked to the peg (ax, ay): (offset angle, brake, tether length, speed left)."""
     rx, ry = px - ax, py - ay
-    radius, direction = math.hypot(rx, ry), math.atan2(ry, rx)
+    radius = math.hypot(rx, ry)
     best, least = 0, math.inf
     for k in range(ALPHA_GRID.shape[0]):
-        left = _bounce(ALPHA_GRID[k], radius, direction, vx, vy, spin)[2]
+        left = _bounce(ALPHA_SIN[k], ALPHA_COS[k], rx, ry, radius, vx, vy, spin)[2]
         if left < least:
             best, least = k, left
     centre = ALPHA_GRID[best]
     chosen = (centre, 1.0, math.nan, math.inf)
     for k in range(FINE_GRID.shape[0]):
         a = min(max(centre + ALPHA_STEP * FINE_GRID[k], ALPHA_GRID[0]), ALPHA_GRID[-1])
-        e, length, left = _bounce(a, radius, direction, vx, vy, spin)
+        e, length, left = _bounce(math.sin(a), math.cos(a), rx, ry, radius, vx, vy, spin)
         if k == 0 or left < chosen[3]:
             chosen = (a, e, length, left)
     return chosen
@@ -426,37 +427,57 @@ _aim = numba.njit(cache=True, error_model="numpy")(aim)
 TINY, EPS = np.finfo(np.float64).tiny, np.finfo(np.float64).eps
 """Where a bracketed root counts as converged: scipy's `find_root` defaults (an interval under
 4 tiny + 4 eps |x|, or |f| <= tiny)."""
+MAX_ROOT_STEPS = 2046
+"""scipy's `find_root` default: log2 of float64's range."""
 
 
 @numba.njit(cache=True, inline="always")
 def _aim_root(lo, hi, args):
-    """(root, found) of `aim`'s sin (its `args` after t) bracketed in [lo, hi]."""
-    f_lo, f_hi = _aim(lo, *args)[0], _aim(hi, *args)[0]
-    while abs(hi - lo) >= 4.0 * TINY + 4.0 * EPS * max(abs(lo), abs(hi)):
-        if min(abs(f_lo), abs(f_hi)) <= TINY or math.isnan(f_lo) or math.isnan(f_hi):
-            break
-        mid = lo + 0.5 * (hi - lo)
-        if mid == lo or mid == hi:
-            break
-        f_mid = _aim(mid, *args)[0]
-        if (f_mid < 0.0) == (f_lo < 0.0):
-            lo, f_lo = mid, f_mid
+    """(root, found) of `aim`'s sin (its `args` after t) bracketed in [lo, hi]: Chandrupatla's
+    method (inverse quadratic interpolation where it fits, else bisection), as scipy's
+    `find_root` runs it, to the same tolerances."""
+    x1, x2 = lo, hi
+    f1, f2 = _aim(x1, *args)[0], _aim(x2, *args)[0]
+    x3, f3, t = x2, f2, 0.5
+    for iteration in range(MAX_ROOT_STEPS):
+        xmin, fmin = (x1, f1) if abs(f1) < abs(f2) else (x2, f2)
+        if abs(fmin) <= TINY:
+            return xmin, True
+        if _sign(f1) == _sign(f2) or (math.isnan(f1) and math.isnan(f2)):
+            return math.nan, False
+        if not (math.isfinite(x1) and math.isfinite(x2)):
+            return math.nan, False
+        dx, tol = abs(x2 - x1), abs(xmin) * 4.0 * EPS + 4.0 * TINY
+        if dx < tol:
+            return xmin, True
+        if iteration > 0:
+            xi = (x1 - x2) / (x3 - x2) if x3 != x2 else math.nan
+            phi = (f1 - f2) / (f3 - f2) if f3 != f2 else math.nan
+            t = 0.5
+            if 0.0 <= xi <= 1.0 and 1.0 - math.sqrt(1.0 - xi) < phi < math.sqrt(xi):
+                alpha = (x3 - x1) / (x2 - x1)
+                t = f1 / (f1 - f2) * f3 / (f3 - f2) - alpha * f1 / (f3 - f1) * f2 / (f2 - f3)
+            limit = 0.5 * tol / dx
+            t = min(max(t, limit), 1.0 - limit)
+        x = x1 + t * (x2 - x1)
+        f = _aim(x, *args)[0]
+        if _sign(f) == _sign(f1):
+            x3, f3 = x1, f1
         else:
-            hi, f_hi = mid, f_mid
-    root = lo if abs(f_lo) <= abs(f_hi) else hi
-    return root, not (math.isnan(f_lo) or math.isnan(f_hi))
+            x3, f3, x2, f2 = x2, f2, x1, f1
+        x1, f1 = x, f
+    return math.nan, False
 
 
 @numba.njit(cache=True, inline="always")
-def _bounce(alpha, radius, direction, vx, vy, spin):
-    """(brake, tether length, speed left) of the least-speed bounce at offset angle `alpha`
-    (`planners._bounce_speeds`): the speed inf where the length is out of range."""
-    arm = ARM * math.sin(alpha)
-    length, ux, uy = _taut(radius, direction, arm)
+def _bounce(sin, cos, rx, ry, radius, vx, vy, spin):
+    """(brake, tether length, speed left) of the least-speed bounce at the offset angle whose
+    sine and cosine are `sin`, `cos`, the centre of mass at (rx, ry) from the peg, `radius`
+    away (`planners._bounce_speeds`): the speed inf where the length is out of range."""
+    arm = ARM * sin
+    length, ux, uy = _taut(rx, ry, radius, arm, ARM * cos)
     along = vx * ux + vy * uy
-    pull = along + spin * ARM * math.sin(alpha)
-    if radius * radius < arm * arm:
-        length = math.nan  # no tether reaches: the centre is nearer the peg than the moment arm
+    pull = along + spin * ARM * sin
     e, dv = 1.0, 0.0
     if pull > 0.0:  # else the tether stays slack: no bounce, whatever the brake
         compliance = 1.0 + arm**2 / GYRATION2
@@ -466,6 +487,17 @@ def _bounce(alpha, radius, direction, vx, vy, spin):
     if not LENGTH_LOW <= length <= LENGTH_HIGH:
         speed = math.inf
     return e, length, speed
+
+
+@numba.njit(cache=True, inline="always")
+def _taut(rx, ry, radius, arm, lateral):
+    """`planners._taut_tether` of one tautening: (tether length, ux, uy) with moment arm
+    `arm` = R sin(alpha) and `lateral` = R cos(alpha), the centre of mass at (rx, ry) from
+    the peg, `radius` away; NaN where no tether reaches (the centre nearer than the arm)."""
+    squared = radius * radius - arm * arm
+    along = math.sqrt(squared) if squared >= 0.0 else math.nan
+    r2 = radius * radius
+    return along - lateral, (rx * along + ry * arm) / r2, (ry * along - rx * arm) / r2
 
 
 _observed = numba.njit(cache=True)(_observed_rows)

@@ -191,7 +191,7 @@ def least_speed_bounce(
     otherwise the paper's maximum deceleration. The angle is searched on `ALPHA_GRID`, then
     on a grid 40 times finer about the best (a spinning puck's deadspin is sharp)."""
     rel = point - peg
-    args = (np.hypot(rel[:, 0], rel[:, 1])[:, None], np.arctan2(rel[:, 1], rel[:, 0])[:, None],
+    args = (rel[:, :1], rel[:, 1:], np.hypot(rel[:, 0], rel[:, 1])[:, None],
             velocity[:, :1], velocity[:, 1:], spin[:, None])  # fmt: skip
     coarse = _bounce_speeds(ALPHA_GRID[None], *args)[2]
     step = ALPHA_GRID[1] - ALPHA_GRID[0]
@@ -202,10 +202,10 @@ def least_speed_bounce(
     return tuple(np.take_along_axis(a, best, 1)[:, 0] for a in (alpha, e, length, speed))
 
 
-def _bounce_speeds(alpha, radius, direction, vx, vy, spin) -> tuple[np.ndarray, ...]:
+def _bounce_speeds(alpha, rx, ry, radius, vx, vy, spin) -> tuple[np.ndarray, ...]:
     """`least_speed_bounce` at offset angles `alpha` (m, A): (brake, length, speed left), the
     speed inf where the length is out of range."""
-    length, ux, uy = _taut_tether(radius, direction, alpha)
+    length, ux, uy = _taut_tether(rx, ry, radius, alpha)
     along = vx * ux + vy * uy
     pull = along + spin * ARM * np.sin(alpha)
     pulls = pull > 0  # else the tether stays slack: no bounce, whatever the brake
@@ -216,16 +216,17 @@ def _bounce_speeds(alpha, radius, direction, vx, vy, spin) -> tuple[np.ndarray, 
     return np.broadcast_to(e, speed.shape), length, speed
 
 
-def _taut_tether(radius, direction, alpha) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _taut_tether(rx, ry, radius, alpha) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(length, ux, uy): the tether taut with the offset angle `alpha` when the centre of mass
-    is `radius` from the peg in `direction` (rad), u the unit vector from the peg to the
+    is at (rx, ry) from the peg, `radius` away, u the unit vector from the peg to the
     attachment point. The centre lies on the circle of radius sqrt(L^2 + R^2 + 2 L R cos alpha)
-    about the peg, the tether turned back from it by atan2(R sin alpha, L + R cos alpha)."""
-    sin, cos = np.sin(alpha), np.cos(alpha)
+    about the peg, the tether turned back from its direction by the angle whose sine is
+    R sin(alpha) / radius (NaN where the centre is nearer the peg than that)."""
+    arm, lateral = ARM * np.sin(alpha), ARM * np.cos(alpha)
     with np.errstate(invalid="ignore"):
-        length = np.sqrt(radius**2 - (ARM * sin) ** 2) - ARM * cos
-    angle = direction - np.arctan2(ARM * sin, length + ARM * cos)
-    return length, np.cos(angle), np.sin(angle)
+        along = np.sqrt(radius * radius - arm * arm)
+    r2 = radius * radius
+    return along - lateral, (rx * along + ry * arm) / r2, (ry * along - rx * arm) / r2
 
 
 def _compliance(alpha):
@@ -379,9 +380,7 @@ def _line_ups(states: np.ndarray, flight: Flight) -> Candidates:
     # dv = cross(v, w) / cross(u, w); the brake that makes this dv; the least |alpha|
     rel = point[:, None] - pegs[i]
     length, ux, uy = _taut_tether(
-        np.linalg.norm(rel, axis=-1)[..., None],
-        np.arctan2(rel[..., 1], rel[..., 0])[..., None],
-        LINE_UP_ALPHAS,
+        rel[..., :1], rel[..., 1:], np.linalg.norm(rel, axis=-1)[..., None], LINE_UP_ALPHAS
     )  # (k, P, A)
     vx, vy = (a[:, None, None] for a in flight.velocity[i, s].T)
     wx, wy = (a[:, None, None] for a in w[i, line].T)
