@@ -28,7 +28,7 @@ $(TRAIN_STAMP): pyproject.toml constraints.txt
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(MAKE) --no-print-directory docs
-	$(BIN)/python -m pytest -q -n auto
+	$(BIN)/python -m pytest -q -n auto --durations=15
 
 # The documentation site into build/site; --strict: a broken link, a missing reference or a
 # results table whose file is gone fails the build.

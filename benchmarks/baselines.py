@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from tether_gym.training.summary import RESULTS, t_interval
-from tether_gym.training.train import EVALUATIONS, TEST_SEED
+from tether_gym.training.train import EVALUATIONS, TEST_SEED, navigates
 
 ONE_CORE = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
@@ -70,14 +70,31 @@ def read_curve(run_dir: Path) -> list[list[float]]:
         return [[int(row["timesteps"]), float(row["success_rate"])] for row in csv.DictReader(file)]
 
 
+def planner_rates(run_dir: Path, episodes: int) -> dict[str, float]:
+    """The run's planners' success on the test episodes, played now: they are deterministic,
+    the same for every seed, so a summary made anew shows today's planners (a run's own table
+    shows the planners of its day)."""
+    from tether_gym.agents.evaluate import evaluate, read_config
+    from tether_gym.training.train import baselines
+
+    config = read_config(run_dir / "config.yaml")
+    agents = {name: agent for name, agent in baselines(config).items() if name != "random"}
+    results = evaluate(agents, config["env_kwargs"], episodes, TEST_SEED, env_id=config["env_id"])
+    return {result.name: result.success_rate for result in results}
+
+
 def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
     """The runs' test tables as one: per agent the mean success over seeds (`success_rate`),
-    its 95% t interval (`success_ci`), the worst seed and each seed's; and the curves."""
+    its 95% t interval (`success_ci`), the worst seed and each seed's; and the curves. The
+    planners (TetherNavigate's) are played anew (`planner_rates`)."""
     runs = [json.loads((run_dir / RESULTS).read_text()) for run_dir in run_dirs]
     rates: dict[str, list[float]] = {}
     for run in runs:
         for row in run["results"]:
             rates.setdefault(row["name"], []).append(row["success_rate"])
+    if navigates(runs[0]["env_id"]):
+        for name, rate in planner_rates(run_dirs[0], args.eval_episodes).items():
+            rates[name] = [rate] * len(runs)
     results = []
     for name, values in rates.items():
         values = np.asarray(values)
