@@ -70,31 +70,47 @@ def read_curve(run_dir: Path) -> list[list[float]]:
         return [[int(row["timesteps"]), float(row["success_rate"])] for row in csv.DictReader(file)]
 
 
-def planner_rates(run_dir: Path, episodes: int) -> dict[str, float]:
-    """The run's planners' success on the test episodes, played now: they are deterministic,
-    the same for every seed, so a summary made anew shows today's planners (a run's own table
-    shows the planners of its day)."""
-    from tether_gym.agents.evaluate import evaluate, read_config
+def replayed_rates(run_dirs: list[Path], episodes: int) -> list[dict[str, float]]:
+    """Per run, the success on the test episodes, played now, of what depends on today's
+    planners (a run's own table shows the planners of its day): the planners (deterministic,
+    the same for every seed: played once) and, for a policy with a planner inside, its best
+    and last models."""
+    from tether_gym.agents.evaluate import evaluate, load_agent, read_config
     from tether_gym.training.train import baselines
 
-    config = read_config(run_dir / "config.yaml")
-    agents = {name: agent for name, agent in baselines(config).items() if name != "random"}
-    results = evaluate(agents, config["env_kwargs"], episodes, TEST_SEED, env_id=config["env_id"])
-    return {result.name: result.success_rate for result in results}
+    def play(agents: dict, config: dict) -> dict[str, float]:
+        results = evaluate(agents, config["env_kwargs"], episodes, TEST_SEED,
+                           env_id=config["env_id"])  # fmt: skip
+        return {result.name: result.success_rate for result in results}
+
+    configs = [read_config(run_dir / "config.yaml") for run_dir in run_dirs]
+    planners = {name: agent for name, agent in baselines(configs[0]).items() if name != "random"}
+    planner_rates = play(planners, configs[0])
+    rates = []
+    for run_dir, config in zip(run_dirs, configs, strict=True):
+        models = {}
+        if any(config["hyperparams"].get(key) is not None for key in ("residual", "proposals")):
+            table = json.loads((run_dir / RESULTS).read_text())["results"]
+            models = {row["name"]: load_agent(run_dir / kind / "model.zip")
+                      for row in table for kind in ("best", "last")
+                      if row["name"].endswith(f"({kind})")}  # fmt: skip
+        rates.append({**planner_rates, **(play(models, config) if models else {})})
+    return rates
 
 
 def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
     """The runs' test tables as one: per agent the mean success over seeds (`success_rate`),
-    its 95% t interval (`success_ci`), the worst seed and each seed's; and the curves. The
-    planners (TetherNavigate's) are played anew (`planner_rates`)."""
+    its 95% t interval (`success_ci`), the worst seed and each seed's; and the curves. On
+    TetherNavigate what depends on the planners is played anew (`replayed_rates`)."""
     runs = [json.loads((run_dir / RESULTS).read_text()) for run_dir in run_dirs]
+    if navigates(args.env):
+        replayed = replayed_rates(run_dirs, args.eval_episodes)
+    else:
+        replayed = [{} for _ in runs]
     rates: dict[str, list[float]] = {}
-    for run in runs:
+    for run, fresh in zip(runs, replayed, strict=True):
         for row in run["results"]:
-            rates.setdefault(row["name"], []).append(row["success_rate"])
-    if navigates(runs[0]["env_id"]):
-        for name, rate in planner_rates(run_dirs[0], args.eval_episodes).items():
-            rates[name] = [rate] * len(runs)
+            rates.setdefault(row["name"], []).append(fresh.get(row["name"], row["success_rate"]))
     results = []
     for name, values in rates.items():
         values = np.asarray(values)
