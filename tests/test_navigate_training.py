@@ -304,11 +304,18 @@ def test_demonstrations_hold_the_planners_actions_and_discounted_returns():
     ("spec", "message"),
     [("greedy", "mapping with a planner"), ({"planner": "greedy", "epoch": 3}, "unknown"),
      ({"planner": "greedy", "decisions": 0}, "decisions must be"),
-     ({"planner": "oracle"}, "residual must be one of")],
+     ({"planner": "oracle"}, "pretrain planner must be one of"),
+     ({"planner": "aim-search"}, "acts in control='aim'; the env's is 'setup'")],
 )  # fmt: skip
 def test_bad_pretrain_entries_name_themselves(spec, message):
     with pytest.raises(ValueError, match=message):
         pretrain.check_pretrain(spec, {})
+
+
+def test_a_set_up_planner_is_refused_as_the_teacher_of_an_aim_policy():
+    with pytest.raises(ValueError, match="acts in control='setup'; the env's is 'aim'"):
+        pretrain.check_pretrain({"planner": "greedy"}, {"control": "aim"})
+    assert pretrain.check_pretrain({"planner": "aim-search"}, {"control": "aim"})["epochs"] > 0
 
 
 def test_a_ppo_run_cloned_from_the_planner_names_it(tmp_path, capsys):

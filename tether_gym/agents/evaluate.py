@@ -27,6 +27,7 @@ import gymnasium as gym
 import numpy as np
 from scipy.stats import binomtest
 
+from tether_gym.agents.aim_search import AimSearch
 from tether_gym.agents.direct import DirectShot
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 from tether_gym.agents.planned import BASE_KEY, PROPOSALS_KEY, with_planner
@@ -460,7 +461,7 @@ def agent_choices(env_id: str) -> tuple[str, ...]:
 
     navigation = pretrained.NAVIGATION_AGENTS.values()
     if navigates(env_id):
-        return ("greedy", "lookahead", "pretrained", *navigation, "direct", "random")
+        return ("greedy", "lookahead", "aim-search", "pretrained", *navigation, "direct", "random")
     return ("oracle", "shooting", *(name for name in pretrained.AGENTS if name not in navigation),
             "random")  # fmt: skip
 
@@ -472,14 +473,16 @@ def looks_like_path(spec: str) -> bool:
 
 
 def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT_ENV_ID):
-    """ "oracle", "shooting" (TetherBounce-v0), "greedy", "lookahead", "direct" (TetherNavigate,
-    the last in aim control), a pretrained agent (`pretrained.AGENTS`: on TetherNavigate
-    "pretrained" is the one of the env's task, with its planner), "random" or the path of a
-    saved SB3 model zip. ValueError for an unknown name, listing the env's."""
+    """ "oracle", "shooting" (TetherBounce-v0), "greedy", "lookahead", "aim-search", "direct"
+    (TetherNavigate, the last two in aim control), a pretrained agent (`pretrained.AGENTS`: on
+    TetherNavigate "pretrained" is the one of the env's task, with its planner), "random" or
+    the path of a saved SB3 model zip. ValueError for an unknown name, listing the env's."""
     from tether_gym.agents import pretrained  # which imports this module
 
     navigation = navigates(env_id)
-    known = {"oracle", "shooting", "greedy", "lookahead", "direct", "random", *pretrained.AGENTS}
+    navigators = {"greedy": GreedyPlanner, "lookahead": LookaheadPlanner, "aim-search": AimSearch,
+                  "direct": DirectShot}  # fmt: skip
+    known = {"oracle", "shooting", *navigators, "random", *pretrained.AGENTS}
     if spec not in known and not looks_like_path(spec):
         raise ValueError(
             f"unknown agent {spec!r}: {env_id} takes {', '.join(agent_choices(env_id))}, "
@@ -487,7 +490,7 @@ def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT
         )
     if spec in pretrained.AGENTS:
         return pretrained.load(pretrained.for_env(spec, env_id, env_kwargs))
-    navigating = spec in ("greedy", "lookahead", "direct")
+    navigating = spec in navigators
     if (navigating or spec in ("oracle", "shooting")) and navigating != navigation:
         solves = "TetherNavigate" if navigating else DEFAULT_ENV_ID
         raise ValueError(f"the agent {spec!r} solves {solves} only, not {env_id}")
@@ -495,12 +498,8 @@ def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT
         return ImpulseOracle()
     if spec == "shooting":
         return ShootingOracle(env_kwargs)
-    if spec == "greedy":
-        return GreedyPlanner(env_kwargs, env_id)
-    if spec == "lookahead":
-        return LookaheadPlanner(env_kwargs, env_id)
-    if spec == "direct":
-        return DirectShot(env_kwargs, env_id)
+    if navigating:
+        return navigators[spec](env_kwargs, env_id)
     if spec == "random":
         return RandomAgent(seed, action_size(env_id, env_kwargs))
     require_extra(f"the model {spec!r}", ("stable_baselines3", "torch"))
@@ -580,8 +579,9 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         help="oracle (impulse), shooting (model-based), pretrained, pretrained-low-stiffness "
         "(shipped policies, trained on the default env and on rho 5-100) on TetherBounce-v0; "
         "greedy, lookahead (planners), pretrained (the shipped agent of the env's task: "
-        "pretrained-reach or pretrained-stop, the greedy planner inside), direct (the goal "
-        "as the aim, in control aim) on TetherNavigate; "
+        "pretrained-reach or pretrained-stop, the greedy planner inside), aim-search (a "
+        "planner in control aim: two maneuvers ahead over aims), direct (the goal as the aim, "
+        "in control aim) on TetherNavigate; "
         "random, or a saved SB3 model zip path (default: oracle shooting random, or greedy "
         "lookahead random on TetherNavigate)")  # fmt: skip
     add("--episodes", type=int, default=1000, help="episodes per agent (default 1000)")

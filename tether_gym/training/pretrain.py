@@ -20,7 +20,8 @@ import numpy as np
 import torch
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
-from tether_gym.agents.planned import BASE_KEY, make_planner
+from tether_gym.agents.aim_search import AimSearch
+from tether_gym.agents.planned import BASE_KEY, PLANNERS
 
 PRETRAIN_SEED = 3_000_000
 """Seed of the demonstration episodes (apart from training's seed + i and the evaluations')."""
@@ -29,15 +30,33 @@ DEFAULTS = {"decisions": 50_000, "epochs": 20, "batch_size": 512, "learning_rate
 minibatch and Adam step size."""
 
 
+TEACHERS = {**PLANNERS, "aim-search": AimSearch}
+"""The planners a policy may be started from, each acting in its own control mode (`control`):
+the set-up planners, and the search over aims."""
+
+
+def make_teacher(name: str, env_kwargs: dict[str, Any], env_id: str | None = None):
+    """The planner `name` of `TEACHERS` for the env (ValueError naming the allowed ones)."""
+    if name not in TEACHERS:
+        raise ValueError(f"pretrain planner must be one of {sorted(TEACHERS)}, got {name!r}")
+    return TEACHERS[name](env_kwargs, env_id)
+
+
 def check_pretrain(spec: Any, env_kwargs: dict[str, Any]) -> dict[str, Any]:
     """A zoo entry's `pretrain` mapping completed with `DEFAULTS` (ValueError naming a bad
-    entry)."""
+    entry, or a planner that acts in another control mode than the env's)."""
     if not isinstance(spec, dict) or "planner" not in spec:
         raise ValueError(f"pretrain must be a mapping with a planner, got {spec!r}")
     unknown = set(spec) - {"planner", *DEFAULTS}
     if unknown:
         raise ValueError(f"unknown pretrain entries {sorted(unknown)}")
-    make_planner(spec["planner"], env_kwargs)
+    teacher = make_teacher(spec["planner"], env_kwargs)
+    control = env_kwargs.get("control", "setup")
+    if teacher.control != control:
+        raise ValueError(
+            f"pretrain planner {spec['planner']!r} acts in control={teacher.control!r}; "
+            f"the env's is {control!r} (--env-kwargs control:{teacher.control})"
+        )
     options = {**DEFAULTS, **spec}
     for key in ("decisions", "epochs", "batch_size"):
         value = options[key]
@@ -83,7 +102,7 @@ def clone_planner(
     the policy stays the planner and only the critic learns, the burn-in of Silver et al.'s
     "Residual Policy Learning" (2018)."""
     options = check_pretrain(spec, config["env_kwargs"])
-    planner = make_planner(options["planner"], config["env_kwargs"], config["env_id"])
+    planner = make_teacher(options["planner"], config["env_kwargs"], config["env_id"])
     obs, actions, returns = demonstrations(
         planner, config["env_id"], config["env_kwargs"], config["n_envs"],
         options["decisions"], model.gamma,
@@ -119,4 +138,12 @@ def clone_planner(
     return losses
 
 
-__all__ = ["DEFAULTS", "PRETRAIN_SEED", "check_pretrain", "clone_planner", "demonstrations"]
+__all__ = [
+    "DEFAULTS",
+    "PRETRAIN_SEED",
+    "TEACHERS",
+    "check_pretrain",
+    "clone_planner",
+    "demonstrations",
+    "make_teacher",
+]

@@ -251,9 +251,10 @@ def check_config(config: dict[str, Any]) -> None:
     if unknown:
         raise ValueError(f"unknown {label(config)} hyperparameters {sorted(unknown)}")
     algo_kwargs(params)
-    planned = [key for key in ("residual", "proposals", "pretrain") if params.get(key) is not None]
-    if planned and config["env_kwargs"].get("control", "setup") != "setup":
-        raise ValueError(f"{planned[0]}: the planners act in control='setup', not velocity")
+    control = config["env_kwargs"].get("control", "setup")
+    planned = [key for key in ("residual", "proposals") if params.get(key) is not None]
+    if planned and control != "setup":
+        raise ValueError(f"{planned[0]}: the planners act in control='setup', not {control}")
     if params.get("residual") is not None:
         if not navigates(config["env_id"]):
             raise ValueError(f"residual: the planners solve TetherNavigate, not {config['env_id']}")
@@ -274,7 +275,6 @@ def check_config(config: dict[str, Any]) -> None:
     if policy in POLICIES and config["algo"] not in POLICIES[policy]:
         raise ValueError(f"policy {policy}: for {' and '.join(POLICIES[policy])} only")
     if policy == "AimPolicy":
-        control = config["env_kwargs"].get("control", "setup")
         if not navigates(config["env_id"]) or control not in AIMED_CONTROLS:
             raise ValueError(
                 f"policy AimPolicy: TetherNavigate with control one of {AIMED_CONTROLS} "

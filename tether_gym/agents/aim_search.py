@@ -1,0 +1,82 @@
+"""A planner in aim control: every candidate aim is played on a copy of the episode with the
+env's own kernel (its dynamics, its control mode), then the direct shot from where it ends, and
+the first aim whose two maneuvers meet the goal is played.
+
+The candidates are the goal itself and waypoints on rings about it (`RADII`, `DIRECTIONS`), at
+full speed for "reach"; for "stop" each at the speeds of `STOP_SPEEDS`, the second maneuver a
+dead stop on the goal. They are tried in that order (the goal first, then the nearer rings), so
+the search shoots straight where the straight shot works and detours round posts where it does
+not. The model is the env itself, so a plan's outcome is the episode's: the search is the
+operational-space mode's model-based yardstick, and the teacher a policy in that mode can
+imitate (`pretrain` with `planner: aim-search`) without a planner in the agent at test time.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+
+from tether_gym.agents import planner_kernels as compiled
+from tether_gym.agents.planners import OBSERVED_KEYS
+from tether_gym.envs.tether_navigate.config import TABLE_HEIGHT, TABLE_WIDTH, NavigateConfig
+from tether_gym.envs.tether_navigate.controls.velocity import AIM_ACTION
+from tether_gym.envs.tether_navigate.kernel import NavigateKernel
+from tether_gym.envs.tether_navigate.spaces import OUT
+
+RADII = (0.2, 0.4, 0.7)
+"""m: the rings of waypoints about the goal."""
+DIRECTIONS = 12
+"""Waypoints per ring, evenly spaced."""
+STOP_SPEEDS = (0.0, 0.25, 0.5, 0.75, 1.0)
+"""The first maneuver's speeds tried for "stop" (fractions of the speed at tautening)."""
+
+
+class AimSearch:
+    """Two maneuvers ahead over aims (see the module docstring), SB3's `predict`. `env_kwargs`:
+    the env's arguments, over those its registered `env_id` fixes; the search predicts with
+    that env in `control="aim"` (its dynamics, `coast` as given)."""
+
+    control = "aim"
+    """The control mode the agent acts in."""
+
+    def __init__(self, env_kwargs: dict | None = None, env_id: str | None = None):
+        given = {**(gym.spec(env_id).kwargs if env_id else {}), **(env_kwargs or {})}
+        kwargs = {k: v for k, v in given.items() if k in NavigateConfig.names()}
+        self.config = NavigateConfig(**{**kwargs, "control": "aim"})
+        self.kernel = NavigateKernel(self.config)
+        stop = self.config.task == "stop"
+        self.speeds = np.array(STOP_SPEEDS if stop else (1.0,))
+        self.final_speed = 0.0 if stop else 1.0
+        angles = 2.0 * np.pi * np.arange(DIRECTIONS) / DIRECTIONS
+        rings = [radius * np.stack([np.cos(angles), np.sin(angles)], -1) for radius in RADII]
+        self.offsets = np.concatenate([np.zeros((1, 2)), *rings])
+        """(k, 2) m: the waypoints relative to the goal, in the order they are tried."""
+
+    def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
+        """Normalized aim actions (3,) or (n, 3) for one goal dict or a batch."""
+        rows = np.concatenate([np.atleast_2d(obs[key]) for key in OBSERVED_KEYS], axis=-1)
+        actions = self.plan(compiled.observed_states(rows, self.config.max_maneuvers))
+        return (actions if np.ndim(obs["observation"]) > 1 else actions[0]), state
+
+    def plan(self, states: np.ndarray) -> np.ndarray:
+        """The chosen actions (n, 3) for `STATE` records (n,)."""
+        n, k, s = len(states), len(self.offsets), len(self.speeds)
+        goal = np.stack([states["goal_x"], states["goal_y"]], axis=-1)
+        aims = np.repeat(goal[:, None] + self.offsets[None], s, axis=1).reshape(-1, 2)
+        speeds = np.tile(self.speeds, n * k)
+        after, _, first = self.kernel.step(np.repeat(states, k * s), self._actions(aims, speeds))
+        ended = (first[:, OUT.terminated] != 0) | (first[:, OUT.truncated] != 0)
+        goal_after = np.stack([after["goal_x"], after["goal_y"]], axis=-1)
+        final = np.full(len(after), self.final_speed)
+        _, _, second = self.kernel.step(after, self._actions(goal_after, final))
+        score = 2.0 * (first[:, OUT.is_success] != 0) + ((second[:, OUT.is_success] != 0) & ~ended)
+        best = np.argmax(score.reshape(n, k * s), axis=1)  # the first of the best, in order
+        return self._actions(goal + self.offsets[best // s], self.speeds[best % s])
+
+    @staticmethod
+    def _actions(aims: np.ndarray, speeds: np.ndarray) -> np.ndarray:
+        """Normalized aim actions for aims (m, 2) on the table (clipped to it) and speeds (m,)."""
+        x, y = np.clip(aims[:, 0], 0.0, TABLE_WIDTH), np.clip(aims[:, 1], 0.0, TABLE_HEIGHT)
+        return AIM_ACTION.normalize(AIM_ACTION.encode(aim_x=x, aim_y=y, speed=speeds)).astype(
+            np.float32
+        )
