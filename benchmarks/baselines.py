@@ -1,7 +1,8 @@
 """Learned baselines over seeds: `tether-train` runs of one configuration, one core each, then
 the policy's success on the held-out test episodes (mean, 95% t interval over seeds, worst
 seed) beside the planners' and random's on the same episodes, the train times and the learning
-curves (success on the evaluation episodes against timesteps).
+curves (success on the evaluation episodes against timesteps). The planners (and a policy with
+a planner inside) are played anew when the summary is made, so it shows today's planners.
 
     python benchmarks/baselines.py --algo sac --env TetherNavigate_PostsReachSparse-v1 \
         --env-kwargs control:aim --timesteps 200000 [--seeds 5] [--jobs 2] \
@@ -29,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from tether_gym.training.summary import RESULTS, t_interval
-from tether_gym.training.train import EVALUATIONS, TEST_SEED, navigates
+from tether_gym.training.train import EVALUATIONS, TEST_SEED, baselines, navigates
 
 ONE_CORE = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
@@ -70,16 +71,15 @@ def read_curve(run_dir: Path) -> list[list[float]]:
         return [[int(row["timesteps"]), float(row["success_rate"])] for row in csv.DictReader(file)]
 
 
-def replayed_rates(run_dirs: list[Path], episodes: int) -> list[dict[str, float]]:
-    """Per run, the success on the test episodes, played now, of what depends on today's
+def replayed_rates(run_dirs: list[Path]) -> list[dict[str, float]]:
+    """Per run, the success on its test episodes, played now, of what depends on today's
     planners (a run's own table shows the planners of its day): the planners (deterministic,
     the same for every seed: played once) and, for a policy with a planner inside, its best
     and last models."""
     from tether_gym.agents.evaluate import evaluate, load_agent, read_config
-    from tether_gym.training.train import baselines
 
     def play(agents: dict, config: dict) -> dict[str, float]:
-        results = evaluate(agents, config["env_kwargs"], episodes, TEST_SEED,
+        results = evaluate(agents, config["env_kwargs"], config["eval_episodes"], TEST_SEED,
                            env_id=config["env_id"])  # fmt: skip
         return {result.name: result.success_rate for result in results}
 
@@ -104,7 +104,7 @@ def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
     TetherNavigate what depends on the planners is played anew (`replayed_rates`)."""
     runs = [json.loads((run_dir / RESULTS).read_text()) for run_dir in run_dirs]
     if navigates(args.env):
-        replayed = replayed_rates(run_dirs, args.eval_episodes)
+        replayed = replayed_rates(run_dirs)
     else:
         replayed = [{} for _ in runs]
     rates: dict[str, list[float]] = {}

@@ -1,6 +1,7 @@
 """A planner in aim control: every candidate aim is played on a copy of the episode with the
-env's own kernel (its dynamics, its control mode), then the direct shot from where it ends, and
-the first aim whose two maneuvers meet the goal is played.
+env's own kernel (its dynamics, its control mode), then the direct shot from where it ends; the
+first aim that meets the goal in one maneuver is played, else the first that does in two, else
+the direct shot.
 
 The candidates are the goal itself and waypoints on rings about it (`RADII`, `DIRECTIONS`), at
 full speed for "reach"; for "stop" each at the speeds of `STOP_SPEEDS`, the second maneuver a

@@ -461,7 +461,7 @@ def agent_choices(env_id: str) -> tuple[str, ...]:
 
     navigation = pretrained.NAVIGATION_AGENTS.values()
     if navigates(env_id):
-        return ("greedy", "lookahead", "aim-search", "pretrained", *navigation, "direct", "random")
+        return ("greedy", "lookahead", "pretrained", *navigation, "aim-search", "direct", "random")
     return ("oracle", "shooting", *(name for name in pretrained.AGENTS if name not in navigation),
             "random")  # fmt: skip
 

@@ -294,7 +294,7 @@ def _line_up(s, x, y, vx, vy, wx, wy, q, shortest, out, n):
     radius = math.sqrt(rx * rx + ry * ry)
     for a in range(LINE_UP_ALPHAS.shape[0]):
         alpha, arm = LINE_UP_ALPHAS[a], ARM * LINE_UP_SIN[a]
-        length, ux, uy = _taut(rx, ry, radius, arm, ARM * LINE_UP_COS[a])
+        length, ux, uy = _taut_tether(rx, ry, radius, arm, ARM * LINE_UP_COS[a])
         pull = vx * ux + vy * uy + s.spin * ARM * LINE_UP_SIN[a]
         turn = ux * wy - uy * wx
         if turn == 0.0:
@@ -428,7 +428,8 @@ TINY, EPS = np.finfo(np.float64).tiny, np.finfo(np.float64).eps
 """Where a bracketed root counts as converged: scipy's `find_root` defaults (an interval under
 4 tiny + 4 eps |x|, or |f| <= tiny)."""
 MAX_ROOT_STEPS = 2046
-"""scipy's `find_root` default: log2 of float64's range."""
+"""scipy's `find_root` default, log2 of float64's range: never reached, the bracket shrinks to
+the tolerance long before (a root left unconverged there counts as not found)."""
 
 
 @numba.njit(cache=True, inline="always")
@@ -438,7 +439,7 @@ def _aim_root(lo, hi, args):
     `find_root` runs it, to the same tolerances."""
     x1, x2 = lo, hi
     f1, f2 = _aim(x1, *args)[0], _aim(x2, *args)[0]
-    x3, f3, t = x2, f2, 0.5
+    x3, f3, fraction = x2, f2, 0.5
     for iteration in range(MAX_ROOT_STEPS):
         xmin, fmin = (x1, f1) if abs(f1) < abs(f2) else (x2, f2)
         if abs(fmin) <= TINY:
@@ -453,13 +454,13 @@ def _aim_root(lo, hi, args):
         if iteration > 0:
             xi = (x1 - x2) / (x3 - x2) if x3 != x2 else math.nan
             phi = (f1 - f2) / (f3 - f2) if f3 != f2 else math.nan
-            t = 0.5
+            fraction = 0.5
             if 0.0 <= xi <= 1.0 and 1.0 - math.sqrt(1.0 - xi) < phi < math.sqrt(xi):
-                alpha = (x3 - x1) / (x2 - x1)
-                t = f1 / (f1 - f2) * f3 / (f3 - f2) - alpha * f1 / (f3 - f1) * f2 / (f2 - f3)
+                ratio = (x3 - x1) / (x2 - x1)
+                fraction = f1 / (f1 - f2) * f3 / (f3 - f2) - ratio * f1 / (f3 - f1) * f2 / (f2 - f3)
             limit = 0.5 * tol / dx
-            t = min(max(t, limit), 1.0 - limit)
-        x = x1 + t * (x2 - x1)
+            fraction = min(max(fraction, limit), 1.0 - limit)
+        x = x1 + fraction * (x2 - x1)
         f = _aim(x, *args)[0]
         if _sign(f) == _sign(f1):
             x3, f3 = x1, f1
@@ -475,7 +476,7 @@ def _bounce(sin, cos, rx, ry, radius, vx, vy, spin):
     sine and cosine are `sin`, `cos`, the centre of mass at (rx, ry) from the peg, `radius`
     away (`planners._bounce_speeds`): the speed inf where the length is out of range."""
     arm = ARM * sin
-    length, ux, uy = _taut(rx, ry, radius, arm, ARM * cos)
+    length, ux, uy = _taut_tether(rx, ry, radius, arm, ARM * cos)
     along = vx * ux + vy * uy
     pull = along + spin * ARM * sin
     e, dv = 1.0, 0.0
@@ -490,14 +491,17 @@ def _bounce(sin, cos, rx, ry, radius, vx, vy, spin):
 
 
 @numba.njit(cache=True, inline="always")
-def _taut(rx, ry, radius, arm, lateral):
+def _taut_tether(rx, ry, radius, arm, lateral):
     """`planners._taut_tether` of one tautening: (tether length, ux, uy) with moment arm
     `arm` = R sin(alpha) and `lateral` = R cos(alpha), the centre of mass at (rx, ry) from
-    the peg, `radius` away; NaN where no tether reaches (the centre nearer than the arm)."""
+    the peg, `radius` away; NaN where no tether reaches (the centre nearer than the arm, or
+    on the peg)."""
     squared = radius * radius - arm * arm
-    along = math.sqrt(squared) if squared >= 0.0 else math.nan
     r2 = radius * radius
-    return along - lateral, (rx * along + ry * arm) / r2, (ry * along - rx * arm) / r2
+    if squared < 0.0 or r2 == 0.0:
+        return math.nan, math.nan, math.nan
+    projected = math.sqrt(squared)  # L + R cos(alpha): the centre's reach along the tether
+    return projected - lateral, (rx * projected + ry * arm) / r2, (ry * projected - rx * arm) / r2
 
 
 _observed = numba.njit(cache=True)(_observed_rows)

@@ -221,12 +221,13 @@ def _taut_tether(rx, ry, radius, alpha) -> tuple[np.ndarray, np.ndarray, np.ndar
     is at (rx, ry) from the peg, `radius` away, u the unit vector from the peg to the
     attachment point. The centre lies on the circle of radius sqrt(L^2 + R^2 + 2 L R cos alpha)
     about the peg, the tether turned back from its direction by the angle whose sine is
-    R sin(alpha) / radius (NaN where the centre is nearer the peg than that)."""
+    R sin(alpha) / radius (NaN where the centre is nearer the peg than that, or on it)."""
     arm, lateral = ARM * np.sin(alpha), ARM * np.cos(alpha)
-    with np.errstate(invalid="ignore"):
-        along = np.sqrt(radius * radius - arm * arm)
     r2 = radius * radius
-    return along - lateral, (rx * along + ry * arm) / r2, (ry * along - rx * arm) / r2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        projected = np.sqrt(r2 - arm * arm)  # L + R cos(alpha): the centre's reach along it
+        ux, uy = (rx * projected + ry * arm) / r2, (ry * projected - rx * arm) / r2
+    return projected - lateral, ux, uy
 
 
 def _compliance(alpha):

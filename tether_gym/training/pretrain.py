@@ -9,6 +9,8 @@ Reinforcement Learning and Demonstrations", 2018, and Nair et al., 2018): the pl
 policy's mean action is fitted to the planner's actions and its value to the discounted returns
 of those episodes, and PPO then trains as usual. The trained policy plays alone: the planner
 takes no part in its decisions, unlike a residual policy (`tether_gym.training.residual`).
+In aim control the teacher is `aim-search` (`tether_gym.agents.aim_search`), which predicts with
+the env's own dynamics.
 """
 
 from __future__ import annotations
