@@ -351,6 +351,20 @@ def test_an_untrained_aim_policy_aims_at_the_goal_it_is_given(control):
     assert len(misses) == 20 and max(misses) < 0.02
 
 
+@pytest.mark.parametrize("speed", [0.0, 0.7])
+def test_an_untrained_aim_policy_commands_its_start_speed(speed):
+    """`start_speed`: the deterministic action's speed (0 for a dead stop, the direct shot's
+    on "stop"); its aim stays the goal."""
+    env = gym.make("TetherNavigate_PostsStop-v1", control="aim")
+    kwargs = dict(features_extractor_class=NavigateExtractor, net_arch=[32], start_speed=speed)
+    model = PPO(AimPolicy, env, policy_kwargs=kwargs, seed=0, device="cpu")
+    obs, _ = env.reset(seed=1)
+    action, _ = model.predict(obs, deterministic=True)
+    command = ACTIONS["aim"].decode(ACTIONS["aim"].denormalize(action))
+    assert abs(command["speed"] - speed) < 0.02
+    assert np.abs(aim_of(action, "aim") - obs["desired_goal"]).max() < 0.02
+
+
 def test_an_aim_policy_round_trips_through_a_saved_model(tmp_path):
     env = gym.make("TetherNavigate_PostsReach-v1", control="velocity")
     kwargs = dict(features_extractor_class=NavigateExtractor, net_arch=[16], control="velocity")
@@ -370,7 +384,8 @@ def test_an_aim_policy_round_trips_through_a_saved_model(tmp_path):
     ("control", "kwargs", "message"),
     [("setup", {}, "control must be one of ('aim', 'velocity')"),
      ("aim", {"control": "velocity"}, "acts with 4 numbers, the action space holds 3"),
-     ("aim", {"features_extractor_class": CombinedExtractor}, "must name the desired goal")],
+     ("aim", {"features_extractor_class": CombinedExtractor}, "must name the desired goal"),
+     ("aim", {"start_speed": 1.5}, "start_speed must be in [0, 1], got 1.5")],
 )  # fmt: skip
 def test_an_aim_policy_refuses_what_it_cannot_aim(control, kwargs, message):
     env = gym.make("TetherNavigate_PostsReach-v1", control=control)

@@ -113,7 +113,7 @@ class GoalAim(nn.Module):
     """The desired goal as an action's aim: its columns of the features (m, on the table)
     mapped onto [-1, 1] as the control mode's `aim_x`, `aim_y` are."""
 
-    def __init__(self, features_extractor: nn.Module, control: str):
+    def __init__(self, features_extractor: nn.Module, control: str, speed: float | None = None):
         super().__init__()
         if control not in AIMED_CONTROLS:
             raise ValueError(f"AimPolicy: control must be one of {AIMED_CONTROLS}, got {control!r}")
@@ -123,7 +123,10 @@ class GoalAim(nn.Module):
                 f"AimPolicy: the features extractor {type(features_extractor).__name__} "
                 "must name the desired goal's columns (`desired_goal`), as NavigateExtractor does"
             )
+        if speed is not None and not 0.0 <= speed <= 1.0:
+            raise ValueError(f"AimPolicy: start_speed must be in [0, 1], got {speed!r}")
         fields = ACTIONS[control]
+        self.speed, self.speed_column = speed, fields.columns.speed
         self.action_size = len(fields)
         self.aim = [getattr(fields.columns, name) for name in ("aim_x", "aim_y")]
         low = torch.tensor([fields[name].low for name in ("aim_x", "aim_y")], dtype=torch.float32)
@@ -136,7 +139,8 @@ class GoalAim(nn.Module):
 
     def start(self, action_net: nn.Linear) -> None:
         """Set the weights of `action_net`, whose last two inputs are this aim, on them to
-        pass it to the action's aim and nothing else."""
+        pass it to the action's aim and nothing else; with a `speed`, the action's speed
+        starts there (its bias)."""
         if action_net.out_features != self.action_size:
             raise ValueError(
                 f"AimPolicy: its control mode acts with {self.action_size} numbers, the action "
@@ -147,6 +151,8 @@ class GoalAim(nn.Module):
             for axis, column in enumerate(self.aim):
                 action_net.weight[column, -2 + axis] = 1.0
                 action_net.bias[column] = 0.0
+            if self.speed is not None:
+                action_net.bias[self.speed_column] = 2.0 * self.speed - 1.0
 
 
 class AimSkip(nn.Module):
@@ -178,18 +184,21 @@ class AimPolicy(MultiInputActorCriticPolicy):
     connection, learned like any weight), so what is left to learn is the detours round posts,
     the speed and the peg, not the goal's coordinates in the features. No planner: the policy
     is a network. `control` is the env's control mode; the features
-    extractor must name the goal's columns (`NavigateExtractor.desired_goal`)."""
+    extractor must name the goal's columns (`NavigateExtractor.desired_goal`). `start_speed`
+    (in [0, 1], `policy_kwargs`): the speed the untrained policy commands (0 for the dead stop
+    of the direct shot on "stop"); by default the middle of the range."""
 
-    def __init__(self, *args, control: str = "aim", **kwargs):
-        self.control = control
+    def __init__(self, *args, control: str = "aim", start_speed: float | None = None, **kwargs):
+        self.control, self.start_speed = control, start_speed
         super().__init__(*args, **kwargs)
 
     def _get_constructor_parameters(self) -> dict:
-        return {**super()._get_constructor_parameters(), "control": self.control}
+        parameters = super()._get_constructor_parameters()
+        return {**parameters, "control": self.control, "start_speed": self.start_speed}
 
     def _build_mlp_extractor(self) -> None:
         arch = split_arch(self.net_arch)
-        goal_aim = GoalAim(self.features_extractor, self.control)
+        goal_aim = GoalAim(self.features_extractor, self.control, self.start_speed)
         self.mlp_extractor = AimSkip(self.features_dim, goal_aim, arch, self.activation_fn)
 
     def _build(self, lr_schedule) -> None:
