@@ -14,13 +14,12 @@ imitate (`pretrain` with `planner: aim-search`) without a planner in the agent a
 
 from __future__ import annotations
 
-import gymnasium as gym
 import numpy as np
 
 from tether_gym.agents import planner_kernels as compiled
-from tether_gym.agents.planners import OBSERVED_KEYS
-from tether_gym.envs.tether_navigate.config import TABLE_HEIGHT, TABLE_WIDTH, NavigateConfig
-from tether_gym.envs.tether_navigate.controls.velocity import AIM_ACTION
+from tether_gym.agents.direct import aim_actions
+from tether_gym.agents.planners import OBSERVED_KEYS, env_arguments
+from tether_gym.envs.tether_navigate.config import NavigateConfig
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OUT
 
@@ -41,9 +40,7 @@ class AimSearch:
     """The control mode the agent acts in."""
 
     def __init__(self, env_kwargs: dict | None = None, env_id: str | None = None):
-        given = {**(gym.spec(env_id).kwargs if env_id else {}), **(env_kwargs or {})}
-        kwargs = {k: v for k, v in given.items() if k in NavigateConfig.names()}
-        self.config = NavigateConfig(**{**kwargs, "control": "aim"})
+        self.config = NavigateConfig(**{**env_arguments(env_kwargs, env_id), "control": "aim"})
         self.kernel = NavigateKernel(self.config)
         stop = self.config.task == "stop"
         self.speeds = np.array(STOP_SPEEDS if stop else (1.0,))
@@ -65,19 +62,11 @@ class AimSearch:
         goal = np.stack([states["goal_x"], states["goal_y"]], axis=-1)
         aims = np.repeat(goal[:, None] + self.offsets[None], s, axis=1).reshape(-1, 2)
         speeds = np.tile(self.speeds, n * k)
-        after, _, first = self.kernel.step(np.repeat(states, k * s), self._actions(aims, speeds))
+        after, _, first = self.kernel.step(np.repeat(states, k * s), aim_actions(aims, speeds))
         ended = (first[:, OUT.terminated] != 0) | (first[:, OUT.truncated] != 0)
         goal_after = np.stack([after["goal_x"], after["goal_y"]], axis=-1)
         final = np.full(len(after), self.final_speed)
-        _, _, second = self.kernel.step(after, self._actions(goal_after, final))
+        _, _, second = self.kernel.step(after, aim_actions(goal_after, final))
         score = 2.0 * (first[:, OUT.is_success] != 0) + ((second[:, OUT.is_success] != 0) & ~ended)
         best = np.argmax(score.reshape(n, k * s), axis=1)  # the first of the best, in order
-        return self._actions(goal + self.offsets[best // s], self.speeds[best % s])
-
-    @staticmethod
-    def _actions(aims: np.ndarray, speeds: np.ndarray) -> np.ndarray:
-        """Normalized aim actions for aims (m, 2) on the table (clipped to it) and speeds (m,)."""
-        x, y = np.clip(aims[:, 0], 0.0, TABLE_WIDTH), np.clip(aims[:, 1], 0.0, TABLE_HEIGHT)
-        return AIM_ACTION.normalize(AIM_ACTION.encode(aim_x=x, aim_y=y, speed=speeds)).astype(
-            np.float32
-        )
+        return aim_actions(goal + self.offsets[best // s], self.speeds[best % s])

@@ -30,6 +30,14 @@ class DirectShot:
     def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
         """SB3's interface, for one goal dict or a batch: normalized actions (3,) or (n, 3)."""
         goal = np.asarray(obs["desired_goal"], dtype=np.float64)
-        speed = np.full(goal.shape[:-1], self.speed)
-        aim = AIM_ACTION.encode(aim_x=goal[..., 0], aim_y=goal[..., 1], speed=speed)
-        return AIM_ACTION.normalize(aim).astype(np.float32), state
+        return aim_actions(goal, np.full(goal.shape[:-1], self.speed)), state
+
+
+def aim_actions(aims: np.ndarray, speeds: np.ndarray) -> np.ndarray:
+    """Normalized aim-control actions (..., 3) for aims (..., 2) on the table (m, clipped to
+    it) and speed fractions (...)."""
+    x = np.clip(aims[..., 0], AIM_ACTION["aim_x"].low, AIM_ACTION["aim_x"].high)
+    y = np.clip(aims[..., 1], AIM_ACTION["aim_y"].low, AIM_ACTION["aim_y"].high)
+    return AIM_ACTION.normalize(AIM_ACTION.encode(aim_x=x, aim_y=y, speed=speeds)).astype(
+        np.float32
+    )

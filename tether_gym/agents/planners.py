@@ -87,6 +87,13 @@ def observed_states(obs, config: NavigateConfig) -> np.ndarray:
     return states
 
 
+def env_arguments(env_kwargs: dict | None, env_id: str | None) -> dict:
+    """The `NavigateConfig` arguments of the env `env_id` with `env_kwargs` over the ones its
+    registration fixes (the ladder's tasks and tables): what a navigation agent plans with."""
+    given = {**(gym.spec(env_id).kwargs if env_id else {}), **(env_kwargs or {})}
+    return {k: v for k, v in given.items() if k in NavigateConfig.names()}
+
+
 def _xy(states: np.ndarray, x: str = "x", y: str = "y") -> np.ndarray:
     return np.stack([states[x], states[y]], axis=-1)
 
@@ -465,8 +472,7 @@ class GreedyPlanner:
                 f"implementation must be one of {IMPLEMENTATIONS}, got {implementation!r}"
             )
         self.implementation = implementation
-        given = {**(gym.spec(env_id).kwargs if env_id else {}), **(env_kwargs or {})}
-        kwargs = {k: v for k, v in given.items() if k in NavigateConfig.names()}
+        kwargs = env_arguments(env_kwargs, env_id)
         self.config = NavigateConfig(
             **{**kwargs, "dynamics": "impulse", "control": "setup", "coast": False}
         )
