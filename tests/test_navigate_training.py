@@ -15,11 +15,11 @@ import yaml
 pytest.importorskip("stable_baselines3")
 
 import torch
-from stable_baselines3 import PPO
+from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.torch_layers import CombinedExtractor
 
 from tether_gym.agents.evaluate import NavigationResult, evaluate, load_agent
-from tether_gym.agents.networks import AimPolicy, NavigateExtractor, ProposalPolicy
+from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtractor, ProposalPolicy
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS
 from tether_gym.envs.tether_navigate.controls import ACTIONS
 from tether_gym.envs.tether_navigate.spaces import decode_observation
@@ -334,13 +334,23 @@ def aim_of(action, control: str) -> np.ndarray:
     return np.array([physical["aim_x"], physical["aim_y"]])
 
 
+AIM_POLICIES = {"ppo": (PPO, AimPolicy), "sac": (SAC, AimSACPolicy)}
+"""AimPolicy's class for each algorithm (the zoo name resolves by algorithm)."""
+
+
+def aim_model(algo: str, env, **kwargs):
+    algorithm, policy = AIM_POLICIES[algo]
+    return algorithm(policy, env, policy_kwargs=kwargs, seed=0, device="cpu")
+
+
+@pytest.mark.parametrize("algo", sorted(AIM_POLICIES))
 @pytest.mark.parametrize("control", ["aim", "velocity"])
-def test_an_untrained_aim_policy_aims_at_the_goal_it_is_given(control):
+def test_an_untrained_aim_policy_aims_at_the_goal_it_is_given(algo, control):
     """AimPolicy's starting point: the deterministic action's aim is the desired goal, also a
     relabeled one (the goal reaches the action through desired_goal)."""
     env = gym.make("TetherNavigate_PostsReach-v1", control=control)
-    kwargs = dict(features_extractor_class=NavigateExtractor, net_arch=[32], control=control)
-    model = PPO(AimPolicy, env, policy_kwargs=kwargs, seed=0, device="cpu")
+    model = aim_model(algo, env, features_extractor_class=NavigateExtractor, net_arch=[32],
+                      control=control)  # fmt: skip
     misses = []
     for seed in range(10):
         obs, _ = env.reset(seed=seed)
@@ -351,13 +361,14 @@ def test_an_untrained_aim_policy_aims_at_the_goal_it_is_given(control):
     assert len(misses) == 20 and max(misses) < 0.02
 
 
+@pytest.mark.parametrize("algo", sorted(AIM_POLICIES))
 @pytest.mark.parametrize("speed", [0.0, 0.7])
-def test_an_untrained_aim_policy_commands_its_start_speed(speed):
+def test_an_untrained_aim_policy_commands_its_start_speed(algo, speed):
     """`start_speed`: the deterministic action's speed (0 for a dead stop, the direct shot's
     on "stop"); its aim stays the goal."""
     env = gym.make("TetherNavigate_PostsStop-v1", control="aim")
-    kwargs = dict(features_extractor_class=NavigateExtractor, net_arch=[32], start_speed=speed)
-    model = PPO(AimPolicy, env, policy_kwargs=kwargs, seed=0, device="cpu")
+    model = aim_model(algo, env, features_extractor_class=NavigateExtractor, net_arch=[32],
+                      start_speed=speed)  # fmt: skip
     obs, _ = env.reset(seed=1)
     action, _ = model.predict(obs, deterministic=True)
     command = ACTIONS["aim"].decode(ACTIONS["aim"].denormalize(action))
@@ -365,16 +376,32 @@ def test_an_untrained_aim_policy_commands_its_start_speed(speed):
     assert np.abs(aim_of(action, "aim") - obs["desired_goal"]).max() < 0.02
 
 
-def test_an_aim_policy_round_trips_through_a_saved_model(tmp_path):
+def test_sac_s_aim_policy_explores_about_the_goal_at_its_start_spread():
+    """AimSACPolicy: the untrained actor's noise before the tanh has the standard deviation
+    exp(start_log_std), about the goal's aim."""
+    env = gym.make("TetherNavigate_PostsReach-v1", control="aim")
+    model = aim_model("sac", env, features_extractor_class=NavigateExtractor, net_arch=[32],
+                      start_log_std=-2.0)  # fmt: skip
+    obs, _ = env.reset(seed=2)
+    tensor, _ = model.policy.obs_to_tensor(obs)
+    with torch.no_grad():
+        _, log_std, _ = model.actor.get_action_dist_params(tensor)
+    np.testing.assert_allclose(log_std.numpy(), -2.0, atol=0.05)
+
+
+@pytest.mark.parametrize("algo", sorted(AIM_POLICIES))
+def test_an_aim_policy_round_trips_through_a_saved_model(tmp_path, algo):
     env = gym.make("TetherNavigate_PostsReach-v1", control="velocity")
-    kwargs = dict(features_extractor_class=NavigateExtractor, net_arch=[16], control="velocity")
-    model = PPO(AimPolicy, env, policy_kwargs=kwargs, n_steps=32, batch_size=32, seed=0,
-                device="cpu")  # fmt: skip
+    algorithm, policy = AIM_POLICIES[algo]
+    kwargs = dict(features_extractor_class=NavigateExtractor, net_arch=[16], control="velocity",
+                  start_speed=0.3)  # fmt: skip
+    settings = {"n_steps": 32, "batch_size": 32} if algo == "ppo" else {"learning_starts": 16}
+    model = algorithm(policy, env, policy_kwargs=kwargs, seed=0, device="cpu", **settings)
     model.learn(64)  # the weights move away from their start
     model.save(tmp_path / "model.zip")
-    loaded = PPO.load(tmp_path / "model.zip", device="cpu")
+    loaded = algorithm.load(tmp_path / "model.zip", device="cpu")
     obs, _ = env.reset(seed=3)
-    assert loaded.policy.control == "velocity"
+    assert loaded.policy.control == "velocity" and loaded.policy.start_speed == 0.3
     np.testing.assert_array_equal(
         loaded.predict(obs, deterministic=True)[0], model.predict(obs, deterministic=True)[0]
     )
@@ -387,11 +414,19 @@ def test_an_aim_policy_round_trips_through_a_saved_model(tmp_path):
      ("aim", {"features_extractor_class": CombinedExtractor}, "must name the desired goal"),
      ("aim", {"start_speed": 1.5}, "start_speed must be in [0, 1], got 1.5")],
 )  # fmt: skip
-def test_an_aim_policy_refuses_what_it_cannot_aim(control, kwargs, message):
+@pytest.mark.parametrize("algo", sorted(AIM_POLICIES))
+def test_an_aim_policy_refuses_what_it_cannot_aim(algo, control, kwargs, message):
     env = gym.make("TetherNavigate_PostsReach-v1", control=control)
     policy_kwargs = {"features_extractor_class": NavigateExtractor, "control": control, **kwargs}
     with pytest.raises(ValueError, match=re.escape(message)):
-        PPO(AimPolicy, env, policy_kwargs=policy_kwargs, device="cpu")
+        aim_model(algo, env, **policy_kwargs)
+
+
+def test_sac_s_aim_policy_refuses_state_dependent_noise():
+    env = gym.make("TetherNavigate_PostsReach-v1", control="aim")
+    with pytest.raises(ValueError, match="SAC without use_sde"):
+        SAC(AimSACPolicy, env, use_sde=True, device="cpu",
+            policy_kwargs={"features_extractor_class": NavigateExtractor})  # fmt: skip
 
 
 @pytest.mark.parametrize(
@@ -399,8 +434,8 @@ def test_an_aim_policy_refuses_what_it_cannot_aim(control, kwargs, message):
     [(["--env", "TetherNavigate-v1"], [], "TetherNavigate with control one of ('aim', 'velocity')"),
      (["--env", "TetherNavigate-v1", "--env-kwargs", "control:aim"], ["normalize:true"],
       "not with normalize"),
-     (["--env", "TetherNavigateSparse-v1", "--env-kwargs", "control:aim", "--algo", "sac"], [],
-      "policy AimPolicy: for ppo only")],
+     (["--env", "TetherNavigateSparse-v1", "--algo", "sac"], [],
+      "TetherNavigate with control one of ('aim', 'velocity')")],
 )  # fmt: skip
 def test_tether_train_checks_an_aim_policy_s_env(tmp_path, capsys, argv, hyperparams, message):
     run = ["--timesteps", "64", "--runs-dir", str(tmp_path), *OPTIONS]

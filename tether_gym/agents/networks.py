@@ -37,6 +37,7 @@ import torch
 from gymnasium import spaces
 from stable_baselines3.common.policies import MultiInputActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor, create_mlp
+from stable_baselines3.sac.policies import Actor, MultiInputPolicy
 from torch import nn
 
 from tether_gym.agents.planned import PROPOSAL_FEATURES, PROPOSALS_KEY
@@ -137,6 +138,18 @@ class GoalAim(nn.Module):
     def forward(self, features: torch.Tensor) -> torch.Tensor:
         return 2.0 * (features[:, self.columns] - self.low) / (self.high - self.low) - 1.0
 
+    def squashed(self, features: torch.Tensor) -> torch.Tensor:
+        """The whole action (n, action size) before SAC's tanh: the aim's atanh, the start
+        speed's, zero elsewhere (a point on the action space's edge comes out just inside)."""
+        inside = 1.0 - 1e-3
+        action = torch.zeros(len(features), self.action_size, device=features.device)
+        action[:, self.aim] = torch.atanh(self(features).clamp(-inside, inside))
+        if self.speed is not None:
+            action[:, self.speed_column] = math.atanh(
+                min(max(2.0 * self.speed - 1.0, -inside), inside)
+            )
+        return action
+
     def start(self, action_net: nn.Linear) -> None:
         """Set the weights of `action_net`, whose last two inputs are this aim, on them to
         pass it to the action's aim and nothing else; with a `speed`, the action's speed
@@ -204,6 +217,57 @@ class AimPolicy(MultiInputActorCriticPolicy):
     def _build(self, lr_schedule) -> None:
         super()._build(lr_schedule)  # the action net's other weights at SB3's small gain
         self.mlp_extractor.goal_aim.start(self.action_net)
+
+
+class AimActor(Actor):
+    """SAC's actor whose untrained mean action aims at the goal: the mean before the tanh is
+    the learned layer's plus the goal's aim (`GoalAim.squashed`), the learned layer starting
+    near zero, and the log standard deviation starts at `start_log_std`."""
+
+    def __init__(self, *args, control: str, start_speed: float | None, start_log_std: float,
+                 **kwargs):  # fmt: skip
+        super().__init__(*args, **kwargs)
+        if self.use_sde:
+            raise ValueError("AimPolicy: SAC without use_sde (its mean is a plain linear layer)")
+        self.goal_aim = GoalAim(self.features_extractor, control, start_speed)
+        if self.mu.out_features != self.goal_aim.action_size:
+            raise ValueError(
+                f"AimPolicy: its control mode acts with {self.goal_aim.action_size} numbers, "
+                f"the action space holds {self.mu.out_features}"
+            )
+        with torch.no_grad():
+            self.mu.weight.mul_(0.01)
+            self.mu.bias.zero_()
+            self.log_std.weight.mul_(0.01)
+            self.log_std.bias.fill_(start_log_std)
+
+    def get_action_dist_params(self, obs) -> tuple[torch.Tensor, torch.Tensor, dict]:
+        features = self.extract_features(obs, self.features_extractor)
+        latent = self.latent_pi(features)
+        mean = self.mu(latent) + self.goal_aim.squashed(features)
+        log_std = torch.clamp(self.log_std(latent), -20.0, 2.0)  # SB3's bounds
+        return mean, log_std, {}
+
+
+class AimSACPolicy(MultiInputPolicy):
+    """`AimPolicy` for SAC (the zoo entry's `policy: AimPolicy` with `--algo sac`): an
+    `AimActor`, SB3's critics. `control` and `start_speed` as `AimPolicy`'s; `start_log_std`
+    the actor's log standard deviation before the tanh at the start."""
+
+    def __init__(self, *args, control: str = "aim", start_speed: float | None = None,
+                 start_log_std: float = -1.0, **kwargs):  # fmt: skip
+        self.control, self.start_speed, self.start_log_std = control, start_speed, start_log_std
+        super().__init__(*args, **kwargs)
+
+    def _get_constructor_parameters(self) -> dict:
+        parameters = super()._get_constructor_parameters()
+        return {**parameters, "control": self.control, "start_speed": self.start_speed,
+                "start_log_std": self.start_log_std}  # fmt: skip
+
+    def make_actor(self, features_extractor: BaseFeaturesExtractor | None = None) -> AimActor:
+        kwargs = self._update_features_extractor(self.actor_kwargs, features_extractor)
+        return AimActor(**kwargs, control=self.control, start_speed=self.start_speed,
+                        start_log_std=self.start_log_std).to(self.device)  # fmt: skip
 
 
 EMPTY = -1e4
@@ -292,7 +356,9 @@ class ProposalPolicy(MultiInputActorCriticPolicy):
 
 __all__ = [
     "EMPTY",
+    "AimActor",
     "AimPolicy",
+    "AimSACPolicy",
     "AimSkip",
     "GoalAim",
     "NavigateExtractor",

@@ -64,6 +64,7 @@ from tether_gym.agents.evaluate import (
 from tether_gym.agents.networks import (
     AIMED_CONTROLS,
     AimPolicy,
+    AimSACPolicy,
     NavigateExtractor,
     ProposalPolicy,
 )
@@ -132,7 +133,7 @@ REPLAY_BUFFERS = {"HerReplayBuffer": HerReplayBuffer, "PathHerReplayBuffer": Pat
 EXPRESSION_NAMES = {"dict": dict, "nn": torch.nn, "NavigateExtractor": NavigateExtractor}
 """What a zoo expression (`policy_kwargs`, `replay_buffer_kwargs`) may name."""
 POLICIES = {
-    "AimPolicy": {"ppo": AimPolicy},
+    "AimPolicy": {"ppo": AimPolicy, "sac": AimSACPolicy},
     "ProposalPolicy": {"ppo": ProposalPolicy},
 }
 """Policy names of ours a zoo entry's `policy` may give, besides SB3's ("MlpPolicy", ...), with
@@ -271,10 +272,7 @@ def check_config(config: dict[str, Any]) -> None:
             raise ValueError("policy ProposalPolicy: not with normalize (it reads slot flags)")
     elif params.get("policy") == "ProposalPolicy":
         raise ValueError("policy ProposalPolicy scores a planner's proposals: give `proposals`")
-    policy = params.get("policy")
-    if policy in POLICIES and config["algo"] not in POLICIES[policy]:
-        raise ValueError(f"policy {policy}: for {' and '.join(POLICIES[policy])} only")
-    if policy == "AimPolicy":
+    if params.get("policy") == "AimPolicy":
         if not navigates(config["env_id"]) or control not in AIMED_CONTROLS:
             raise ValueError(
                 f"policy AimPolicy: TetherNavigate with control one of {AIMED_CONTROLS} "
