@@ -1,6 +1,6 @@
 """The planners' compiled parts (`implementation="compiled"`, `planner_kernels`) against the
 numpy reference: the same candidate maneuvers on recorded and random decision states, the same
-costs of their outcomes (the choices: `test_planners_recorded`)."""
+actions, outcomes and costs, the same beam (the choices: `test_planners_recorded`)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from test_planners_recorded import SETUP, TASKS, observations, recorded
 
 from tether_gym.agents import planner_kernels
 from tether_gym.agents.planned import propose
-from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner, observed_states
+from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner, _beam, observed_states
 from tether_gym.envs.tether_navigate.config import STATE
 from tether_gym.envs.tether_navigate.spaces import OUT
 
@@ -85,6 +85,45 @@ def test_the_compiled_costs_are_numpy_s(task, planner):
             numpy_planner.costs(before, after, success, ended, depth),
             rtol=1e-12,
         )
+
+
+@pytest.mark.parametrize("task", TASKS)
+@pytest.mark.parametrize("source", ["recorded", "random"])
+def test_the_compiled_predictions_are_the_kernel_s(task, source):
+    """`planner_kernels.predict`'s actions are `Candidates.actions`, its outcomes the env
+    kernel's step and its costs `costs`' of them, to the last bit."""
+    planner = LookaheadPlanner(SETUP, TASKS[task], implementation="compiled")
+    states = decision_states(source, task, planner)
+    candidates, actions, after, cost, ended = planner.expand(states, 1)
+    np.testing.assert_array_equal(actions, candidates.actions(states))
+    before = states[candidates.rows]
+    expected, _, out = planner.kernel.step(before, actions)
+    for name in STATE.names:
+        np.testing.assert_array_equal(after[name], expected[name])
+    success = out[:, OUT.is_success] != 0
+    stopped = (out[:, OUT.terminated] != 0) | (out[:, OUT.truncated] != 0)
+    np.testing.assert_array_equal(ended, stopped)
+    np.testing.assert_array_equal(cost, planner.costs(before, after, success, ended, 1))
+
+
+def test_the_compiled_beam_is_numpy_s():
+    """The same best costs and actions and the same nodes kept, in the same order, with ties of
+    costs and roots that already have a better plan."""
+    rng = np.random.default_rng(0)
+    for m, roots in ((1, 1), (40, 1), (300, 7), (500, 64)):
+        root = rng.integers(0, roots, m)
+        cost = rng.integers(0, 6, m) / 4.0
+        ended = rng.random(m) < 0.3
+        leaf = ended | (rng.random(m) < 0.5)
+        lead = rng.uniform(-1, 1, (m, 4)).astype(np.float32)
+        best = np.where(rng.random(roots) < 0.2, 0.5, np.inf)
+        results = []
+        for select in (planner_kernels.beam, _beam):
+            best_cost, best_action = best.copy(), np.zeros((roots, 4), np.float32)
+            keep = select(root, cost, ended, leaf, lead, 4, best_cost, best_action)
+            results.append((keep, best_cost, best_action))
+        for got, expected in zip(*results, strict=True):
+            np.testing.assert_array_equal(got, expected)
 
 
 @pytest.mark.parametrize("task", TASKS)

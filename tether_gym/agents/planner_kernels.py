@@ -4,7 +4,9 @@ candidate maneuvers (`candidates`, one loop per state) and the costs of their pr
 (`planners.Flight`, `least_speed_bounce`, scipy's `find_root` in `_aims`, `_dumps`,
 `_line_ups`, `_extremes`, `GreedyPlanner.costs`) in the same order of operations where they can,
 so that the planners pick the same maneuvers; the prediction between them is the env kernel's
-step, as in the numpy planner.
+maneuver, as in the numpy planner. `predict` runs the candidates' actions, predictions and costs
+in one loop, and `beam` the lookahead's choice at one depth: at batch 1 numpy's calls on small
+arrays would cost more than the kernels.
 
 Each batch runs serially, or across `NUMBA_NUM_THREADS` threads once it is large enough
 (`PARALLEL_STATES`, `PARALLEL_MANEUVERS`; on the env kernels' threading layer, `physics.jit`).
@@ -30,8 +32,9 @@ from tether_gym.envs.tether_navigate.config import (
     TABLE_HEIGHT,
     TABLE_WIDTH,
 )
+from tether_gym.envs.tether_navigate.controls import play
 from tether_gym.envs.tether_navigate.controls.setup import ACTION
-from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION
+from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION, OUT, OUTCOME
 from tether_gym.physics.events import free_flight_row, time_to_wall_row, wall_bounce_row
 from tether_gym.physics.jit import choose_threading_layer, serial_and_parallel
 from tether_gym.physics.state import PuckState
@@ -45,8 +48,15 @@ ALPHA_STEP = ALPHA_GRID[1] - ALPHA_GRID[0]
 ALPHA_SIN, ALPHA_COS = np.sin(ALPHA_GRID), np.cos(ALPHA_GRID)
 FINE_GRID = np.linspace(-1.0, 1.0, 81)
 """The finer search about the best of `ALPHA_GRID`, in its steps: 40 times finer."""
+FINE_ALPHAS = np.clip(ALPHA_GRID[:, None] + ALPHA_STEP * FINE_GRID, ALPHA_GRID[0], ALPHA_GRID[-1])
+"""The finer search's offset angles about each angle of `ALPHA_GRID` (A, 81)."""
+NEAR_SQUARE, SQUARE_FLOOR = 1e-12, 1e-290
+"""The bounces whose squared speeds left come within this fraction of the least (or under the
+floor, where squares underflow) are compared by their speeds (`_first_least`): rounding keeps a
+squared speed in its speed's order to about 1e-16."""
 LENGTH_LOW, LENGTH_HIGH = ACTION["tether_length"].low, ACTION["tether_length"].high
 BRAKE_LOW, BRAKE_HIGH = ACTION["restitution"].low, ACTION["restitution"].high
+ACTION_LOW, ACTION_HIGH = ACTION.low, ACTION.high
 GYRATION2 = INERTIA_RATIO * PUCK_RADIUS**2
 """I / m, m^2."""
 POST_REACH = POST_RADIUS + PUCK_RADIUS
@@ -148,18 +158,73 @@ def _points(o, first, x, y, points):
 def _cost_rows(before, after, success, ended, depth, planner, cost):
     """`planners.GreedyPlanner.costs` of maneuvers from `before` to `after` (`STATE` records,
     (m,)) into cost (m,); `planner`: (planner depth, stop task, spin weight, wall restitution)."""
-    planner_depth, stop, spin_weight, wall_restitution = planner
     for i in prange(after.shape[0]):
-        b = before[i]
+        cost[i] = _cost(before[i], after[i], success[i], ended[i], depth, planner)
+
+
+@numba.njit(cache=True, inline="always")
+def _cost(b, a, success, ended, depth, planner):
+    """The cost of one maneuver from state `b` to state `a` (`_cost_rows`)."""
+    planner_depth, stop, spin_weight, wall_restitution = planner
+    if success:
         energy = b.vx**2 + b.vy**2 + GYRATION2 * b.spin**2
         dumped = math.sqrt(energy) / MAX_SPEED if stop else 0.0
-        if success[i]:
-            cost[i] = depth + 0.5 * min(dumped, 1.0)
-        elif ended[i]:
-            cost[i] = FAIL
-        else:
-            tier, value = _running(after[i], stop, spin_weight, wall_restitution)
-            cost[i] = planner_depth + tier + value / (1.0 + value)
+        return depth + 0.5 * min(dumped, 1.0)
+    if ended:
+        return FAIL
+    tier, value = _running(a, stop, spin_weight, wall_restitution)
+    return planner_depth + tier + value / (1.0 + value)
+
+
+def _predict_rows(states, candidates, params, planner, depth, actions, after, out, cost, ended):
+    """`planners.GreedyPlanner.expand` past the candidates (rows, anchor, length, alpha, brake,
+    kind), one loop: each one's action into actions (m, 4), its outcome (the env kernel's step
+    without the observation, `play`) into after (m,), out (m, k) and ended (m,), its cost into
+    cost (m,); how many actions are not finite (then not played)."""
+    rows, anchor, length, alpha, brake, _ = candidates
+    bad = 0
+    for i in prange(rows.shape[0]):
+        s = states[rows[i]]
+        physical = (_bearing(s, anchor[i]), length[i], alpha[i], brake[i])
+        for j in range(4):
+            actions[i, j] = _normalized(physical[j], ACTION_LOW[j], ACTION_HIGH[j])
+        after[i] = s
+        if not _finite(actions[i]):
+            bad += 1
+            continue
+        play(actions[i], after[i], params[0], out[i])
+        ended[i] = out[i, OUT.terminated] != 0.0 or out[i, OUT.truncated] != 0.0
+        cost[i] = _cost(s, after[i], out[i, OUT.is_success] != 0.0, ended[i], depth, planner)
+    return bad
+
+
+@numba.njit(cache=True, inline="always")
+def _bearing(s, j):
+    """`planners.Candidates.actions`' bearing of peg j from state `s`: its direction from the
+    puck minus the velocity's heading, folded into (-pi, pi] as `physics.wrap_angle` folds."""
+    heading = math.atan2(s.vy, s.vx) if (s.vx != 0.0 or s.vy != 0.0) else 0.0
+    bearing = math.atan2(s.anchors[j, 1] - s.y, s.anchors[j, 0] - s.x) - heading
+    return math.pi - (math.pi - bearing) % (2.0 * math.pi)
+
+
+@numba.njit(cache=True, inline="always")
+def _normalized(value, low, high):
+    """`ACTION.normalize` of one entry, clipped to [-1, 1] (NaN kept) and rounded to float32."""
+    unit = 2.0 * (value - low) / (high - low) - 1.0
+    if unit < -1.0:
+        unit = -1.0
+    elif unit > 1.0:
+        unit = 1.0
+    return np.float32(unit)
+
+
+@numba.njit(cache=True, inline="always")
+def _finite(action):
+    """Whether every entry of `action` is finite (the env kernel refuses the others)."""
+    for j in range(action.shape[0]):
+        if not math.isfinite(action[j]):
+            return False
+    return True
 
 
 def _candidate_rows(states, wall_restitution, stop, count, anchor, length, alpha, brake, kind):
@@ -392,19 +457,53 @@ def _least_speed(px, py, vx, vy, spin, ax, ay):
     `spin`, hooked to the peg (ax, ay): (offset angle, brake, tether length, speed left)."""
     rx, ry = px - ax, py - ay
     radius = math.hypot(rx, ry)
-    best, least = 0, math.inf
-    for k in range(ALPHA_GRID.shape[0]):
-        left = _bounce(ALPHA_SIN[k], ALPHA_COS[k], rx, ry, radius, vx, vy, spin)[2]
-        if left < least:
-            best, least = k, left
-    centre = ALPHA_GRID[best]
-    chosen = (centre, 1.0, math.nan, math.inf)
-    for k in range(FINE_GRID.shape[0]):
-        a = min(max(centre + ALPHA_STEP * FINE_GRID[k], ALPHA_GRID[0]), ALPHA_GRID[-1])
-        e, length, left = _bounce(math.sin(a), math.cos(a), rx, ry, radius, vx, vy, spin)
-        if k == 0 or left < chosen[3]:
-            chosen = (a, e, length, left)
-    return chosen
+    squares = np.empty(ALPHA_GRID.shape[0])
+    _squares(ALPHA_SIN, ALPHA_COS, rx, ry, radius, vx, vy, spin, squares)
+    best = _first_least(ALPHA_SIN, ALPHA_COS, rx, ry, radius, vx, vy, spin, squares)
+    sin, cos, fine = FINE_SIN[best], FINE_COS[best], squares[: FINE_GRID.shape[0]]
+    _squares(sin, cos, rx, ry, radius, vx, vy, spin, fine)
+    k = _first_least(sin, cos, rx, ry, radius, vx, vy, spin, fine)
+    e, length, left = _bounce(sin[k], cos[k], rx, ry, radius, vx, vy, spin)
+    return FINE_ALPHAS[best, k], e, length, left
+
+
+@numba.njit(cache=True, inline="always")
+def _first_least(sin, cos, rx, ry, radius, vx, vy, spin, squares):
+    """The first of the offset angles (their `sin`, `cos`) whose `_bounce` leaves the least
+    speed (0 if none is finite), comparing the speeds only where their `_squares` come near
+    the least."""
+    least = math.inf
+    for k in range(squares.shape[0]):
+        least = min(least, squares[k])
+    best, speed = 0, math.inf
+    for k in range(squares.shape[0]):
+        if squares[k] <= least * (1.0 + NEAR_SQUARE) + SQUARE_FLOOR:
+            left = _bounce(sin[k], cos[k], rx, ry, radius, vx, vy, spin)[2]
+            if left < speed:
+                best, speed = k, left
+    return best
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _squares(sin, cos, rx, ry, radius, vx, vy, spin, squares):
+    """The squared speeds `_bounce` leaves at the offset angles whose sines and cosines are
+    `sin`, `cos` into `squares` (inf where the length is out of range): its steps without
+    branches, so that they run on vectors (its speed is the hypotenuse of the same velocity)."""
+    r2, spin_arm = radius * radius, spin * ARM
+    for k in range(squares.shape[0]):
+        arm = ARM * sin[k]
+        projected = math.sqrt(r2 - arm * arm)
+        length = projected - ARM * cos[k]
+        ux, uy = (rx * projected + ry * arm) / r2, (ry * projected - rx * arm) / r2
+        along = vx * ux + vy * uy
+        pull = along + spin_arm * sin[k]
+        compliance = 1.0 + arm**2 / GYRATION2
+        e = along * compliance / pull - 1.0
+        e = BRAKE_LOW if e < BRAKE_LOW else (BRAKE_HIGH if e > BRAKE_HIGH else e)
+        dv = (1.0 + e) * pull / compliance if pull > 0.0 else 0.0
+        wx, wy = vx - dv * ux, vy - dv * uy
+        in_range = length >= LENGTH_LOW and length <= LENGTH_HIGH
+        squares[k] = wx * wx + wy * wy if in_range else math.inf
 
 
 def aim(t, sx, sy, vx, vy, ax, ay, gx, gy, e):
@@ -504,12 +603,26 @@ def _taut_tether(rx, ry, radius, arm, lateral):
     return projected - lateral, (rx * projected + ry * arm) / r2, (ry * projected - rx * arm) / r2
 
 
+@numba.njit(cache=True)
+def _sines(alphas):
+    """(sin, cos) of `alphas` as numba's `math` computes them: `_least_speed` reads its finer
+    search's from this table."""
+    sin, cos = np.empty_like(alphas), np.empty_like(alphas)
+    for i in range(alphas.shape[0]):
+        for k in range(alphas.shape[1]):
+            sin[i, k], cos[i, k] = math.sin(alphas[i, k]), math.cos(alphas[i, k])
+    return sin, cos
+
+
+FINE_SIN, FINE_COS = _sines(FINE_ALPHAS)
 _observed = numba.njit(cache=True)(_observed_rows)
 _costs_serial, _costs_parallel = serial_and_parallel(_cost_rows)
 _candidates_serial, _candidates_parallel = serial_and_parallel(_candidate_rows)
+_predict_serial, _predict_parallel = serial_and_parallel(_predict_rows)
 PARALLEL_STATES, PARALLEL_MANEUVERS = 16, 256
 """The batches split across threads: from this many states for the candidates (a state's
-search costs as much as tens of maneuvers' costs), this many maneuvers for the costs."""
+search costs as much as tens of maneuvers' costs), this many maneuvers for their predictions
+and costs."""
 
 
 def _parallel(rows: int, least: int) -> bool:
@@ -549,11 +662,47 @@ def candidates(states: np.ndarray, wall_restitution: float, stop: bool) -> tuple
     length, alpha, brake = (np.empty((n, MAX_CANDIDATES)) for _ in range(3))
     kernel = _candidates_parallel if _parallel(n, PARALLEL_STATES) else _candidates_serial
     kernel(states, float(wall_restitution), bool(stop), count, anchor, length, alpha, brake, kind)
-    kept = np.arange(MAX_CANDIDATES) < count[:, None]
-    rows = np.repeat(np.arange(n), count)
-    order = np.argsort(kind[kept], kind="stable")
-    return tuple(a[order] for a in (rows, anchor[kept], length[kept], alpha[kept], brake[kept],
-                                    kind[kept]))  # fmt: skip
+    return _gathered(count, anchor, length, alpha, brake, kind)
+
+
+@numba.njit(cache=True)
+def _gathered(count, anchor, length, alpha, brake, kind):
+    """Each state's first `count` candidates of (n, `MAX_CANDIDATES`) slots, kind by kind, then
+    state by state: (rows, anchor, length, alpha, brake, kind), each (m,)."""
+    m = count.sum()
+    rows, anchors, kinds = np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m, np.int64)
+    lengths, alphas, brakes = np.empty(m), np.empty(m), np.empty(m)
+    c = 0
+    for k in range(len(KINDS)):
+        for i in range(count.shape[0]):
+            for slot in range(count[i]):
+                if kind[i, slot] == k:
+                    rows[c], anchors[c], kinds[c] = i, anchor[i, slot], k
+                    lengths[c], alphas[c] = length[i, slot], alpha[i, slot]
+                    brakes[c] = brake[i, slot]
+                    c += 1
+    return rows, anchors, lengths, alphas, brakes, kinds
+
+
+def predict(
+    states: np.ndarray,
+    candidates: tuple[np.ndarray, ...],
+    params: np.ndarray,
+    planner: tuple[int, bool, float, float],
+    depth: int,
+) -> tuple[np.ndarray, ...]:
+    """`planners.GreedyPlanner.expand` of the `candidates` (rows, anchor, length, alpha,
+    brake, kind) of `STATE` records (n,): (actions (m, 4) float32, next states (m,), costs (m,),
+    episode ended (m,)); the env kernel's `params` predict, `planner` as for `costs`."""
+    m = len(candidates[0])
+    actions, after = np.empty((m, len(ACTION)), np.float32), np.empty(m, STATE)
+    out, cost, ended = OUTCOME.empty(m), np.empty(m), np.empty(m, np.bool_)
+    kernel = _predict_parallel if _parallel(m, PARALLEL_MANEUVERS) else _predict_serial
+    planner = (int(planner[0]), bool(planner[1]), float(planner[2]), float(planner[3]))
+    args = (actions, after, out, cost, ended)
+    if kernel(states, candidates, params, planner, float(depth), *args):
+        raise ValueError(f"action must be finite (no NaN or infinity), got {actions!r}")
+    return actions, after, cost, ended
 
 
 def observed_states(obs: np.ndarray, max_maneuvers: int) -> np.ndarray:
@@ -563,3 +712,25 @@ def observed_states(obs: np.ndarray, max_maneuvers: int) -> np.ndarray:
     _observed(obs, int(max_maneuvers), states)
     states["angle"] = np.arctan2(obs[:, OBS.angle_sin], obs[:, OBS.angle_cos])  # numpy's rounding
     return states
+
+
+@numba.njit(cache=True)
+def beam(root, cost, ended, leaf, lead, width, best_cost, best_action):
+    """`planners._beam`: over the nodes (m,) expanded at one depth, each leaf whose cost betters
+    its root's `best_cost` (the first of equal ones) sets it and the root's `best_action` to its
+    `lead`; the nodes to expand next, the `width` least costly running ones per root (by root,
+    then cost, then node)."""
+    for i in range(root.shape[0]):
+        if leaf[i] and cost[i] < best_cost[root[i]]:
+            best_cost[root[i]], best_action[root[i]] = cost[i], lead[i]
+    alive = np.flatnonzero(~ended)
+    order = alive[np.argsort(cost[alive], kind="mergesort")]
+    order = order[np.argsort(root[order], kind="mergesort")]
+    keep = np.empty(order.shape[0], np.int64)
+    kept, rank = 0, 0
+    for c in range(order.shape[0]):
+        rank = rank + 1 if c > 0 and root[order[c]] == root[order[c - 1]] else 0
+        if rank < width:
+            keep[kept] = order[c]
+            kept += 1
+    return keep[:kept]

@@ -13,8 +13,9 @@ the bounce (`GreedyPlanner.candidates`); the planners rank their predicted outco
 
 The state is rebuilt from the observation (`decode_observation`). `implementation="compiled"`,
 the default, generates the candidates and computes the costs in numba (`planner_kernels`, one
-loop per state or per maneuver, the same candidates in the same order); "numpy" is the
-reference the tests hold it to. Both predict with the same kernel step.
+loop per state or per maneuver, the same candidates in the same order; their actions, kernel
+maneuvers and costs in one loop, the beam's choice too); "numpy" is the reference the tests
+hold it to. Both predict with the same kernel maneuver.
 """
 
 from __future__ import annotations
@@ -502,6 +503,11 @@ class GreedyPlanner:
     def expand(self, states: np.ndarray, depth: int) -> tuple:
         """Every candidate of every state, predicted: (the `Candidates`, their actions, next
         states, costs at this depth, episode ended)."""
+        if self.implementation == "compiled":
+            found = compiled.candidates(states, self.config.wall_restitution, self.stop)
+            planner = (self.depth, self.stop, self.spin_weight, self.config.wall_restitution)
+            predicted = compiled.predict(states, found, self.kernel.params, planner, depth)
+            return Candidates(*found), *predicted
         candidates = self.candidates(states)
         actions = candidates.actions(states)
         before = states[candidates.rows]
@@ -578,22 +584,31 @@ class LookaheadPlanner(GreedyPlanner):
         n = len(states)
         best_cost, best_action = np.full(n, np.inf), np.zeros((n, len(ACTION)), np.float32)
         frontier, roots, first = states, np.arange(n), None
+        select = compiled.beam if self.implementation == "compiled" else _beam
         for depth in range(self.depth):
             candidates, actions, after, cost, ended = self.expand(frontier, depth)
             root = roots[candidates.rows]
             lead = actions if first is None else first[candidates.rows]
             leaf = ended | (depth == self.depth - 1)  # an expanded node counts by its children
-            groups, pick = _best(root[leaf], cost[leaf])
-            pick = np.flatnonzero(leaf)[pick]
-            better = cost[pick] < best_cost[groups]
-            best_cost[groups[better]] = cost[pick[better]]
-            best_action[groups[better]] = lead[pick[better]]
-            alive = np.flatnonzero(~ended)
-            order = alive[np.lexsort((cost[alive], root[alive]))]
-            _, start = np.unique(root[order], return_index=True)
-            rank = np.arange(len(order)) - np.repeat(start, np.diff([*start, len(order)]))
-            keep = order[rank < self.beam]
+            keep = select(root, cost, ended, leaf, lead, self.beam, best_cost, best_action)
             frontier, roots, first = after[keep], root[keep], lead[keep]
             if not len(keep):
                 break
         return best_action
+
+
+def _beam(root, cost, ended, leaf, lead, width: int, best_cost, best_action) -> np.ndarray:
+    """`LookaheadPlanner.plan` at one depth, over the expanded nodes: the least costly leaf of
+    each root (the first of equal ones) sets its `best_cost` and `best_action` (to its `lead`)
+    where it betters them; the nodes to expand next, the `width` least costly running ones per
+    root (by root, then cost)."""
+    groups, pick = _best(root[leaf], cost[leaf])
+    pick = np.flatnonzero(leaf)[pick]
+    better = cost[pick] < best_cost[groups]
+    best_cost[groups[better]] = cost[pick[better]]
+    best_action[groups[better]] = lead[pick[better]]
+    alive = np.flatnonzero(~ended)
+    order = alive[np.lexsort((cost[alive], root[alive]))]
+    _, start = np.unique(root[order], return_index=True)
+    rank = np.arange(len(order)) - np.repeat(start, np.diff([*start, len(order)]))
+    return order[rank < width]
