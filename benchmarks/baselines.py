@@ -169,12 +169,14 @@ def plot(summaries: list[dict], path: Path) -> None:
             timesteps = np.array([point[0] for point in curves[0][:n]])
             rates = np.array([[point[1] for point in curve[:n]] for curve in curves])
             kwargs = " ".join(f"{k}:{v}" for k, v in summary["env_kwargs"].items())
-            label = f"{summary['env_id']} {kwargs} ({len(curves)} seeds)"
+            policy = summary.get("hyperparams", {}).get("policy", "zoo policy")
+            label = f"{summary['env_id']} {kwargs}, {policy} ({len(curves)} seeds)"
             line = axes.plot(timesteps, rates.mean(axis=0), label=label)[0]
             axes.fill_between(timesteps, rates.min(axis=0), rates.max(axis=0), alpha=0.2,
                               color=line.get_color())  # fmt: skip
         axes.set_title(algo.upper())
         axes.set_xlabel("timesteps")
+        axes.xaxis.set_major_formatter(lambda x, _: f"{x / 1000:g}k")
         axes.set_ylabel("success on the evaluation episodes")
         axes.set_ylim(0, 1)
         axes.grid(alpha=0.3)
