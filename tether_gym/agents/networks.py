@@ -23,6 +23,9 @@ nothing the env does not show):
 the desired goal (`GoalAim`, a skip connection from the goal to the action), so that learning
 starts from a shot at the goal rather than from a random aim.
 
+`AimSACPolicy`: the same start for SAC (`AimActor`: the actor's mean before its tanh is the
+goal's aim plus a learned term that starts near zero), `policy: AimPolicy` with `--algo sac`.
+
 `ProposalPolicy`: PPO's actor-critic over a planner's proposals
 (`tether_gym.agents.planned.propose`), one network scoring every proposal alike
 (`ProposalScorer`).
@@ -37,7 +40,7 @@ import torch
 from gymnasium import spaces
 from stable_baselines3.common.policies import MultiInputActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor, create_mlp
-from stable_baselines3.sac.policies import Actor, MultiInputPolicy
+from stable_baselines3.sac.policies import LOG_STD_MAX, LOG_STD_MIN, Actor, MultiInputPolicy
 from torch import nn
 
 from tether_gym.agents.planned import PROPOSAL_FEATURES, PROPOSALS_KEY
@@ -245,7 +248,7 @@ class AimActor(Actor):
         features = self.extract_features(obs, self.features_extractor)
         latent = self.latent_pi(features)
         mean = self.mu(latent) + self.goal_aim.squashed(features)
-        log_std = torch.clamp(self.log_std(latent), -20.0, 2.0)  # SB3's bounds
+        log_std = torch.clamp(self.log_std(latent), LOG_STD_MIN, LOG_STD_MAX)
         return mean, log_std, {}
 
 
