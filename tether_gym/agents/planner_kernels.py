@@ -34,6 +34,7 @@ from tether_gym.envs.tether_navigate.config import (
 )
 from tether_gym.envs.tether_navigate.controls import play
 from tether_gym.envs.tether_navigate.controls.setup import ACTION
+from tether_gym.envs.tether_navigate.kernel import finite_action
 from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION, OUT, OUTCOME
 from tether_gym.physics.events import free_flight_row, time_to_wall_row, wall_bounce_row
 from tether_gym.physics.jit import choose_threading_layer, serial_and_parallel
@@ -189,7 +190,7 @@ def _predict_rows(states, candidates, params, planner, depth, actions, after, ou
         for j in range(4):
             actions[i, j] = _normalized(physical[j], ACTION_LOW[j], ACTION_HIGH[j])
         after[i] = s
-        if not _finite(actions[i]):
+        if not finite_action(actions[i]):
             bad += 1
             continue
         play(actions[i], after[i], params[0], out[i])
@@ -216,15 +217,6 @@ def _normalized(value, low, high):
     elif unit > 1.0:
         unit = 1.0
     return np.float32(unit)
-
-
-@numba.njit(cache=True, inline="always")
-def _finite(action):
-    """Whether every entry of `action` is finite (the env kernel refuses the others)."""
-    for j in range(action.shape[0]):
-        if not math.isfinite(action[j]):
-            return False
-    return True
 
 
 def _candidate_rows(states, wall_restitution, stop, count, anchor, length, alpha, brake, kind):

@@ -46,7 +46,8 @@ from tether_gym.physics.jit import choose_threading_layer
 
 
 @numba.njit(cache=True, inline="always")
-def _finite(action):
+def finite_action(action):
+    """Whether every entry of `action` is finite (a maneuver refuses the others)."""
     for j in range(action.shape[0]):
         if not math.isfinite(action[j]):
             return False
@@ -57,7 +58,7 @@ def _finite(action):
 def _maneuver(action, s, p, out):
     """One step of one episode, advancing `s`: 1 if the action holds NaN or infinity (then
     nothing is done), else 0."""
-    if not _finite(action):
+    if not finite_action(action):
         return 1
     play(action, s, p, out)
     return 0
