@@ -219,23 +219,23 @@ def test_the_direct_shot_aims_at_the_goal_at_its_task_s_speed(env_id, speed):
 
 
 def test_the_aim_search_detours_where_the_direct_shot_hits_posts():
-    """Among three posts the straight shot at the goal fails on about a fifth of the
+    """Among three posts the direct shot at the goal fails on about a seventh of the
     episodes (a post); the search over aims two maneuvers ahead, played in aim control on the
-    same episodes, fails on few, and on hardly any the direct shot reaches (its first
-    candidate is the direct shot; it may prefer a two-maneuver detour to a longer straight
-    route)."""
+    same episodes, fails on few: it reaches the goal on at least half of the direct shot's
+    failures, and fails on hardly any the direct shot reaches (its first candidate is the direct
+    shot; it may prefer a two-maneuver detour to a longer straight route)."""
     env_id, agents = "TetherNavigate_PostsReach-v1", {}
     for name in ("aim-search", "direct"):
         agents[name] = make_agent(name, {"coast": True}, env_id=env_id)
     search, direct = evaluate(agents, {"coast": True}, 200, 7, env_id=env_id)
     assert direct.success_rate < 0.9 and search.success_rate > 0.92
     wins, losses, _ = paired(search.success, direct.success)
-    assert wins >= 20 and losses <= 2
+    assert wins >= 0.5 * 200 * (1 - direct.success_rate) and losses <= 2
 
 
 def test_the_direct_shot_plays_in_aim_control_and_reaches_across_an_open_table():
     """Evaluated on a ladder id in set-up control, the harness plays it in aim control (its
-    own); on the open table its straight shots reach the goal nearly always."""
+    own); on the open table its shots at the goal reach it nearly always."""
     (result,) = evaluate({"direct": make_agent("direct", {}, env_id="TetherNavigate_OpenReach-v1")},
                          {"coast": True}, 100, 5, env_id="TetherNavigate_OpenReach-v1")  # fmt: skip
     assert result.success_rate > 0.85

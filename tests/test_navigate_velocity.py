@@ -9,32 +9,59 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
-from tether_gym.envs.tether_navigate.config import POST_RADIUS, PUCK_RADIUS
+from tether_gym.envs.tether_navigate.config import (
+    COAST_STRETCHES,
+    POST_RADIUS,
+    PUCK_RADIUS,
+    TABLE_HEIGHT,
+    TABLE_WIDTH,
+)
 from tether_gym.envs.tether_navigate.controls.velocity import (
     ACTION,
     COMMAND_TOLERANCE,
     PATH_TIME,
+    _change_towards,
     speed_weight,
 )
 from tether_gym.envs.tether_navigate.controls.velocity import _miss as velocity_miss
+from tether_gym.envs.tether_navigate.controls.velocity import _wanted as velocity_wanted
 from tether_gym.envs.tether_navigate.spaces import decode_observation
 from tether_gym.tasks.navigate import segment_distance
 
 
-def _miss(info, aim, speed, fraction, posts=()):
-    """The command's miss by a maneuver's outcome: the aim's distance from the straight path
-    the puck leaves on, over PATH_TIME and up to the first of the `posts` it touches, plus the
+def _miss(info, aim, speed, fraction, posts=(), restitution=0.9):
+    """The command's miss by a maneuver's outcome: the aim's distance from the path the puck
+    leaves on, over PATH_TIME, off the walls (`restitution`, the env's default) for up to
+    COAST_STRETCHES straight stretches, and up to the first of the `posts` it touches, plus the
     speed error weighed by the commanded fraction (the env's definition)."""
-    position, velocity = info["position"], info["velocity"]
-    gap = aim - position
-    v2 = velocity @ velocity
-    t = min(max(gap @ velocity / v2, 0.0), PATH_TIME) if v2 > 0 else 0.0
-    for post in posts:  # the inward crossing of the circle where the rims touch
-        offset = position - post
-        b, c = offset @ velocity, offset @ offset - (POST_RADIUS + PUCK_RADIUS) ** 2
-        if v2 > 0 and b * b - v2 * c >= 0 and 0 <= (hit := (-b - np.sqrt(b * b - v2 * c)) / v2):
-            t = min(t, hit)
-    return np.hypot(*(gap - t * velocity)) + speed_weight(fraction) * abs(np.sqrt(v2) - speed)
+    position, velocity = np.array(info["position"]), np.array(info["velocity"])
+    low, high = np.full(2, PUCK_RADIUS), np.array([TABLE_WIDTH, TABLE_HEIGHT]) - PUCK_RADIUS
+    error = speed_weight(fraction) * abs(np.hypot(*velocity) - speed)
+    nearest, left = np.inf, PATH_TIME
+    for _ in range(COAST_STRETCHES):
+        v2 = velocity @ velocity
+        if v2 == 0:
+            return min(nearest, np.hypot(*(aim - position))) + error
+        with np.errstate(divide="ignore"):
+            ahead = np.where(velocity > 0, high, low) - position
+            to_wall = np.where(velocity != 0, ahead / velocity, np.inf)
+        end = min(to_wall.min(), left)
+        gap = aim - position
+        t = min(max(gap @ velocity / v2, 0.0), end)
+        stopped = False
+        for post in posts:  # the inward crossing of the circle where the rims touch
+            offset = position - post
+            b, c = offset @ velocity, offset @ offset - (POST_RADIUS + PUCK_RADIUS) ** 2
+            if b * b - v2 * c >= 0 and 0 <= (hit := (-b - np.sqrt(b * b - v2 * c)) / v2) <= end:
+                t, stopped = min(t, hit), True
+        nearest = min(nearest, np.hypot(*(gap - t * velocity)))
+        if stopped or to_wall.min() >= left:
+            break
+        position = position + to_wall.min() * velocity
+        wall = int(np.argmin(to_wall))
+        velocity[wall] *= -restitution
+        left -= to_wall.min()
+    return nearest + error
 
 
 def _blocked(obs, start, end) -> bool:
@@ -85,12 +112,14 @@ def _round_trips(dynamics: str, episodes: int, **kwargs):
 def test_the_inverse_meets_commands_the_forward_model_can_meet():
     """Round trips through the impulse model: most commands made from a random set-up's own
     outcome are met (not all: the search runs up to the second wall bounce, after the flight's
-    closest approach to the aim, and it keeps tethers that cannot have gone taut earlier), and
-    where one is met the impulse outcome meets it to the tolerance."""
+    closest approach to the aim, and it keeps tethers that cannot have gone taut earlier; the
+    golden-section refinement can settle on a path off a wall that nearly meets the command where
+    another stretch meets it exactly), and where one is met the impulse outcome meets it to the
+    tolerance."""
     trips = list(_round_trips("impulse", 300))
     met = [trip for trip in trips if trip[0]["command_met"]]
     assert len(trips) >= 60
-    assert len(met) >= 0.6 * len(trips)
+    assert len(met) >= 0.55 * len(trips)
     for done, aim, speed, fraction in met:
         assert _miss(done, aim, speed, fraction) < 10 * COMMAND_TOLERANCE
 
@@ -129,21 +158,59 @@ def test_the_reported_error_is_the_impulse_outcome_s_miss():
 def test_a_path_stopped_by_a_post_misses_by_what_it_leaves():
     """The miss the inverse scores: the straight path after the bounce ends where the rims
     touch a post; the aim beyond it is missed by the gap (and flagged), one beside it is not."""
-    posts = np.array([[1.0, 0.5]])
+    table = (np.array([[1.0, 0.5]]), 0.9)
     touch = 1.0 - POST_RADIUS - PUCK_RADIUS
-    miss, blocked = velocity_miss(0.2, 0.5, 1.0, 0.0, 1.5, 0.5, 1.0, 0.0, posts)
+    miss, blocked = velocity_miss(0.2, 0.5, 1.0, 0.0, 1.5, 0.5, 1.0, 0.0, table)
     assert blocked and miss == pytest.approx(1.5 - touch)
-    miss, blocked = velocity_miss(0.2, 0.5, 1.0, 0.0, 0.5, 0.5, 1.0, 0.0, posts)
+    miss, blocked = velocity_miss(0.2, 0.5, 1.0, 0.0, 0.5, 0.5, 1.0, 0.0, table)
     assert not blocked and miss == pytest.approx(0.0, abs=1e-12)
-    miss, blocked = velocity_miss(0.2, 0.8, 1.0, 0.0, 1.5, 0.8, 1.0, 0.0, posts)
+    miss, blocked = velocity_miss(0.2, 0.8, 1.0, 0.0, 1.5, 0.8, 1.0, 0.0, table)
     assert not blocked and miss == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_path_off_a_wall_passes_through_the_aim():
+    """The change along the tether that `_change_towards` gives for the
+    top wall sends the puck off that wall (restitution 0.5) through the aim, which the straight
+    change misses; the path's miss is measured off the wall, and a point beside the path is
+    missed by its distance from the reflected line."""
+    table, top = (np.empty((0, 2)), 0.5), 4
+    px, py, vx, vy, ux, uy, gx, gy = 0.5, 0.5, 1.0, 0.0, 0.0, -1.0, 1.2, 0.7
+    k = _change_towards(px, py, vx, vy, ux, uy, gx, gy, 0.5, top)
+    ox, oy = vx - k * ux, vy - k * uy
+    assert k > 0 and oy > 0  # up into the top wall, not at the aim below it
+    miss, blocked = velocity_miss(px, py, ox, oy, gx, gy, np.hypot(ox, oy), 0.0, table)
+    assert not blocked and miss == pytest.approx(0.0, abs=1e-9)
+    straight = _change_towards(px, py, vx, vy, ux, uy, gx, gy, 0.5, 0)
+    miss, _ = velocity_miss(px, py, vx - straight * ux, vy - straight * uy, gx, gy, 1.0, 0.0, table)
+    assert miss == pytest.approx(0.0, abs=1e-9)  # straight at the aim: a different change
+    assert 0 < straight < k
+    # off the top wall (y = 1 - R) the path runs along (1, -0.5), from where it meets the wall
+    wall_y = TABLE_HEIGHT - PUCK_RADIUS
+    hit = np.array([px + (wall_y - py), wall_y])
+    beside = hit + np.array([0.4, -0.2]) + np.array([0.0, -0.1])  # 0.1 below a point on it
+    miss, _ = velocity_miss(px, py, 1.0, 1.0, *beside, 0.0, 0.0, table)
+    assert miss == pytest.approx(0.1 * 1.0 / np.hypot(1.0, 0.5))
+
+
+def test_the_inverse_tries_the_path_off_a_wall():
+    """Where the straight change is out of the brake's range (speed not weighed), `_wanted`
+    finds the change whose path off the top wall passes through the aim; the range's ends, the
+    other candidates left, miss it by centimetres."""
+    table = (np.empty((0, 2)), 0.5)
+    start, velocity, tether, aim = (0.5, 0.5), (1.0, 0.0), (0.0, -1.0), (1.2, 0.7)
+    k, miss, blocked = velocity_wanted(*start, *velocity, *tether, *aim, 0.0, 0.0, 0.5, 3.0, table,
+                                       np.inf)  # fmt: skip
+    assert k == pytest.approx(1.4) and miss == pytest.approx(0.0, abs=1e-9) and not blocked
+    for end in (0.5, 3.0):
+        assert velocity_miss(*start, 1.0, end, *aim, 0.0, 0.0, table)[0] > 0.05
 
 
 def test_an_aim_behind_a_post_is_reached_round_it():
     """The aim is a point the path passes through: aimed behind a post, the env plays a set-up
-    whose path goes round the post, and a path that passes within 3 cm of the aim never ends on
-    the post (impulse dynamics, the puck coasting to the aim: on a post first, the miss
-    would be the 6 cm or more between the rims' contact and the aim)."""
+    whose path goes round the post, and a path planned within 3 cm of the aim never ends on the
+    post where the wheel met the planned offset angle (impulse dynamics, the puck coasting to
+    the aim: on a post first, the miss would be the 6 cm or more between the rims' contact and
+    the aim)."""
     env = gym.make("TetherNavigate_PostsReach-v1", dynamics="impulse", control="aim", coast=True)
     rng = np.random.default_rng(4)
     near = 0
@@ -155,7 +222,7 @@ def test_an_aim_behind_a_post_is_reached_round_it():
         aim = np.clip(post + rng.uniform(0.15, 0.25) * away, 0.01, [1.99, 0.99])
         command = np.array([*ACTION.normalize([0, *aim, 0])[1:3], 1.0], dtype=np.float32)
         _, _, _, _, info = env.step(command)
-        if info["command_error"] < 0.03:
+        if info["offset_angle_met"] and info["command_error"] < 0.03:
             near += 1
             assert not info["hit_post"]
     assert near >= 20
@@ -172,7 +239,8 @@ def test_the_hybrid_tether_plays_the_set_up_and_converges_to_the_command():
 
 def test_a_dead_stop_command_dumps_the_speed():
     """Speed 0 asks for a dead stop: in random episodes it leaves less speed than a full-speed
-    command to the same aim in nearly every episode (an exact stop needs a peg in line:
+    command to the same aim in most episodes (not all: a path off a wall can meet the full-speed
+    command at a lower speed, and an exact stop needs a peg in line:
     `test_navigate_goal.test_at_rest_is_an_absolute_speed`)."""
     env = gym.make("TetherNavigate-v1", dynamics="impulse", control="velocity")
     left = {0.0: [], 1.0: []}
@@ -183,7 +251,7 @@ def test_a_dead_stop_command_dumps_the_speed():
             _, _, _, _, info = env.step(np.array([-1, *aim, 2 * speed - 1], dtype=np.float32))
             left[speed].append(np.hypot(*info["velocity"]) / np.hypot(*info["taut_velocity"]))
     slower = np.less(left[0.0], left[1.0])
-    assert slower.mean() >= 0.9
+    assert slower.mean() >= 0.8
 
 
 def test_the_peg_entry_picks_the_peg_by_rank_in_distance():

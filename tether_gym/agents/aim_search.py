@@ -6,8 +6,8 @@ the direct shot.
 The candidates are the goal itself and waypoints on rings about it (`RADII`, `DIRECTIONS`), at
 full speed for "reach"; for "stop" each at the speeds of `STOP_SPEEDS`, the second maneuver a
 dead stop on the goal. They are tried in that order (the goal first, then the nearer rings), so
-the search shoots straight where the straight shot works and detours round posts where it does
-not. The model is the env itself, so a plan's outcome is the episode's: the search is the
+the search aims at the goal where that works and detours round posts where it does not. The
+model is the env itself, so a plan's outcome is the episode's: the search is the
 operational-space mode's model-based yardstick, and the teacher a policy in that mode can
 imitate (`pretrain` with `planner: aim-search`) without a planner in the agent at test time.
 """

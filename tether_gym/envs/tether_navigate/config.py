@@ -35,9 +35,10 @@ FLIGHT_HORIZON = 5.0
 MAX_WALL_HITS = 8
 """Wall bounces in one flight at most (then the maneuver ends unbounced)."""
 COAST_STRETCHES = 3
-"""With `coast`, the straight stretches after the release searched for the closest approach to
-the aim: up to the second wall bounce."""
-PATH_TIME = 2.0
+"""The straight stretches of the path after the release (up to its second wall bounce) that the
+command's miss follows (`controls.velocity`), and with `coast` that are searched for the
+closest approach to the aim."""
+PATH_TIME = 4.0
 """s: the path after the bounce that should pass through the aim (`controls.velocity`), and with
 `coast` the flight searched for its closest approach to the aim."""
 PATH_POINTS = MAX_WALL_HITS + 3 + COAST_STRETCHES

@@ -97,14 +97,16 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     The tautening comes after the flight's closest approach to the aim (a flight through the
     aim reaches it first), where the flight allows one, up to its second wall bounce; there the
     set-up is the one whose predicted bounce misses the command least: the aim's distance from
-    the path over the next 2 s plus a weight times the speed error (1 s for a stop, falling to
-    0.05 s at full speed: slow commands are about the speed, fast ones about the aim), the
-    offset angles that the reaction wheel meets first. `info["command_met"]` says whether it
-    meets the command, `info["command_error"]` (m) by how much it misses. The configured
-    dynamics then play that set-up like any other. With `coast=True` the maneuver goes on
-    after the release: the puck coasts (walls bounce it, a post ends it) to its closest
-    approach to the aim within those 2 s, so a met command ends on the aim: the achieved goal
-    is the commanded point, and the next decision is taken there (waypoint navigation).
+    the path over the next 4 s (off the walls, up to their second bounce, ended by a post; the
+    set-ups tried include paths off a wall through the aim) plus a weight times the speed error
+    (1 s for a stop, falling to 0.05 s at full speed: slow commands are about the speed, fast
+    ones about the aim), the offset angles that the reaction wheel meets first.
+    `info["command_met"]` says whether it meets the command, `info["command_error"]` (m) by how
+    much it misses. The configured dynamics then play that set-up like any other. With
+    `coast=True` the maneuver goes on after the release: the puck coasts (walls bounce it, a
+    post ends it) to its closest approach to the aim along that path, so a met command ends on
+    the aim: the achieved goal is the commanded point, and the next decision is taken there
+    (waypoint navigation).
 
     The reaction wheel turns the body relative to its free spin, at a constant rate of at most
     `wheel_rate` from the decision, and stops at tautening, so the spin at tautening is the free
@@ -203,7 +205,7 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     | `max_maneuvers`    | `6`        | maneuvers per episode                                    |
     | `control`          | `"setup"`  | `"setup"`, `"velocity"` or `"aim"` (see Action Space)    |
     | `coast`            | `False`    | with `"velocity"` or `"aim"`: after the bounce the puck  |
-    |                    |            | coasts to its closest approach to the aim (within 2 s,   |
+    |                    |            | coasts to its closest approach to the aim (within 4 s,   |
     |                    |            | up to the second wall bounce) before the maneuver ends   |
     | `render_mode`      | `None`     | `"rgb_array"`, `"rgb_array_list"` or `"human"`           |
 

@@ -13,22 +13,23 @@ from it, changes the velocity by -k u, u the unit vector from the peg to the att
 
 and u is the centre's direction from the peg turned back by asin(s / r). So the velocity the
 command asks for, v', fixes u along v - v' (hence s = r sin of the angle between them), then
-k = |v - v'| (hence the brake e). Where s or e falls out of range the nearest set-up is clipped
-into it, with the change along u that misses the command least (`_wanted`).
+k = |v - v'| (hence the brake e). The path off the walls counts too: along that u, the changes
+that point the puck at the aim's image in a wall are tried as well (`_change_towards`). Where s
+or e falls out of range the nearest set-up is clipped into it, with the change along u that
+misses the command least (`_wanted`).
 
 Where the bounce happens is the environment's choice, after the flight's closest approach to the
-aim (so that a flight through the aim reaches it first; anywhere on the flight if no tautening
-comes after): the tautening points of the first `SEGMENTS` straight stretches of the flight
-(wall bounces between them), where a tether of the allowed lengths goes taut pulling, are
-sampled on a grid and the best is refined by golden-section search. The score is the command's
-miss (the aim's distance from the straight path over the `PATH_TIME` after the bounce, up to
-a post it touches, plus `speed_weight` times the speed's error: much for a stop, little at full
-speed) plus `ARM_WEIGHT` |s| (among the set-ups that meet the command, the one nearest a line of
-action through the centre of mass, the least spin), plus `WHEEL_PENALTY` where the reaction
-wheel cannot meet the offset angle and `POST_PENALTY` where a post stops the path first (the
-episode would end there). `info` reports `command_met` (a miss under `COMMAND_TOLERANCE`
-that the wheel can meet) and `command_error` (the miss, m, in the impulse model, the set-up
-played as planned).
+aim (so that a flight through the aim reaches it first; anywhere on the flight if no tautening comes
+after): the tautening points of the first `SEGMENTS` straight stretches of the flight (wall bounces
+between them), where a tether of the allowed lengths goes taut pulling, are sampled on a grid and
+the best is refined by golden-section search. The score is the command's miss (the aim's distance
+from the path over the `PATH_TIME` after the bounce, off the walls as the coast flies it, up to a
+post it touches, plus `speed_weight` times the speed's error: much for a stop, little at full speed)
+plus `ARM_WEIGHT` |s| (among the set-ups that meet the command, the one nearest a line of action
+through the centre of mass, the least spin), plus `WHEEL_PENALTY` where the reaction wheel cannot
+meet the offset angle and `POST_PENALTY` where a post stops the path first (the episode would end
+there). `info` reports `command_met` (a miss under `COMMAND_TOLERANCE` that the wheel can meet) and
+`command_error` (the miss, m, in the impulse model, the set-up played as planned).
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ import numpy as np
 from tether_gym.envs.fields import Field, Fields
 from tether_gym.envs.tether_navigate.config import (
     ARM,
+    COAST_STRETCHES,
     FLIGHT_HORIZON,
     INERTIA_RATIO,
     PATH_TIME,
@@ -57,7 +59,7 @@ from tether_gym.envs.tether_navigate.flight import (
     wheel_crossing,
 )
 from tether_gym.envs.tether_navigate.spaces import OUT
-from tether_gym.physics.events import free_flight_row, wall_bounce_row
+from tether_gym.physics.events import free_flight_row, time_to_wall_row, wall_bounce_row
 from tether_gym.physics.state import PuckState
 
 ACTION = Fields(
@@ -93,7 +95,19 @@ WHEEL_PENALTY = 1.0
 POST_PENALTY = 1.0
 """Score of a set-up whose path hits a post before its closest approach to the aim (m, as a
 miss): the episode would end there."""
+HIT = 1e-9
+"""m: a path this near the aim passes through it (the rest of the path is not searched)."""
+TARGETS = 5
+"""The points a change along the tether is aimed at per tautening point: the aim, and its image
+in each wall (a path off that wall passes through the aim; not off two walls)."""
+BOUND_SLACK = 1e-9
+"""Relative room for rounding when a score is cut off at a bound."""
 GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
+
+
+@numba.njit(cache=True, inline="always")
+def _norm(x, y):
+    return math.sqrt(x * x + y * y)
 
 
 @numba.njit(cache=True)
@@ -104,7 +118,7 @@ def _pick_peg(s, value):
     rank = min(int(0.5 * (min(max(value, -1.0), 1.0) + 1.0) * n), n - 1)
     distance = np.empty(n)
     for j in range(n):
-        distance[j] = math.hypot(s.anchors[j, 0] - s.x, s.anchors[j, 1] - s.y)
+        distance[j] = math.hypot(s.anchors[j, 0] - s.x, s.anchors[j, 1] - s.y)  # as spaces
     for j in range(n):
         nearer = 0
         for i in range(n):
@@ -127,18 +141,58 @@ def _taut(radius, direction, arm):
 
 
 @numba.njit(cache=True)
-def _miss(px, py, ox, oy, gx, gy, speed, weight, posts):
+def _miss(px, py, ox, oy, gx, gy, speed, weight, table):
     """(the command's miss, whether a post stops the path first) for a bounce at (px, py)
-    leaving at (ox, oy): the aim's distance from the straight path over the next `PATH_TIME`,
-    up to the first of the `posts` it touches (a slow puck's path is short, a stopped one's the
-    point itself), plus `weight` (s) times the speed error."""
-    dx, dy = gx - px, gy - py
+    leaving at (ox, oy): the aim's distance from the path over the next `PATH_TIME`, its first
+    `COAST_STRETCHES` straight stretches (the walls reflect it, `table` = (posts, the walls'
+    restitution)), up to the first post it touches (a slow puck's path is short, a stopped
+    one's the point itself), plus `weight` (s) times the speed error."""
+    posts, restitution = table
+    puck = PuckState(px, py, ox, oy, 0.0, 0.0)
     v2 = ox * ox + oy * oy
-    t = min(max((dx * ox + dy * oy) / v2, 0.0), PATH_TIME) if v2 > 0.0 else 0.0
-    t_post = first_post_hit(PuckState(px, py, ox, oy, 0.0, 0.0), posts, len(posts), t)
-    t = min(t, t_post)
-    miss = math.hypot(dx - t * ox, dy - t * oy) + weight * abs(math.sqrt(v2) - speed)
-    return miss, t_post < math.inf
+    error = weight * abs(math.sqrt(v2) - speed)
+    if v2 == 0.0:
+        return _norm(gx - px, gy - py) + error, False
+    nearest, blocked, elapsed = math.inf, False, 0.0
+    for _ in range(COAST_STRETCHES):
+        t_wall, wall = time_to_wall_row(puck, TABLE_WIDTH, TABLE_HEIGHT, PUCK_RADIUS)
+        t_end = min(t_wall, PATH_TIME - elapsed)
+        v2 = puck.vx * puck.vx + puck.vy * puck.vy
+        if v2 == 0.0:
+            break
+        dx, dy = gx - puck.x, gy - puck.y
+        t = min(max((dx * puck.vx + dy * puck.vy) / v2, 0.0), t_end)
+        t_post = first_post_hit(puck, posts, len(posts), t_end)
+        d = _norm(dx - min(t, t_post) * puck.vx, dy - min(t, t_post) * puck.vy)
+        if d < nearest:
+            nearest, blocked = d, t_post <= t
+        if nearest < HIT or t_post < math.inf or t_wall >= PATH_TIME - elapsed:
+            break
+        puck = wall_bounce_row(free_flight_row(puck, t_wall), wall, restitution)
+        elapsed += t_wall
+    return nearest + error, blocked
+
+
+@numba.njit(cache=True, inline="always")
+def _change_towards(px, py, vx, vy, ux, uy, gx, gy, restitution, j):
+    """The change k along u that points the puck at (px, py) at the aim (j = 0) or at its image
+    in wall j - 1 (left, right, bottom, top: mirrored in the line the centre bounces at, its
+    distance from it over the walls' `restitution`, so that the path off that wall passes
+    through the aim); NaN where no change does."""
+    scale = 1.0 / max(restitution, 1e-3)
+    low_x, high_x = PUCK_RADIUS, TABLE_WIDTH - PUCK_RADIUS
+    low_y, high_y = PUCK_RADIUS, TABLE_HEIGHT - PUCK_RADIUS
+    if j == 1:
+        gx = low_x - (gx - low_x) * scale
+    elif j == 2:
+        gx = high_x + (high_x - gx) * scale
+    elif j == 3:
+        gy = low_y - (gy - low_y) * scale
+    elif j == 4:
+        gy = high_y + (high_y - gy) * scale
+    dx, dy = gx - px, gy - py
+    across = ux * dy - uy * dx
+    return (vx * dy - vy * dx) / across if across != 0.0 else math.nan
 
 
 @numba.njit(cache=True, inline="always")
@@ -150,41 +204,57 @@ def speed_weight(fraction):
 
 
 @numba.njit(cache=True)
-def _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, posts):
+def _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, table, cutoff):
     """(k, its miss, whether a post stops its path): the change k in [k_low, k_high] along the
     tether u at (px, py) that misses the command least, `POST_PENALTY` counted: towards the
-    aim, or at the commanded speed (either root, or the least speed), or a limit."""
+    aim straight or off a wall (`_change_towards`), or at the commanded speed (either root, or the
+    least speed), or a limit. Candidates whose speed error alone reaches `cutoff` are not
+    walked; if any was cut and nothing walked beats the cutoff, the miss is inf (and k
+    meaningless)."""
     along = vx * ux + vy * uy
-    dx, dy = gx - px, gy - py
-    across = ux * dy - uy * dx
     disc = along * along - (vx * vx + vy * vy) + speed * speed
     root = math.sqrt(disc) if disc > 0.0 else 0.0
-    aim = (vx * dy - vy * dx) / across if across != 0.0 else k_low
     best_k, best, best_miss, best_blocked = k_low, math.inf, math.nan, False
-    for k in (aim, along - root, along + root, k_low, k_high):
-        k = min(max(k, k_low), k_high)
-        miss, blocked = _miss(px, py, vx - k * ux, vy - k * uy, gx, gy, speed, weight, posts)
+    cut = False
+    for c in range(TARGETS + 4):
+        if c < TARGETS:
+            k = _change_towards(px, py, vx, vy, ux, uy, gx, gy, table[1], c)
+        else:
+            k = (along - root, along + root, k_low, k_high)[c - TARGETS]
+        if not k_low <= k <= k_high:  # out of range (or NaN): clipped, it would be a limit
+            continue
+        ox, oy = vx - k * ux, vy - k * uy
+        error = weight * abs(_norm(ox, oy) - speed)
+        if error >= best:  # the speed's error alone is worse
+            continue
+        if error >= cutoff:
+            cut = True
+            continue
+        miss, blocked = _miss(px, py, ox, oy, gx, gy, speed, weight, table)
         if miss + (POST_PENALTY if blocked else 0.0) < best:
             best_k, best = k, miss + (POST_PENALTY if blocked else 0.0)
             best_miss, best_blocked = miss, blocked
+    if cut and not best < cutoff:  # the cut-off candidates' score is no better
+        return best_k, math.inf, False
     if best == math.inf:  # no candidate compared (a degenerate command): the least change
         best_miss, best_blocked = _miss(
-            px, py, vx - k_low * ux, vy - k_low * uy, gx, gy, speed, weight, posts
+            px, py, vx - k_low * ux, vy - k_low * uy, gx, gy, speed, weight, table
         )
     return best_k, best_miss, best_blocked
 
 
 @numba.njit(cache=True)
-def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest, posts):
+def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest, table, bound):
     """The impulse bounce at tautening point (px, py) for the command, the tether at most
-    `longest`: (score, miss, tether length, moment arm R sin(alpha), brake e)."""
+    `longest`: (score, miss, tether length, moment arm R sin(alpha), brake e); a score of at
+    least `bound` may come back inf (the set-up then meaningless)."""
     rx, ry = px - ax, py - ay
-    radius = math.hypot(rx, ry)
+    radius = _norm(rx, ry)
     dx, dy = gx - px, gy - py
-    distance = math.hypot(dx, dy)
+    distance = _norm(dx, dy)
     scale = speed / distance if distance > 0.0 else 0.0
     cx, cy = vx - scale * dx, vy - scale * dy  # the change the command asks for: k u
-    change = math.hypot(cx, cy)
+    change = _norm(cx, cy)
     arm = 0.0
     if change > 0.0 and rx * cx + ry * cy > 0.0:
         limit = _longest_arm(radius, longest)
@@ -194,7 +264,12 @@ def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest, pos
     compliance = 1.0 + arm * arm / GYRATION2
     k_low = max((1.0 + BRAKE_LOW) * pull / compliance, 0.0)
     k_high = max((1.0 + BRAKE_HIGH) * pull / compliance, 0.0)
-    k, miss, blocked = _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, posts)
+    # a candidate whose speed error alone passes the cutoff scores over the bound (with room
+    # for rounding): it need not be walked
+    cutoff = bound - ARM_WEIGHT * abs(arm) + BOUND_SLACK * max(1.0, abs(bound))
+    k, miss, blocked = _wanted(
+        px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, table, cutoff
+    )
     e = k * compliance / pull - 1.0 if pull > 0.0 else BRAKE_HIGH
     score = miss + ARM_WEIGHT * abs(arm) + (POST_PENALTY if blocked else 0.0)
     return score, miss, length, arm, e
@@ -233,16 +308,17 @@ def _longest_arm(radius, longest):
 
 
 @numba.njit(cache=True)
-def _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, posts, wheel, bound=math.inf):
+def _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, table, wheel, bound=math.inf):
     """`_bounce_at` `t` into the straight stretch starting at `puck`, the commanded speed a
     `fraction` of the puck's there, and whether the reaction wheel can meet its offset angle
     there (`flight.wheel_crossing`, with `wheel` = (the stretch's start from the decision, its
     length, the wheel's rate, the contact's clearance)); `WHEEL_PENALTY` on the score if not.
-    A score over `bound` is returned as it is (the wheel unchecked, not turning)."""
+    A score of at least `bound` comes back as at least it (perhaps inf; the wheel unchecked,
+    not turning), any other exactly."""
     x, y = puck.x + puck.vx * t, puck.y + puck.vy * t
-    speed, weight = fraction * math.hypot(puck.vx, puck.vy), speed_weight(fraction)
+    speed, weight = fraction * _norm(puck.vx, puck.vy), speed_weight(fraction)
     score, miss, length, arm, e = _bounce_at(
-        x, y, puck.vx, puck.vy, puck.spin, ax, ay, gx, gy, speed, weight, longest, posts
+        x, y, puck.vx, puck.vy, puck.spin, ax, ay, gx, gy, speed, weight, longest, table, bound
     )
     if score >= bound:
         return score, miss, length, arm, e, False
@@ -255,20 +331,22 @@ def _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, posts, wheel, bound=m
 
 
 @numba.njit(cache=True)
-def _golden(puck, lo, hi, ax, ay, gx, gy, fraction, longest, posts, wheel):
-    """(t, score): the least score in [lo, hi] by golden-section search, one new point a step."""
+def _golden(puck, lo, hi, ax, ay, gx, gy, fraction, longest, table, wheel):
+    """(t, score): the least score in [lo, hi] by golden-section search, one new point a step
+    (scored only as far as it decides against the point kept, `_bounce_on`'s bound)."""
     t1, t2 = hi - GOLDEN * (hi - lo), lo + GOLDEN * (hi - lo)
-    m1 = _bounce_on(puck, t1, ax, ay, gx, gy, fraction, longest, posts, wheel)[0]
-    m2 = _bounce_on(puck, t2, ax, ay, gx, gy, fraction, longest, posts, wheel)[0]
+    m1 = _bounce_on(puck, t1, ax, ay, gx, gy, fraction, longest, table, wheel)[0]
+    m2 = _bounce_on(puck, t2, ax, ay, gx, gy, fraction, longest, table, wheel)[0]
     for _ in range(REFINEMENTS):
         if m1 <= m2:
             hi, t2, m2 = t2, t1, m1
             t1 = hi - GOLDEN * (hi - lo)
-            m1 = _bounce_on(puck, t1, ax, ay, gx, gy, fraction, longest, posts, wheel)[0]
+            bound = np.nextafter(m2, math.inf)  # m1 <= m2 must stay decided
+            m1 = _bounce_on(puck, t1, ax, ay, gx, gy, fraction, longest, table, wheel, bound)[0]
         else:
             lo, t1, m1 = t1, t2, m2
             t2 = lo + GOLDEN * (hi - lo)
-            m2 = _bounce_on(puck, t2, ax, ay, gx, gy, fraction, longest, posts, wheel)[0]
+            m2 = _bounce_on(puck, t2, ax, ay, gx, gy, fraction, longest, table, wheel, m1)[0]
     return (t1, m1) if m1 <= m2 else (t2, m2)
 
 
@@ -320,7 +398,7 @@ def _closest_approach(flight, gx, gy):
         v2 = puck.vx * puck.vx + puck.vy * puck.vy
         t = (gx - puck.x) * puck.vx + (gy - puck.y) * puck.vy
         t = min(max(t / v2, 0.0), lengths[segment]) if v2 > 0.0 else 0.0
-        d = math.hypot(puck.x + puck.vx * t - gx, puck.y + puck.vy * t - gy)
+        d = _norm(puck.x + puck.vx * t - gx, puck.y + puck.vy * t - gy)
         if d < nearest:
             nearest, stretch, at = d, segment, t
     return stretch, at
@@ -333,10 +411,10 @@ def _search(s, p, anchor, flight, gx, gy, fraction, after_stretch, after_t):
     the longest tether); score inf if no window."""
     starts, elapsed, lengths = flight
     ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
-    reach = math.hypot(s.x + ARM * math.cos(s.angle) - ax, s.y + ARM * math.sin(s.angle) - ay)
+    reach = _norm(s.x + ARM * math.cos(s.angle) - ax, s.y + ARM * math.sin(s.angle) - ay)
     longest = max(reach, LENGTH_HIGH)  # a tether raised to the peg is taut at once
     r_low, r_high = max(reach, LENGTH_LOW) + ARM, longest + ARM
-    posts = s.posts[: s.n_posts]
+    table = (s.posts[: s.n_posts], p.wall_restitution)
     farthest = 0.0
     best, best_stretch, best_low, best_high = math.inf, _stretch(starts, 0), 0.0, 0.0
     clearance = contact_clearance(s, p)
@@ -344,7 +422,7 @@ def _search(s, p, anchor, flight, gx, gy, fraction, after_stretch, after_t):
     for segment in range(len(lengths)):
         puck = _stretch(starts, segment)
         t_end = lengths[segment]
-        farthest = max(farthest, math.hypot(puck.x - ax, puck.y - ay))
+        farthest = max(farthest, _norm(puck.x - ax, puck.y - ay))
         # beyond the first stretch the tether must not have gone taut on the earlier ones
         low = r_low if segment == 0 else max(r_low, farthest + 2.0 * ARM)
         t_low, t_high = _window(puck, ax, ay, low, r_high, t_end)
@@ -355,7 +433,7 @@ def _search(s, p, anchor, flight, gx, gy, fraction, after_stretch, after_t):
             step = (t_high - t_low) / (SAMPLES - 1)
             for j in range(SAMPLES):
                 t = t_low + j * step
-                score = _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, posts, wheel, best)[
+                score = _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, table, wheel, best)[
                     0
                 ]
                 if score < best:
@@ -375,15 +453,15 @@ def _search_peg(s, p, anchor, flight, gx, gy, fraction, stretch, at):
 
 
 @numba.njit(cache=True)
-def _refine(s, anchor, found, gx, gy, fraction):
+def _refine(s, p, anchor, found, gx, gy, fraction):
     """(score, the set-up's miss, length, moment arm, brake, the wheel meets it) at the
     golden-section refinement of a peg's grid search `found`."""
     _, puck, low, high, wheel, longest = found
     ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
-    posts = s.posts[: s.n_posts]
-    t, score = _golden(puck, low, high, ax, ay, gx, gy, fraction, longest, posts, wheel)
+    table = (s.posts[: s.n_posts], p.wall_restitution)
+    t, score = _golden(puck, low, high, ax, ay, gx, gy, fraction, longest, table, wheel)
     _, miss, length, arm, e, turns = _bounce_on(
-        puck, t, ax, ay, gx, gy, fraction, longest, posts, wheel
+        puck, t, ax, ay, gx, gy, fraction, longest, table, wheel
     )
     return score, miss, length, arm, e, turns
 
@@ -414,9 +492,9 @@ def solve(action, s, p, out):
     if found[0] == math.inf:  # no tautening on the stretches searched: the longest tether
         out[OUT.command_met], out[OUT.command_error] = 0.0, math.inf
         return anchor, LENGTH_HIGH, 0.0, BRAKE_HIGH, gx, gy
-    best = _refine(s, anchor, found, gx, gy, fraction)
+    best = _refine(s, p, anchor, found, gx, gy, fraction)
     if second != anchor and runner[0] < math.inf:
-        other = _refine(s, second, runner, gx, gy, fraction)
+        other = _refine(s, p, second, runner, gx, gy, fraction)
         if other[0] < best[0]:
             anchor, best = second, other
     _, miss, length, arm, e, turns = best
