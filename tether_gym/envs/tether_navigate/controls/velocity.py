@@ -107,6 +107,7 @@ GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
 
 @numba.njit(cache=True, inline="always")
 def _norm(x, y):
+    """|(x, y)| by sqrt: glibc's `hypot` is slow in the search's inner loop."""
     return math.sqrt(x * x + y * y)
 
 
@@ -118,7 +119,7 @@ def _pick_peg(s, value):
     rank = min(int(0.5 * (min(max(value, -1.0), 1.0) + 1.0) * n), n - 1)
     distance = np.empty(n)
     for j in range(n):
-        distance[j] = math.hypot(s.anchors[j, 0] - s.x, s.anchors[j, 1] - s.y)  # as spaces
+        distance[j] = math.hypot(s.anchors[j, 0] - s.x, s.anchors[j, 1] - s.y)  # as spaces.py
     for j in range(n):
         nearer = 0
         for i in range(n):
