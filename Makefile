@@ -60,8 +60,8 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/env.py
 	$(BIN)/python benchmarks/pymunk_model.py
 
-# numba's cache of a kernel does not notice changes in the modules it imports: after editing
-# tether_gym, `make clean-cache` makes every kernel compile anew.
+# Every kernel compiles anew on first use (importing tether_gym does the same by itself when
+# the kernels' sources changed: tether_gym/kernel_cache.py).
 clean-cache:
 	find tether_gym -name "*.nbi" -delete -o -name "*.nbc" -delete
 

@@ -3,14 +3,17 @@
 Importing the package registers `TetherBounce-v0` (one bounce per episode),
 `TetherNavigate-v1` / `TetherNavigateSparse-v1` (maneuvering to a goal) and the navigation
 ladder's `TetherNavigate_{Open,Posts,Wall}{Reach,Stop}[Sparse]-v1`
-(`tether_gym.ladder`), each with a native vector env.
+(`tether_gym.ladder`), each with a native vector env. It also drops numba's cached kernels
+if the sources they were built from changed (`tether_gym.kernel_cache`).
 """
 
 from gymnasium.envs.registration import register
 
-from tether_gym import ladder
+from tether_gym import kernel_cache, ladder
 
 __version__ = "0.1.0"
+
+kernel_cache.refresh()
 
 register(
     id="TetherBounce-v0",

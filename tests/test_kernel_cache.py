@@ -1,0 +1,56 @@
+"""numba's cached kernels are dropped when the sources they were built from change."""
+
+from pathlib import Path
+
+import tether_gym
+from tether_gym import kernel_cache
+
+
+def make_package(root: Path) -> list[Path]:
+    """A package with a kernel layer and a training layer, and numba cache files beside the
+    kernel's module; returns the cache files."""
+    for name, text in {"physics/step.py": "X = 1\n", "training/train.py": "Y = 1\n"}.items():
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text(text)
+    return write_caches(root)
+
+
+def write_caches(root: Path) -> list[Path]:
+    folder = root / "physics" / "__pycache__"
+    folder.mkdir(exist_ok=True)
+    caches = [folder / "step.kernel-12.py311.nbi", folder / "step.kernel-12.py311.1.nbc"]
+    for path in caches:
+        path.write_bytes(b"compiled")
+    return caches
+
+
+def test_caches_built_before_any_digest_are_dropped(tmp_path):
+    caches = make_package(tmp_path)
+    assert kernel_cache.refresh(tmp_path)
+    assert not any(path.exists() for path in caches)
+    assert (tmp_path / kernel_cache.STAMP).read_text() == kernel_cache.sources_digest(tmp_path)
+
+
+def test_caches_of_unchanged_sources_are_kept(tmp_path):
+    make_package(tmp_path)
+    kernel_cache.refresh(tmp_path)
+    caches = write_caches(tmp_path)
+    (tmp_path / "training" / "train.py").write_text("Y = 2\n")  # above the kernels: no effect
+    assert not kernel_cache.refresh(tmp_path)
+    assert all(path.exists() for path in caches)
+
+
+def test_an_edited_kernel_layer_drops_every_cache(tmp_path):
+    make_package(tmp_path)
+    kernel_cache.refresh(tmp_path)
+    caches = write_caches(tmp_path)
+    (tmp_path / "physics" / "step.py").write_text("X = 2\n")
+    assert kernel_cache.refresh(tmp_path)
+    assert not any(path.exists() for path in caches)
+    assert not kernel_cache.refresh(tmp_path)
+
+
+def test_importing_the_package_records_its_sources():
+    """`import tether_gym` refreshes: the digest beside the caches is that of today's sources."""
+    stamp = Path(tether_gym.__file__).parent / kernel_cache.STAMP
+    assert stamp.read_text() == kernel_cache.sources_digest()
