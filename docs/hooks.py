@@ -323,6 +323,44 @@ def planner_table(sources: dict[str, str], root: Path = ROOT) -> str:
     return "\n\n".join(blocks) + sources_line(sources)
 
 
+def imitation_table(sources: dict[str, str], root: Path = ROOT) -> str:
+    """One row per picker of an imitation benchmark (`benchmarks/imitation.py`): how often its
+    pick among the teacher's candidate aims is among the best on the held-out states, over all
+    of them and where the goal itself is not among the best; the students' mean over network
+    seeds with its 95% t interval."""
+    _check_sources(sources)
+    rows = []
+    for pattern in sources:
+        for path in files_of(pattern, root):
+            data = json.loads(path.read_text())
+            pickers = [("always the goal (the direct shot)", data["goal_in_best"], False),
+                       ("a random candidate", data["random_in_best"], False)]  # fmt: skip
+            n_seeds = len(next(iter(data["students"].values()))["in_best"]["seeds"])
+            pickers += [(f"student: {name}, {n_seeds} seeds", rates, True)
+                        for name, rates in data["students"].items()]  # fmt: skip
+
+            def cell(rate: Any, over_seeds: bool) -> str:
+                if not over_seeds:
+                    return f"{100 * rate:.1f}%"
+                low, high = rate["ci"]
+                return f"{100 * rate['mean']:.1f}% [{100 * low:.1f}, {100 * high:.1f}]"
+
+            for name, rates, over_seeds in pickers:
+                rows.append(
+                    f"| `{data['env_id']}` | {data['teacher']}, {data['candidates']} | "
+                    f"{data['held_out']:,} of {data['states']:,} | "
+                    f"{100 * data['detour_share']:.1f}% | {name} | "
+                    f"{cell(rates['in_best'], over_seeds)} | "
+                    f"{cell(rates['in_best_detour'], over_seeds)} |"
+                )
+    header = (
+        "| env | teacher, candidates | held-out states | direct shot not among the best | picker | "
+        "pick among the best | where a detour is needed |\n"
+        "|---|---|---:|---:|---|---:|---:|\n"
+    )
+    return header + "\n".join(rows) + sources_line(sources)
+
+
 # --- command-line help and ids -------------------------------------------------------------
 
 
@@ -380,6 +418,7 @@ MACROS: dict[str, Callable[..., str]] = {
     "seeds_table": seeds_table,
     "ladder_seeds_table": ladder_seeds_table,
     "planner_table": planner_table,
+    "imitation_table": imitation_table,
     "cli_help": cli_help,
     "ladder_ids": ladder_ids,
 }
@@ -390,6 +429,7 @@ RESULTS_MACROS = (
     "seeds_table",
     "ladder_seeds_table",
     "planner_table",
+    "imitation_table",
 )
 
 

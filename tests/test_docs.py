@@ -109,7 +109,8 @@ def test_placeholder_renders(page, call):
 
 
 def _change(path: Path) -> None:
-    """Set the first success rate of a results file to 0.123456."""
+    """Set the first success rate (an imitation benchmark's: always-goal's) of a results file to
+    0.123456."""
     if path.suffix == ".md":
         text = path.read_text()
         text, n = re.subn(r"success_rate: [0-9.]+", "success_rate: 0.123456", text, count=1)
@@ -120,6 +121,10 @@ def _change(path: Path) -> None:
     if "decisions_per_second" in data:  # benchmarks/planners.py
         implementation = next(iter(data["success"].values()))
         next(iter(next(iter(implementation.values())).values()))["success_rate"] = 0.123456
+        path.write_text(json.dumps(data))
+        return
+    if "students" in data:  # benchmarks/imitation.py
+        data["goal_in_best"]["in_best"] = 0.123456
         path.write_text(json.dumps(data))
         return
     (data["results"][0] if "results" in data else data)["success_rate"] = 0.123456
@@ -274,3 +279,24 @@ def test_a_ladder_seeds_table_reads_each_summary_s_agent_and_yardsticks(tmp_path
            "1,024 | 2 | 50.0% [40.0, 60.0] | 45.0% | 55.1% | 73.1% | 1.2% | "
            "direct 60.0%: ahead on 1, behind on 1 of 3 seeds (p < 0.05) |")  # fmt: skip
     assert row in table.splitlines()
+
+
+def test_an_imitation_table_reads_each_picker_s_rates(tmp_path):
+    """One row per picker: the yardsticks as rates, the students as the mean over network seeds
+    with its interval, both over all held-out states and where a detour is needed."""
+    seeds = {"mean": 0.5, "ci": [0.4, 0.6], "seeds": [0.45, 0.5, 0.55]}
+    result = {
+        "env_id": "TetherNavigate_PostsReach-v1", "teacher": "aim-search", "candidates": 37,
+        "states": 1000, "held_out": 100, "detour_share": 0.2,
+        "goal_in_best": {"in_best": 0.8, "in_best_detour": 0.0},
+        "random_in_best": {"in_best": 0.3, "in_best_detour": 0.1},
+        "students": {"observation": {"in_best": seeds, "in_best_detour": seeds}},
+    }  # fmt: skip
+    (tmp_path / "imitation.json").write_text(json.dumps(result))
+    table = hooks.imitation_table({"*.json": "python benchmarks/imitation.py"}, root=tmp_path)
+    lines = table.splitlines()
+    prefix = "| `TetherNavigate_PostsReach-v1` | aim-search, 37 | 100 of 1,000 | 20.0% | "
+    assert prefix + "always the goal (the direct shot) | 80.0% | 0.0% |" in lines
+    assert prefix + "a random candidate | 30.0% | 10.0% |" in lines
+    student = "student: observation, 3 seeds | 50.0% [40.0, 60.0] | 50.0% [40.0, 60.0] |"
+    assert prefix + student in lines

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
+from tether_gym.agents.aim_search import AimSearch
 from tether_gym.agents.direct import DirectShot
 from tether_gym.agents.evaluate import (
     agent_names,
@@ -231,6 +232,42 @@ def test_the_aim_search_detours_where_the_direct_shot_hits_posts():
     assert direct.success_rate < 0.9 and search.success_rate > 0.92
     wins, losses, _ = paired(search.success, direct.success)
     assert wins >= 0.5 * 200 * (1 - direct.success_rate) and losses <= 2
+
+
+@pytest.mark.parametrize(("env_id", "kinds"), [("TetherNavigate_PostsReach-v1", {0, 1, 2}),
+                                               ("TetherNavigate_OpenStop-v1", {0, 1})])  # fmt: skip
+def test_the_aim_search_s_scores_are_what_its_candidates_do_in_the_env(env_id, kinds):
+    """Each candidate's score (`benchmarks/imitation.py`'s labels) is what its action does when
+    the env plays it from that state: 2 where that maneuver meets the goal, else 1 only where it
+    does not end the episode, and the search plays the first of the best (stop: aims and speeds
+    both vary across the candidates; a stop in one maneuver is rare)."""
+    search = AimSearch({"coast": True}, env_id=env_id)
+    states, _ = search.kernel.reset(np.random.default_rng(3).random((20, search.kernel.n_uniforms)))
+    scores = search.scores(states)
+    chosen = search.actions(states, scores.argmax(axis=1)[:, None])[:, 0]
+    np.testing.assert_array_equal(search.plan(states), chosen)
+    speeds = len(search.speeds)
+    first = search.actions(states, np.broadcast_to(np.arange(speeds), (len(states), speeds)))
+    command = AIM_ACTION.decode(AIM_ACTION.denormalize(first))
+    goal = np.stack([states["goal_x"], states["goal_y"]], axis=-1)[:, None]
+    np.testing.assert_allclose(np.stack([command["aim_x"], command["aim_y"]], axis=-1),
+                               np.broadcast_to(goal, (len(states), speeds, 2)),
+                               atol=1e-6)  # the goal first, at every speed  # fmt: skip
+    env = gym.make(env_id, control="aim", coast=True)
+    played = {0: 0, 1: 0, 2: 0}
+    for s, row in zip(states, scores, strict=True):
+        options = {"goal": (s["goal_x"], s["goal_y"]), "start": (s["x"], s["y"]),
+                   "start_velocity": (s["vx"], s["vy"]), "start_angle": s["angle"],
+                   "start_spin": s["spin"], "anchors": s["anchors"][: s["n_anchors"]],
+                   "posts": s["posts"][: s["n_posts"]]}  # fmt: skip
+        for candidate in sorted({*range(0, len(row), 23), *np.flatnonzero(row)}):
+            env.reset(options=options)
+            action = search.actions(s[None], np.array([[candidate]]))[0, 0]
+            _, _, terminated, truncated, info = env.step(action)
+            assert (row[candidate] == 2) == info["is_success"]
+            assert row[candidate] != 1 or not (terminated or truncated)
+            played[int(row[candidate])] += 1
+    assert {kind for kind, count in played.items() if count} == kinds
 
 
 def test_the_direct_shot_plays_in_aim_control_and_reaches_across_an_open_table():

@@ -58,15 +58,27 @@ class AimSearch:
 
     def plan(self, states: np.ndarray) -> np.ndarray:
         """The chosen actions (n, 3) for `STATE` records (n,)."""
+        best = np.argmax(self.scores(states), axis=1)  # the first of the best, in order
+        return self.actions(states, best[:, None])[:, 0]
+
+    def actions(self, states: np.ndarray, candidates: np.ndarray) -> np.ndarray:
+        """The normalized actions (n, m, 3) of candidates (n, m), indices into the columns of
+        `scores`, for `STATE` records (n,)."""
+        goal = np.stack([states["goal_x"], states["goal_y"]], axis=-1)[:, None]
+        s = len(self.speeds)
+        return aim_actions(goal + self.offsets[candidates // s], self.speeds[candidates % s])
+
+    def scores(self, states: np.ndarray) -> np.ndarray:
+        """Every candidate's score (n, waypoints x speeds), waypoint-major in the order tried:
+        2 if its maneuver meets the goal, 1 if the direct shot after it does, else 0."""
         n, k, s = len(states), len(self.offsets), len(self.speeds)
-        goal = np.stack([states["goal_x"], states["goal_y"]], axis=-1)
-        aims = np.repeat(goal[:, None] + self.offsets[None], s, axis=1).reshape(-1, 2)
-        speeds = np.tile(self.speeds, n * k)
-        after, _, first = self.kernel.step(np.repeat(states, k * s), aim_actions(aims, speeds))
+        candidates = np.broadcast_to(np.arange(k * s), (n, k * s))
+        after, _, first = self.kernel.step(
+            np.repeat(states, k * s), self.actions(states, candidates).reshape(-1, 3)
+        )
         ended = (first[:, OUT.terminated] != 0) | (first[:, OUT.truncated] != 0)
         goal_after = np.stack([after["goal_x"], after["goal_y"]], axis=-1)
         final = np.full(len(after), self.final_speed)
         _, _, second = self.kernel.step(after, aim_actions(goal_after, final))
         score = 2.0 * (first[:, OUT.is_success] != 0) + ((second[:, OUT.is_success] != 0) & ~ended)
-        best = np.argmax(score.reshape(n, k * s), axis=1)  # the first of the best, in order
-        return aim_actions(goal + self.offsets[best // s], self.speeds[best % s])
+        return score.reshape(n, k * s)
