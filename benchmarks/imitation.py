@@ -9,10 +9,9 @@ The search's states are gathered by playing it (`control="aim"`, `coast=True`) f
 own episodes; at each, every candidate aim of the search is scored as the search scores it
 (`AimSearch.scores`), and the best ones are the labels. A classifier over the candidates (an
 MLP over `NavigateExtractor`'s features, trained to put its probability on the best set) is
-fitted on the first states and early-stopped on the next 10%, then scored on the last
-`--held-out`: how often its pick is among the best, overall and where the goal itself is not
-(a detour is needed: the one rate that tells a student from the direct shot). Two inputs
-are compared:
+fitted on the states before the last `--held-out` (early-stopped on the last 10% of them),
+then scored on the held-out states: how often its pick is among the best, overall and where
+the goal itself is not (a detour is needed). Two inputs are compared:
 
 - `observation`: the goal dict, as every aim-control baseline sees it;
 - `observation + direct preview`: also the outcome of the direct shot from that state, played
@@ -20,8 +19,9 @@ are compared:
   command's miss), as if the env showed what its controller does for the goal as the aim.
 
 The yardsticks are always aiming at the goal (the direct shot's choice) and a uniformly random
-candidate. A student that does no better than always-goal has learned nothing a policy could
-use to beat the direct shot.
+candidate. Where a detour is needed, a student no better than a random candidate has learned
+nothing a policy could use to beat the direct shot (overall, states where no candidate scores
+count every pick as among the best).
 """
 
 from __future__ import annotations

@@ -333,25 +333,16 @@ def imitation_table(sources: dict[str, str], root: Path = ROOT) -> str:
     for pattern in sources:
         for path in files_of(pattern, root):
             data = json.loads(path.read_text())
-            pickers = [("always the goal (the direct shot)", data["goal_in_best"], False),
-                       ("a random candidate", data["random_in_best"], False)]  # fmt: skip
-            n_seeds = len(next(iter(data["students"].values()))["in_best"]["seeds"])
-            pickers += [(f"student: {name}, {n_seeds} seeds", rates, True)
-                        for name, rates in data["students"].items()]  # fmt: skip
-
-            def cell(rate: Any, over_seeds: bool) -> str:
-                if not over_seeds:
-                    return f"{100 * rate:.1f}%"
-                low, high = rate["ci"]
-                return f"{100 * rate['mean']:.1f}% [{100 * low:.1f}, {100 * high:.1f}]"
-
-            for name, rates, over_seeds in pickers:
+            pickers = {"always the goal (the direct shot)": data["goal_in_best"],
+                       "a random candidate": data["random_in_best"]}  # fmt: skip
+            for name, rates in data["students"].items():
+                pickers[f"student: {name}, {len(rates['in_best']['seeds'])} seeds"] = rates
+            for name, rates in pickers.items():
                 rows.append(
                     f"| `{data['env_id']}` | {data['teacher']}, {data['candidates']} | "
                     f"{data['held_out']:,} of {data['states']:,} | "
                     f"{100 * data['detour_share']:.1f}% | {name} | "
-                    f"{cell(rates['in_best'], over_seeds)} | "
-                    f"{cell(rates['in_best_detour'], over_seeds)} |"
+                    f"{_rate_cell(rates['in_best'])} | {_rate_cell(rates['in_best_detour'])} |"
                 )
     header = (
         "| env | teacher, candidates | held-out states | direct shot not among the best | picker | "
@@ -359,6 +350,14 @@ def imitation_table(sources: dict[str, str], root: Path = ROOT) -> str:
         "|---|---|---:|---:|---|---:|---:|\n"
     )
     return header + "\n".join(rows) + sources_line(sources)
+
+
+def _rate_cell(rate: float | dict[str, Any]) -> str:
+    """A rate as a percentage, or a mean over seeds with its 95% interval."""
+    if not isinstance(rate, dict):
+        return f"{100 * rate:.1f}%"
+    low, high = rate["ci"]
+    return f"{100 * rate['mean']:.1f}% [{100 * low:.1f}, {100 * high:.1f}]"
 
 
 # --- command-line help and ids -------------------------------------------------------------
