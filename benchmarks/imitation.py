@@ -3,7 +3,8 @@ behind the aim-control baselines' ceiling (PPO, and PPO from the search's demons
 level with the direct shot).
 
     python benchmarks/imitation.py [--env TetherNavigate_PostsReach-v1] [--states 80000]
-        [--held-out 10000] [--seeds 3] [--json results/imitation/ID.json] [--overwrite]
+        [--held-out 10000] [--seeds 3] [--epochs 60] [--json results/imitation/ID.json]
+        [--overwrite]
 
 The search's states are gathered by playing it (`control="aim"`, `coast=True`) from the env's
 own episodes; at each, every candidate aim of the search is scored as the search scores it
@@ -46,16 +47,17 @@ from tether_gym.training.summary import t_interval
 
 BATCH = 5000
 """States scored per call of the kernel."""
-EPOCHS = 60
+EPISODES = 1000
+"""Episodes the search plays side by side while the states are gathered."""
 VALIDATION = 0.1
 """Of the training states, the share kept for early stopping."""
 
 
 def gather(search: AimSearch, n: int, rng: np.random.Generator) -> np.ndarray:
-    """`n` states the search meets when it plays 1000 episodes at a time (new episodes
+    """`n` states the search meets when it plays `EPISODES` episodes at a time (new episodes
     replacing those that end)."""
     kernel = search.kernel
-    state, _ = kernel.reset(rng.random((1000, kernel.n_uniforms)))
+    state, _ = kernel.reset(rng.random((min(n, EPISODES), kernel.n_uniforms)))
     states = []
     while len(states) * len(state) < n:
         states.append(state.copy())
@@ -100,7 +102,7 @@ def features(env_id: str, states: np.ndarray, search: AimSearch) -> np.ndarray:
         return NavigateExtractor(space)(parts).numpy().astype(np.float64)
 
 
-def fit(x: np.ndarray, best: np.ndarray, n_train: int, seed: int) -> np.ndarray:
+def fit(x: np.ndarray, best: np.ndarray, n_train: int, epochs: int, seed: int) -> np.ndarray:
     """The classifier's picks (n - n_train,) on the states after the first `n_train`, its
     weights those of the epoch with the best pick on the last `VALIDATION` of the training
     states."""
@@ -116,7 +118,7 @@ def fit(x: np.ndarray, best: np.ndarray, n_train: int, seed: int) -> np.ndarray:
     optimizer = torch.optim.Adam(net.parameters(), lr=1e-3)
     rows = torch.arange(n_fit, n_train)
     best_rate, best_state = -1.0, None
-    for _ in range(EPOCHS):
+    for _ in range(epochs):
         for batch in torch.randperm(n_fit).split(256):
             log_p = net(x[batch]).log_softmax(-1).masked_fill(~y[batch], -torch.inf)
             loss = -log_p.logsumexp(-1).mean()
@@ -144,6 +146,7 @@ def main() -> None:
     parser.add_argument("--states", type=int, default=80_000)
     parser.add_argument("--held-out", type=int, default=10_000)
     parser.add_argument("--seeds", type=int, default=3, help="network seeds per input")
+    parser.add_argument("--epochs", type=int, default=60)
     parser.add_argument("--seed", type=int, default=0, help="the episodes' seed")
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--overwrite", action="store_true")
@@ -152,6 +155,8 @@ def main() -> None:
         parser.error(f"--held-out must be in (0, --states={args.states}), got {args.held_out}")
     if args.seeds < 2:
         parser.error(f"--seeds must be at least 2 (a 95% interval), got {args.seeds}")
+    if args.epochs < 1:
+        parser.error(f"--epochs must be at least 1, got {args.epochs}")
     if args.json is not None and args.json.exists() and not args.overwrite:
         parser.error(f"{args.json} exists; pass --overwrite to replace it")
     start = time.perf_counter()
@@ -175,7 +180,8 @@ def main() -> None:
         "students": {},
     }  # fmt: skip
     for name, x in (("observation", seen), ("observation + direct preview", shown)):
-        per_seed = [rates(fit(x, best, n_train, seed), test) for seed in range(args.seeds)]
+        picks = [fit(x, best, n_train, args.epochs, seed) for seed in range(args.seeds)]
+        per_seed = [rates(pick, test) for pick in picks]
         result["students"][name] = {
             key: {"mean": float(np.mean(values)), "ci": list(t_interval(values)),
                   "seeds": values.tolist()}

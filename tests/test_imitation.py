@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 SCRIPT = Path(__file__).parent.parent / "benchmarks" / "imitation.py"
-TINY = ["--states", "1200", "--held-out", "200", "--seeds", "2"]
+TINY = ["--states", "400", "--held-out", "100", "--seeds", "2", "--epochs", "5"]
 
 
 @pytest.mark.slow
@@ -22,7 +22,7 @@ def test_imitation_rates_follow_from_the_labels(tmp_path):
     subprocess.run([sys.executable, str(SCRIPT), *TINY, "--json", str(out)], check=True,
                    capture_output=True)  # fmt: skip
     result = json.loads(out.read_text())
-    assert result["candidates"] == 37 and result["held_out"] == 200
+    assert result["candidates"] == 37 and result["held_out"] == 100
     # always the goal is among the best exactly where no detour is needed
     assert result["goal_in_best"]["in_best"] == pytest.approx(1.0 - result["detour_share"])
     assert result["goal_in_best"]["in_best_detour"] == 0.0
