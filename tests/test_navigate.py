@@ -15,7 +15,13 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import tether_gym  # noqa: F401
 from tether_gym.envs.tether_navigate import TetherNavigateEnv, TetherNavigateVectorEnv
-from tether_gym.envs.tether_navigate.config import INERTIA_RATIO, PUCK_MASS, PUCK_RADIUS
+from tether_gym.envs.tether_navigate.config import (
+    INERTIA_RATIO,
+    PUCK_MASS,
+    PUCK_RADIUS,
+    TABLE_HEIGHT,
+    TABLE_WIDTH,
+)
 from tether_gym.envs.tether_navigate.spaces import OBS
 from tether_gym.tasks import navigate
 
@@ -139,6 +145,14 @@ def cross(a, b) -> float:
     return float(a[0] * b[1] - a[1] * b[0])
 
 
+def contact_touches_a_wall(info) -> bool:
+    """Whether the contact's drawn arc (the path from the tautening on) touches a wall."""
+    path = info["path"]
+    arc = path[np.flatnonzero(np.all(path == info["taut_position"], axis=1))[0] :]
+    low, high = PUCK_RADIUS + 1e-9, np.array([TABLE_WIDTH, TABLE_HEIGHT]) - PUCK_RADIUS - 1e-9
+    return bool(np.any((arc <= low) | (arc >= high)))
+
+
 def energy(velocity, spin) -> float:
     return 0.5 * PUCK_MASS * float(np.dot(velocity, velocity)) + 0.5 * INERTIA_RATIO * (
         PUCK_MASS * PUCK_RADIUS**2 * spin**2
@@ -185,13 +199,9 @@ def test_angular_momentum_about_the_hooked_peg_is_kept_through_each_contact(dyna
             done = terminated or truncated
             if not info["bounced"]:
                 continue
-            # r x v is the same at every point of the last straight flight, so its last distinct
-            # point before the slack one will do (for the impulse model they coincide)
-            points = info["path"]
-            end = len(points) - 1
-            while end > 0 and np.array_equal(points[end - 1], points[end]):
-                end -= 1
-            before = points[end - 1] - info["anchor"]
+            if info["hit_post"] or contact_touches_a_wall(info):
+                continue  # another body's impulse: walls and posts act during the contact
+            before = info["taut_position"] - info["anchor"]
             after = info["position"] - info["anchor"]
             h_before = (
                 PUCK_MASS * cross(before, info["taut_velocity"]) + inertia * info["taut_spin"]

@@ -44,9 +44,20 @@ import numba
 import numpy as np
 from numba import prange
 
+from tether_gym.physics.events import wall_bounce_row
 from tether_gym.physics.frames import launch_angle
 from tether_gym.physics.geometry import deflection_and_speed_ratio, initial_state
 from tether_gym.physics.jit import serial_and_parallel
+from tether_gym.physics.obstacles import (
+    MAX_HALVINGS,
+    MAX_REFINEMENTS,
+    POST,
+    RESOLUTION,
+    TOUCH,
+    clearance,
+    open_space,
+    speed_bound,
+)
 from tether_gym.physics.state import PuckState, attachment_offset, puck_state, stretch_rate
 
 RK4_STEPS_PER_HALF_PERIOD = 48
@@ -188,13 +199,87 @@ def _rk4(cx, cy, vx, vy, rx, ry, w, ax1, ay1, al1, h, k, c, rest_length, inv_m, 
 
 
 @numba.njit(cache=True)
+def _first_touch(cx, cy, vx, vy, rx, ry, w, ax, ay, al, span, gap0, gap1, bound, p, obstacles):
+    """The first instant in [0, span] of an RK4 step from (cx, cy, vx, vy, rx, ry, w) at
+    which the rim touches an obstacle (`obstacles.clearance` within `obstacles.TOUCH`), the
+    clearance at the step's ends being gap0 and gap1 and the centre's speed at most `bound`:
+    (tau, the state there as `_rk4` returns it, which obstacle); tau = inf if none. Intervals
+    not proven clear (`bound` times their length exceeds their ends' clearances) are halved,
+    leftmost first, down to `obstacles.RESOLUTION` of travel; the crossing is then refined by
+    the Illinois method to its end still clear."""
+    lows, low_gaps = np.empty(MAX_HALVINGS), np.empty(MAX_HALVINGS)
+    highs, high_gaps = np.empty(MAX_HALVINGS), np.empty(MAX_HALVINGS)
+    lows[0], low_gaps[0], highs[0], high_gaps[0] = 0.0, gap0 + TOUCH, span, gap1 + TOUCH
+    depth = 1
+    while depth > 0:
+        depth -= 1
+        low, g_low, high, g_high = lows[depth], low_gaps[depth], highs[depth], high_gaps[depth]
+        if g_high < 0.0:  # a crossing in [low, high]: refine it
+            side = 0
+            for _ in range(MAX_REFINEMENTS):
+                if high - low <= 1e-15 * span or g_low <= 0.5 * TOUCH:
+                    break
+                tau = (low * g_high - high * g_low) / (g_high - g_low)
+                if not low < tau < high:
+                    tau = 0.5 * (low + high)
+                s = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, tau, *p)
+                g = clearance(obstacles, s[0], s[1])[0] + TOUCH
+                if g >= 0.0:
+                    low, g_low = tau, g
+                    if side == 1:
+                        g_high *= 0.5
+                    side = 1
+                else:
+                    high, g_high = tau, g
+                    if side == -1:
+                        g_low *= 0.5
+                    side = -1
+            s = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, low, *p)
+            return low, s, clearance(obstacles, s[0], s[1])[1]
+        length = bound * (high - low)
+        if g_low + g_high >= length or length <= RESOLUTION or depth + 2 > MAX_HALVINGS:
+            continue  # clear throughout (or too short to hide a touch)
+        mid = 0.5 * (low + high)
+        s = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, mid, *p)
+        g_mid = clearance(obstacles, s[0], s[1])[0] + TOUCH
+        lows[depth], low_gaps[depth], highs[depth], high_gaps[depth] = mid, g_mid, high, g_high
+        lows[depth + 1], low_gaps[depth + 1] = low, g_low
+        highs[depth + 1], high_gaps[depth + 1] = mid, g_mid
+        depth += 2
+    s = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, 0.0, *p)
+    return math.inf, s, -1
+
+
+@numba.njit(cache=True, inline="always")
+def _sample(points, n, ref, x, y, vx, vy, nx, ny, tolerance, origin_x, origin_y):
+    """Draw the contact's arc: append the point (x, y) reached with velocity (vx, vy) to
+    `points` (in table coordinates, from the contact's origin) when the next point (nx, ny)
+    strays more than tolerance / 2 from the tangent at the last one drawn, ref = (x, y, ux,
+    uy) (each point between two drawn ones strays at most that far from the tangent, so at
+    most `tolerance` from their chord). (n, ref) after it."""
+    if (
+        n >= points.shape[0]
+        or abs((nx - ref[0]) * ref[3] - (ny - ref[1]) * ref[2]) <= 0.5 * tolerance
+    ):
+        return n, ref
+    points[n, 0], points[n, 1] = x + origin_x, y + origin_y
+    speed = math.sqrt(vx * vx + vy * vy)
+    return n + 1, (x, y, vx / speed, vy / speed) if speed > 0.0 else (x, y, 0.0, 0.0)
+
+
+@numba.njit(cache=True)
 def _contact(
-    cx, cy, vx, vy, rx, ry, w, angle, c, offset, kappa, speed, radius, mass, rest_length, k
-):
+    cx, cy, vx, vy, rx, ry, w, angle, c, offset, kappa, speed, radius, mass, rest_length, k,
+    obstacles, points, tolerance,
+):  # fmt: skip
     """Integrate a contact from tautening, in coordinates relative to the anchor: the centre of
     mass (cx, cy) moving at (vx, vy) and `speed`, the attachment point at (rx, ry) from it, the
-    spin w and the orientation `angle`, the damper c. Returns (the anchor-relative `PuckState`
-    at the slack instant, completed, contact_time)."""
+    spin w and the orientation `angle`, the damper c, among `obstacles` (their origin the
+    anchor): a wall bounces the puck, a post ends the contact. Returns (the anchor-relative
+    `PuckState` at the slack instant, at the post or at the budget's end, completed,
+    contact_time, hit_post, wall_hits, points): `points` (k, 2) is filled in table coordinates
+    with the arc drawn within `tolerance` m (`_sample`) and every wall bounce, up to its k
+    rows."""
     inertia = kappa * mass * radius * radius
     inv_m, inv_i = 1.0 / mass, 1.0 / inertia
     fastest = fastest_rate(k, c, mass, kappa, offset)
@@ -205,6 +290,12 @@ def _contact(
     budget = MAX_HALF_PERIODS * RK4_STEPS_PER_HALF_PERIOD * fastest / slowest_rate(k, c, mass)
     steps = min(int(budget), MAX_STEPS)
     p = (k, c, rest_length, inv_m, inv_i)
+    bound = speed_bound(vx, vy, w, kappa, radius)
+    gap = clearance(obstacles, cx, cy)[0]
+    safe = gap / bound if bound > 0.0 else math.inf  # no obstacle within reach before then
+    n_points, wall_hits = 0, 0
+    sampled = points.shape[0] > 0
+    ref = (cx, cy, vx / speed, vy / speed) if speed > 0.0 else (cx, cy, 0.0, 0.0)
 
     ax, ay, al, tension = _accel(cx, cy, vx, vy, rx, ry, w, *p)
     peak = 0.0
@@ -212,37 +303,74 @@ def _contact(
     for _ in range(steps):
         ncx, ncy, nvx, nvy, nrx, nry, nw, turn = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, h, *p)
         nax, nay, nal, new_tension = _accel(ncx, ncy, nvx, nvy, nrx, nry, nw, *p)
-        if new_tension > 0.0:
-            cx, cy, vx, vy, rx, ry, w = ncx, ncy, nvx, nvy, nrx, nry, nw
-            angle += turn
-            ax, ay, al, tension = nax, nay, nal, new_tension
-            peak = max(peak, tension)
-            t += h
-            continue
-        # The tether goes slack inside this step: find where T = 0 by the Illinois method.
-        low, g_low, high, g_high, side = 0.0, tension, h, new_tension, 0
-        for _ in range(60):
-            tau = (low * g_high - high * g_low) / (g_high - g_low)
-            if not low < tau < high:  # a flat bracket (T = 0 at tautening when c = 0): bisect
-                tau = 0.5 * (low + high)
-            ncx, ncy, nvx, nvy, nrx, nry, nw, turn = _rk4(
-                cx, cy, vx, vy, rx, ry, w, ax, ay, al, tau, *p
+        span, slack = h, not new_tension > 0.0
+        if slack:
+            # The tether goes slack inside this step: find where T = 0 by the Illinois method.
+            low, g_low, high, g_high, side = 0.0, tension, h, new_tension, 0
+            for _ in range(60):
+                tau = (low * g_high - high * g_low) / (g_high - g_low)
+                if not low < tau < high:  # a flat bracket (T = 0 at tautening when c = 0): bisect
+                    tau = 0.5 * (low + high)
+                ncx, ncy, nvx, nvy, nrx, nry, nw, turn = _rk4(
+                    cx, cy, vx, vy, rx, ry, w, ax, ay, al, tau, *p
+                )
+                g = _accel(ncx, ncy, nvx, nvy, nrx, nry, nw, *p)[3]
+                if g > 0.0:
+                    low, g_low = tau, g
+                    if side == 1:
+                        g_high *= 0.5
+                    side = 1
+                else:
+                    high, g_high = tau, g
+                    if side == -1:
+                        g_low *= 0.5
+                    side = -1
+                if abs(g) <= 1e-13 * peak or high - low <= 1e-15 * h:
+                    break
+            span = tau
+        if t + span > safe:  # an obstacle may be within reach in this step
+            gap0 = clearance(obstacles, cx, cy)[0]
+            gap1 = clearance(obstacles, ncx, ncy)[0]
+            tau, s, which = _first_touch(
+                cx, cy, vx, vy, rx, ry, w, ax, ay, al, span, gap0, gap1, bound, p, obstacles
             )
-            g = _accel(ncx, ncy, nvx, nvy, nrx, nry, nw, *p)[3]
-            if g > 0.0:
-                low, g_low = tau, g
-                if side == 1:
-                    g_high *= 0.5
-                side = 1
-            else:
-                high, g_high = tau, g
-                if side == -1:
-                    g_low *= 0.5
-                side = -1
-            if abs(g) <= 1e-13 * peak or high - low <= 1e-15 * h:
-                break
-        return PuckState(ncx, ncy, nvx, nvy, angle + turn, nw), True, t + tau
-    return PuckState(cx, cy, vx, vy, angle, w), False, t
+            if tau < math.inf:
+                cx, cy, vx, vy, rx, ry, w = s[0], s[1], s[2], s[3], s[4], s[5], s[6]
+                angle += s[7]
+                t += tau
+                if which >= POST:
+                    return PuckState(cx, cy, vx, vy, angle, w), True, t, True, wall_hits, n_points
+                bounced = wall_bounce_row(
+                    PuckState(cx, cy, vx, vy, angle, w), which, obstacles.restitution
+                )
+                vx, vy = bounced.vx, bounced.vy
+                wall_hits += 1
+                if sampled and n_points < points.shape[0]:  # the corner, and a new tangent
+                    points[n_points, 0] = cx + obstacles.origin_x
+                    points[n_points, 1] = cy + obstacles.origin_y
+                    n_points += 1
+                    v = math.sqrt(vx * vx + vy * vy)
+                    ref = (cx, cy, vx / v, vy / v) if v > 0.0 else (cx, cy, 0.0, 0.0)
+                ax, ay, al, tension = _accel(cx, cy, vx, vy, rx, ry, w, *p)
+                if not tension > 0.0:  # the bounce off the wall slackens the tether
+                    return PuckState(cx, cy, vx, vy, angle, w), True, t, False, wall_hits, n_points
+                safe = t  # look again from here
+                continue
+            safe = t + span + max(gap1, 0.0) / bound
+        if slack:
+            after = PuckState(ncx, ncy, nvx, nvy, angle + turn, nw)
+            return after, True, t + tau, False, wall_hits, n_points
+        if sampled:
+            n_points, ref = _sample(
+                points, n_points, ref, cx, cy, vx, vy, ncx, ncy, tolerance, obstacles.origin_x,
+                obstacles.origin_y,
+            )  # fmt: skip
+        cx, cy, vx, vy, rx, ry, w = ncx, ncy, nvx, nvy, nrx, nry, nw
+        angle += turn
+        ax, ay, al, tension = nax, nay, nal, new_tension
+        peak = max(peak, tension)
+        t += h
+    return PuckState(cx, cy, vx, vy, angle, w), False, t, False, wall_hits, n_points
 
 
 @numba.njit(cache=True)
@@ -255,9 +383,10 @@ def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, res
     if stretch_rate(vx, vy, w, rx, ry, math.cos(beta), math.sin(beta)) <= 0.0:
         return PuckState(cx, cy, vx, vy, angle, w), False, True, 0.0
     c = 2.0 * zeta * math.sqrt(k * effective_mass(mass, kappa, offset * math.sin(alpha)))
-    after, completed, t = _contact(
-        cx, cy, vx, vy, rx, ry, w, angle, c, offset, kappa, speed, radius, mass, rest_length, k
-    )
+    after, completed, t, _, _, _ = _contact(
+        cx, cy, vx, vy, rx, ry, w, angle, c, offset, kappa, speed, radius, mass, rest_length, k,
+        open_space(), np.empty((0, 2)), 0.0,
+    )  # fmt: skip
     return after, True, completed, t
 
 
@@ -277,8 +406,26 @@ def hybrid_contact_row(
     state, anchor_x, anchor_y, mass, radius, kappa, offset, rest_length, k, zeta
 ):
     """The hybrid contact of a world state at tautening with the tether anchored at
-    (anchor_x, anchor_y): (state, bounced, completed, contact_time), the state the `PuckState`
-    at the slack instant. `zeta` is the damper's ratio (`damping_ratio` of the restitution)."""
+    (anchor_x, anchor_y), in the open: (state, bounced, completed, contact_time), the state the
+    `PuckState` at the slack instant. `zeta` is the damper's ratio (`damping_ratio` of the
+    restitution)."""
+    after, bounced, completed, t, _, _, _ = hybrid_contact_among_row(
+        state, anchor_x, anchor_y, mass, radius, kappa, offset, rest_length, k, zeta,
+        open_space(), np.empty((0, 2)), 0.0,
+    )  # fmt: skip
+    return after, bounced, completed, t
+
+
+@numba.njit(cache=True)
+def hybrid_contact_among_row(
+    state, anchor_x, anchor_y, mass, radius, kappa, offset, rest_length, k, zeta, obstacles,
+    points, tolerance,
+):  # fmt: skip
+    """`hybrid_contact_row` among `obstacles` (`obstacles.on_table`, their origin the anchor):
+    walls bounce the puck during the contact, a post ends it. (state, bounced, completed,
+    contact_time, hit_post, wall_hits, n_points): the state at the slack instant, at the post,
+    or at the budget's end; the first n_points rows of `points` the arc sampled between
+    tautening and that state, within `tolerance` m (`_contact`)."""
     rx, ry = attachment_offset(state, offset * radius)
     cx, cy = state.x - anchor_x, state.y - anchor_y
     px, py = cx + rx, cy + ry
@@ -286,16 +433,16 @@ def hybrid_contact_row(
     ux, uy = px / distance, py / distance
     vx, vy, w = state.vx, state.vy, state.spin
     if not stretch_rate(vx, vy, w, rx, ry, ux, uy) > 0.0:
-        return puck_state(state), False, True, 0.0
+        return puck_state(state), False, True, 0.0, False, 0, 0
     c = 2.0 * zeta * math.sqrt(k * effective_mass(mass, kappa, (rx * uy - ry * ux) / radius))
-    after, completed, t = _contact(
+    after, completed, t, hit_post, wall_hits, n_points = _contact(
         cx, cy, vx, vy, rx, ry, w, state.angle, c, offset, kappa, math.hypot(vx, vy), radius,
-        mass, rest_length, k,
+        mass, rest_length, k, obstacles, points, tolerance,
     )  # fmt: skip
     shifted = PuckState(
         after.x + anchor_x, after.y + anchor_y, after.vx, after.vy, after.angle, after.spin
     )
-    return shifted, True, completed, t
+    return shifted, True, completed, t, hit_post, wall_hits, n_points
 
 
 def _hybrid_kernel(

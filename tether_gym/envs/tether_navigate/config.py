@@ -41,9 +41,15 @@ closest approach to the aim."""
 PATH_TIME = 4.0
 """s: the path after the bounce that should pass through the aim (`controls.velocity`), and with
 `coast` the flight searched for its closest approach to the aim."""
-PATH_POINTS = MAX_WALL_HITS + 3 + COAST_STRETCHES
-"""A maneuver's path: its start, the wall hits, the tautening, the slack instant, and with
-`coast` the coast's wall hits and its end."""
+PATH_TOLERANCE = 1e-3
+"""m: the path drawn along a hybrid contact strays at most this far from the simulated arc."""
+CONTACT_POINTS = 48
+"""Points drawn along a hybrid contact's arc (and its wall bounces), each added where the arc
+since the last one could stray `PATH_TOLERANCE` from the chord: a contact still taut at its
+budget that winds about the peg for longer is drawn with its last chord longer."""
+PATH_POINTS = MAX_WALL_HITS + 3 + CONTACT_POINTS + COAST_STRETCHES
+"""A maneuver's path: its start, the wall hits, the tautening, the contact's arc, the slack
+instant, and with `coast` the coast's wall hits and its end."""
 DEFAULT_RHO = 850.0
 RHO_LENGTH, RHO_SPEED = 0.8, START_SPEED[1]
 """The stiffness is the one whose rho (eq. 11) is `rho` for the longest tether at the fastest

@@ -116,7 +116,8 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     needs where the centre leaves that circle (on the first straight stretch of the flight,
     between wall bounces, where it can). It aims only where that tautening is robust: the centre
     crosses the circle, and the tether pulls, at 10% of the speed or more, and the puck's rim is
-    clear of the walls by the way the contact (which ignores walls) can carry it. A commanded
+    clear of the walls by the way the contact can carry it (a wall met during the contact
+    would make its outcome jump under any error of the flight). A commanded
     angle out of reach is replaced by the nearest one in reach; with none, the wheel stays at
     rest. The tether goes taut wherever the attachment point first reaches its length moving
     away from the peg, at once if the free motion does so at the decision (a tether raised to
@@ -182,8 +183,34 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     (rad), `wheel_target_time` (s), `wheel_turn` (rad), `restitution`, `command_met` and
     `command_error` (m) (velocity and aim control; 1 and 0 under setup control),
     `flight_time` (s),
-    `wall_hits`, `at_rest`, `hit_post`, `maneuvers_left`, `path` (11, 2) (start, wall hits,
-    tautening, slack instant, padded with the last point) and `reward_terms`.
+    `wall_hits` (in the flight and the contact), `at_rest`, `hit_post`, `maneuvers_left`,
+    `taut_position` (2,) (where the contact starts), `path` (62, 2) (start, wall hits,
+    tautening, the contact's arc, slack instant, with `coast` the coast's wall hits and end,
+    padded with the last point) and `reward_terms`.
+
+    ## Physics
+
+    What the kernel simulates, and the idealizations it makes on purpose:
+
+    - Free flight is exact (straight lines, uniform spin); walls bounce the puck's centre
+      frictionlessly (the normal velocity times `-wall_restitution`, the tangential velocity
+      and the spin unchanged) and a post (radius 0.05 m) stops it and ends the episode, both
+      located as events: the rim never enters a wall or a post.
+    - The contact (`dynamics="hybrid"`: the spring tether integrated from tautening to its
+      slack instant; `"impulse"`: the paper's instantaneous bounce) sees the table too: during
+      a hybrid contact a wall bounces the puck as in flight and a post ends the episode, each
+      found by a conservative search that cannot step over a touch (`physics.obstacles`). A
+      flight that starts touching or inside a post is a post hit. `path` draws the contact's
+      arc through points placed where it could stray 1 mm from its chords (48 at most: a
+      contact still taut at its time budget, winding about the peg, is drawn with its last
+      chord longer); `completed` is False for such a contact, which is released there.
+    - The tether runs above the posts and the puck (the paper's footnote 1: it is out of the
+      puck's plane, as its raised wall and pin are): it never catches on a post, and the
+      attachment point may lie across the puck's outline from the peg (|alpha| > pi/2).
+    - The reaction wheel is kinematic: an ideal rate-controlled motor that turns the body at
+      up to `wheel_rate` beyond its free spin, with no torque limit, and stops at tautening.
+    - The brake sets the contact's restitution; the hybrid tether's damper is chosen so that
+      its stiff limit is the impulse bounce with the same restitution.
 
     ## Arguments
 

@@ -58,7 +58,8 @@ and the attachment point pulls away from the peg, each at least this fraction of
 speed (near a tangent or a grazing pull the tautening jumps under any perturbation)."""
 CONTACT_PERIODS = 1.0
 """A wheel target keeps the puck's rim clear of the walls by the way it can travel in this many
-periods of the tether's spring (`contact_clearance`): the contact ignores the walls."""
+periods of the tether's spring (`contact_clearance`): a wall met during the contact would make
+its outcome jump under any error of the flight."""
 TARGET_TOLERANCE = 1e-9
 """Relative: a tautening found this close before the wheel's target is the target itself."""
 AT_ONCE = 1e-9
@@ -68,7 +69,8 @@ peg's distance, to rounding) is taut at once, before the wheel, at rest, turns t
 
 @numba.njit(cache=True, inline="always")
 def first_post_hit(puck, posts, n_posts, t_end):
-    """When the puck's rim first touches a post within [0, t_end] (inf if never)."""
+    """When the puck's rim first touches a post within [0, t_end] (inf if never): 0 for a puck
+    that touches one or is inside one at the start, whichever way it moves."""
     first = math.inf
     reach = POST_RADIUS + PUCK_RADIUS
     v2 = puck.vx * puck.vx + puck.vy * puck.vy
@@ -76,8 +78,11 @@ def first_post_hit(puck, posts, n_posts, t_end):
         return first
     for j in range(n_posts):
         px, py = puck.x - posts[j, 0], puck.y - posts[j, 1]
+        c = px * px + py * py - reach * reach
+        if c <= 0.0:  # touching or inside at the start: a hit now
+            return 0.0
         b = px * puck.vx + py * puck.vy
-        disc = b * b - v2 * (px * px + py * py - reach * reach)
+        disc = b * b - v2 * c
         if disc < 0.0:
             continue
         t = (-b - math.sqrt(disc)) / v2  # the inward crossing
@@ -187,7 +192,7 @@ def stretch_end(puck, s, elapsed):
 
 @numba.njit(cache=True, inline="always")
 def contact_clearance(s, p):
-    """m: how far the puck can travel during a contact, which ignores the walls: at the speed
+    """m: how far the puck can travel during a contact: at the speed
     its energy bounds, for `CONTACT_PERIODS` periods of the tether's spring with the puck's
     whole mass (the hybrid contact lasts about half of one); 0 for the impulse contact."""
     if p.dynamics == IMPULSE:

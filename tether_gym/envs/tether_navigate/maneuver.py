@@ -10,18 +10,24 @@ import numba
 
 from tether_gym.envs.tether_navigate.config import (
     ARM,
+    CONTACT_POINTS,
     IMPULSE,
     INERTIA_RATIO,
     OFFSET,
     PATH_POINTS,
+    PATH_TOLERANCE,
+    POST_RADIUS,
     PUCK_MASS,
     PUCK_RADIUS,
+    TABLE_HEIGHT,
+    TABLE_WIDTH,
 )
-from tether_gym.envs.tether_navigate.flight import coast, fly, path_point
+from tether_gym.envs.tether_navigate.flight import coast, first_post_hit, fly, path_point
 from tether_gym.envs.tether_navigate.spaces import OUT
 from tether_gym.physics.geometry import fold_angle
-from tether_gym.physics.hybrid import damping_ratio, hybrid_contact_row
+from tether_gym.physics.hybrid import damping_ratio, hybrid_contact_among_row
 from tether_gym.physics.impulse import impulse_contact_row
+from tether_gym.physics.obstacles import on_table
 from tether_gym.tasks import navigate as task
 
 
@@ -37,9 +43,12 @@ def maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out):
     puck, taut, met, flight_time, hits, hit_post, n = fly(s, p, ax, ay, length, alpha, out)
     bounced, completed = False, True
     beta = 0.0
+    out[OUT.taut_position], out[OUT.taut_position + 1] = puck.x, puck.y
     out[OUT.taut_velocity], out[OUT.taut_velocity + 1] = puck.vx, puck.vy
     out[OUT.taut_angle], out[OUT.taut_spin] = puck.angle, puck.spin
-    if taut:
+    if taut:  # a tautening touching a post is a post hit: no contact
+        hit_post = first_post_hit(puck, s.posts, s.n_posts, 0.0) == 0.0
+    if taut and not hit_post:
         heading = math.atan2(puck.vy, puck.vx)
         rx, ry = ARM * math.cos(puck.angle), ARM * math.sin(puck.angle)
         beta = fold_angle(math.atan2(puck.y + ry - ay, puck.x + rx - ax) - heading + 0.5 * math.pi)
@@ -48,10 +57,19 @@ def maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out):
                 puck, ax, ay, PUCK_RADIUS, INERTIA_RATIO, OFFSET, e
             )
         else:
-            puck, bounced, completed, _ = hybrid_contact_row(
-                puck, ax, ay, PUCK_MASS, PUCK_RADIUS, INERTIA_RATIO, OFFSET, length,
-                p.stiffness, damping_ratio(e),
+            table = on_table(
+                ax, ay, TABLE_WIDTH, TABLE_HEIGHT, PUCK_RADIUS, p.wall_restitution, s.posts,
+                s.n_posts, POST_RADIUS,
             )  # fmt: skip
+            arc = out[OUT.path + 2 * n : OUT.path + 2 * (n + CONTACT_POINTS)]
+            arc = arc.reshape(CONTACT_POINTS, 2)
+            puck, bounced, completed, _, hit_post, contact_hits, drawn = hybrid_contact_among_row(
+                puck, ax, ay, PUCK_MASS, PUCK_RADIUS, INERTIA_RATIO, OFFSET, length,
+                p.stiffness, damping_ratio(e), table, arc, PATH_TOLERANCE,
+            )  # fmt: skip
+            hits += contact_hits
+            n += drawn
+    if taut:
         n = path_point(out, n, puck.x, puck.y)
         if p.coast and not hit_post and math.hypot(puck.vx, puck.vy) >= task.REST_SPEED:
             puck, hit_post, n = coast(puck, s, p, aim_x, aim_y, out, n)
