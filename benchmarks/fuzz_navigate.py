@@ -78,7 +78,7 @@ HOLES = (
     "vector_vs_single",
 )
 """Physical holes and broken contracts: each should never happen."""
-NOTES = ("command_error_inf", "through_post_chord")
+NOTES = ("command_error_inf",)
 """Informational classes: not holes by themselves."""
 CLASSES = HOLES + NOTES
 DEFINITIONS = {
@@ -88,9 +88,10 @@ DEFINITIONS = {
     f"to a wall by more than {TOL} m",
     "inside_post_point": f"a path point or the position is closer than POST_RADIUS + "
     f"PUCK_RADIUS - {TOL} m to a post centre of the episode",
-    "through_post_segment": f"a straight stretch of the path (the flight's or the coast's, "
-    f"between consecutive distinct points) comes closer than POST_RADIUS + PUCK_RADIUS - "
-    f"{SEGMENT_TOL} m to a post centre although both its ends are outside",
+    "through_post_segment": f"a segment of the path (between consecutive distinct points: "
+    f"straight stretches of the flight and the coast, chords of the contact's arc drawn "
+    f"within 1 mm) comes closer than POST_RADIUS + PUCK_RADIUS - {SEGMENT_TOL} m to a post "
+    f"centre although both its ends are outside",
     "nan": "a non-finite value in the observation, the reward or a numeric entry of info "
     "(an infinite command_error excepted)",
     "exception": "step raised",
@@ -99,9 +100,6 @@ DEFINITIONS = {
     "disagreement)",
     "command_error_inf": "info['command_error'] is infinite (no tautening found for the "
     "command): informational",
-    "through_post_chord": "the chord from the tautening to the slack instant (the hybrid "
-    "contact's arc, which the path does not draw) passes through a post by more than "
-    f"{SEGMENT_TOL} m with both ends outside: informational, the arc itself may differ",
 }
 CONTROL_MODES = (
     ("setup", False),
@@ -152,11 +150,10 @@ def episode_posts(state) -> np.ndarray:
     return np.array(state["posts"][: int(state["n_posts"])], dtype=np.float64)
 
 
-def _geometry(paths, positions, posts, valid, wall_hits) -> dict[str, np.ndarray]:
-    """Per row (n,) bools: off_table_point, inside_post_point, through_post_segment,
-    through_post_chord. `paths` (n, P, 2), `positions` (n, 2), `posts` (n, k, 2) with `valid`
-    (n, k) marking the episode's posts, `wall_hits` (n,): the flight's wall hits (the path's
-    tautening is its point 1 + wall_hits, the slack instant the next one)."""
+def _geometry(paths, positions, posts, valid) -> dict[str, np.ndarray]:
+    """Per row (n,) bools: off_table_point, inside_post_point, through_post_segment.
+    `paths` (n, P, 2), `positions` (n, 2), `posts` (n, k, 2) with `valid` (n, k) marking the
+    episode's posts."""
     n = paths.shape[0]
     points = np.concatenate([paths, positions[:, None, :]], axis=1)
     x, y = points[..., 0], points[..., 1]
@@ -171,7 +168,7 @@ def _geometry(paths, positions, posts, valid, wall_hits) -> dict[str, np.ndarray
     found = {"off_table_point": off.any(axis=1)}
     false = np.zeros(n, dtype=bool)
     if posts.shape[1] == 0 or not valid.any():
-        found.update(inside_post_point=false, through_post_segment=false, through_post_chord=false)
+        found.update(inside_post_point=false, through_post_segment=false)
         return found
     # distances (n, points, posts)
     distance = np.linalg.norm(points[:, :, None, :] - posts[:, None, :, :], axis=-1)
@@ -188,10 +185,7 @@ def _geometry(paths, positions, posts, valid, wall_hits) -> dict[str, np.ndarray
     gap = np.linalg.norm(closest - posts[:, None, :, :], axis=-1)
     ends_out = outside[:, :-2] & outside[:, 1:-1]  # the path's points, the position left out
     through = distinct[..., None] & valid[:, None, :] & ends_out & (gap < REACH - SEGMENT_TOL)
-    through = through.any(axis=2)  # (n, segments)
-    chord = np.arange(through.shape[1])[None, :] == (1 + wall_hits.astype(np.int64))[:, None]
-    found["through_post_segment"] = (through & ~chord).any(axis=1)
-    found["through_post_chord"] = (through & chord).any(axis=1)
+    found["through_post_segment"] = through.any(axis=(1, 2))
     return found
 
 
@@ -230,7 +224,6 @@ def audit_step(posts, obs, reward, info, space) -> Counter:
         np.asarray(info["position"], dtype=np.float64)[None],
         posts,
         np.ones(posts.shape[:2], dtype=bool),
-        np.array([info["wall_hits"]]),
     )
     for name, flag in geometry.items():
         if flag[0]:
@@ -285,7 +278,6 @@ def audit_vector_step(states, obs, reward, ended, info, space) -> list[Counter]:
             np.asarray(info["position"], dtype=np.float64),
             np.asarray(states["posts"], dtype=np.float64),
             valid,
-            np.asarray(info["wall_hits"]),
         )
     )
     found = [Counter() for _ in range(n)]

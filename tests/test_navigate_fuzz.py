@@ -120,12 +120,12 @@ def sample():
     return env.observation_space, obs, reward, info
 
 
-def _audit(sample, path, position=None, wall_hits=0, posts=((1.0, 0.5),), **changes):
+def _audit(sample, path, position=None, posts=((1.0, 0.5),), **changes):
     space, obs, reward, info = sample
     path = np.asarray(path, dtype=np.float64)
     padded = np.vstack([path, np.repeat(path[-1:], len(info["path"]) - len(path), axis=0)])
     info = {**info, "path": padded, "position": padded[-1] if position is None else position,
-            "wall_hits": float(wall_hits), **changes}  # fmt: skip
+            **changes}  # fmt: skip
     return audit_step(np.array(posts, dtype=np.float64).reshape(-1, 2), obs, reward, info, space)
 
 
@@ -143,11 +143,8 @@ def test_audit_step_finds_each_hole(sample):
     assert through["through_post_segment"] and not through["inside_post_point"]
     grazing = _audit(sample, [[0.5, 0.5 + REACH - 5e-4], [1.5, 0.5 + REACH - 5e-4]])
     assert not grazing, grazing  # within the path's 1 mm drawing tolerance
-    # the chord from the tautening (point 1 + wall hits) to the slack instant: informational
-    chord = _audit(sample, [[0.5, 0.2], [0.5, 0.5], [1.5, 0.5]], wall_hits=0)
-    assert chord["through_post_chord"] and not chord["through_post_segment"]
-    flight = _audit(sample, [[0.5, 0.2], [0.5, 0.5], [1.5, 0.5]], wall_hits=1)
-    assert flight["through_post_segment"] and not flight["through_post_chord"]
+    later = _audit(sample, [[0.5, 0.2], [0.5, 0.5], [1.5, 0.5]])  # any segment counts
+    assert later["through_post_segment"]
     assert _audit(sample, [[0.3, 0.3]], posts=())["off_table_point"] == 0
 
 
