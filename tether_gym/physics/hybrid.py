@@ -251,20 +251,27 @@ def _first_touch(cx, cy, vx, vy, rx, ry, w, ax, ay, al, span, gap0, gap1, bound,
 
 
 @numba.njit(cache=True, inline="always")
-def _sample(points, n, ref, x, y, vx, vy, nx, ny, tolerance, origin_x, origin_y):
-    """Draw the contact's arc: append the point (x, y) reached with velocity (vx, vy) to
+def _sample(points, n, ref, x, y, vx, vy, nx, ny, nvx, nvy, tolerance, origin_x, origin_y):
+    """Draw the contact's arc: append the point (x, y), reached with velocity (vx, vy), to
     `points` (in table coordinates, from the contact's origin) when the next point (nx, ny)
     strays more than tolerance / 2 from the tangent at the last one drawn, ref = (x, y, ux,
-    uy) (each point between two drawn ones strays at most that far from the tangent, so at
-    most `tolerance` from their chord). (n, ref) after it."""
-    if (
-        n >= points.shape[0]
-        or abs((nx - ref[0]) * ref[3] - (ny - ref[1]) * ref[2]) <= 0.5 * tolerance
+    uy), or the next velocity (nvx, nvy) turns back from it. Between two drawn points the arc
+    then goes forward along that tangent and strays at most tolerance / 2 from it, so at most
+    `tolerance` from their chord. (n, ref) after it."""
+    x0, y0, ux, uy = ref
+    if n >= points.shape[0] or (
+        abs((nx - x0) * uy - (ny - y0) * ux) <= 0.5 * tolerance and nvx * ux + nvy * uy > 0.0
     ):
         return n, ref
     points[n, 0], points[n, 1] = x + origin_x, y + origin_y
+    return n + 1, _tangent(x, y, vx, vy)
+
+
+@numba.njit(cache=True, inline="always")
+def _tangent(x, y, vx, vy):
+    """The reference of `_sample` at (x, y) moving at (vx, vy)."""
     speed = math.sqrt(vx * vx + vy * vy)
-    return n + 1, (x, y, vx / speed, vy / speed) if speed > 0.0 else (x, y, 0.0, 0.0)
+    return (x, y, vx / speed, vy / speed) if speed > 0.0 else (x, y, 0.0, 0.0)
 
 
 @numba.njit(cache=True)
@@ -295,7 +302,7 @@ def _contact(
     safe = gap / bound if bound > 0.0 else math.inf  # no obstacle within reach before then
     n_points, wall_hits = 0, 0
     sampled = points.shape[0] > 0
-    ref = (cx, cy, vx / speed, vy / speed) if speed > 0.0 else (cx, cy, 0.0, 0.0)
+    ref = _tangent(cx, cy, vx, vy)
 
     ax, ay, al, tension = _accel(cx, cy, vx, vy, rx, ry, w, *p)
     peak = 0.0
@@ -349,8 +356,7 @@ def _contact(
                     points[n_points, 0] = cx + obstacles.origin_x
                     points[n_points, 1] = cy + obstacles.origin_y
                     n_points += 1
-                    v = math.sqrt(vx * vx + vy * vy)
-                    ref = (cx, cy, vx / v, vy / v) if v > 0.0 else (cx, cy, 0.0, 0.0)
+                    ref = _tangent(cx, cy, vx, vy)
                 ax, ay, al, tension = _accel(cx, cy, vx, vy, rx, ry, w, *p)
                 if not tension > 0.0:  # the bounce off the wall slackens the tether
                     return PuckState(cx, cy, vx, vy, angle, w), True, t, False, wall_hits, n_points
@@ -362,8 +368,8 @@ def _contact(
             return after, True, t + tau, False, wall_hits, n_points
         if sampled:
             n_points, ref = _sample(
-                points, n_points, ref, cx, cy, vx, vy, ncx, ncy, tolerance, obstacles.origin_x,
-                obstacles.origin_y,
+                points, n_points, ref, cx, cy, vx, vy, ncx, ncy, nvx, nvy, tolerance,
+                obstacles.origin_x, obstacles.origin_y,
             )  # fmt: skip
         cx, cy, vx, vy, rx, ry, w = ncx, ncy, nvx, nvy, nrx, nry, nw
         angle += turn
