@@ -35,6 +35,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from tether_gym.envs.fields import Fields, InfoLayout
+from tether_gym.physics.checks import REAL_KINDS
 
 EPISODE_END = ("reward", "terminated", "truncated")
 """Outcome fields every kernel declares and the envs return apart from `info`."""
@@ -104,13 +105,23 @@ class Kernel:
 
     def as_actions(self, actions, n: int) -> np.ndarray:
         """Actions as an (n, len(action)) float32 or float64 array; ValueError for a wrong
-        shape. (The kernels clip them to [-1, 1] and refuse NaN and infinity.)"""
-        actions = np.asarray(actions)
+        shape or for entries that are not real numbers (a bool, complex, string or object
+        array: only integers and floats are normalized actions). (The kernels clip them to
+        [-1, 1] and refuse NaN and infinity.)"""
+        size = len(self.action)
+        shape = (n, size) if n > 1 else (size,)
+        try:
+            actions = np.asarray(actions)
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"action must be a real array of shape {shape}: {error}") from None
+        if actions.dtype.kind not in REAL_KINDS:
+            raise ValueError(
+                f"action must be a real (integer or float) array of shape {shape}, got dtype "
+                f"{actions.dtype}"
+            )
         if actions.dtype != np.float32:
             actions = actions.astype(np.float64, copy=False)
-        size = len(self.action)
         if actions.size != size * n or actions.shape[-1:] != (size,):
-            shape = (n, size) if n > 1 else (size,)
             raise ValueError(f"action must have shape {shape}, got {actions.shape}")
         return actions.reshape(n, size)
 

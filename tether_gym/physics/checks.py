@@ -33,12 +33,41 @@ def _interval(low: float, high: float, low_open: bool) -> str:
     return f"{'(' if low_open else '['}{low:g}, {high:g}{right}"
 
 
-def as_finite(name: str, value) -> np.ndarray:
-    """`value` as a float64 array, or ValueError if it holds NaN or an infinity."""
+REAL_KINDS = "iuf"
+"""numpy dtype kinds of real numbers: signed and unsigned integers, floats (not bool)."""
+NOT_REAL = (bool, np.bool_, str, bytes, complex, np.complexfloating)
+"""Values that float() or numpy would turn into a number but that are none: a bool (True is
+not 1.0 m), a string ("850"), a complex number (float() would drop its imaginary part)."""
+
+
+def _not_real(value) -> bool:
+    """Whether `value`, or an entry of a nested list or tuple of them, is one of `NOT_REAL`
+    (numpy would turn (True, 0.5) into a float array without a word)."""
+    if isinstance(value, NOT_REAL):
+        return True
+    if isinstance(value, (list, tuple)):
+        return any(_not_real(v) for v in value)
+    return isinstance(value, np.ndarray) and value.dtype.kind not in REAL_KINDS
+
+
+def as_real(name: str, value) -> np.ndarray:
+    """`value` as a float64 array, or ValueError unless it holds real numbers only (integers
+    or floats: no bool, string, complex or other object)."""
+    if _not_real(value):
+        raise ValueError(f"{name} must be a real number or array of them, got {value!r}")
     try:
-        array = np.asarray(value, dtype=np.float64)
+        array = np.asarray(value)
     except (TypeError, ValueError) as error:
         raise ValueError(f"{name} must be a real number or array of them, got {value!r}") from error
+    if array.dtype.kind not in REAL_KINDS:
+        raise ValueError(f"{name} must be a real number or array of them, got {value!r}")
+    return array.astype(np.float64, copy=False)
+
+
+def as_finite(name: str, value) -> np.ndarray:
+    """`value` as a float64 array, or ValueError if it holds NaN, an infinity or anything but
+    real numbers (`as_real`)."""
+    array = as_real(name, value)
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{name} must be finite (no NaN or infinity), got {value!r}")
     return array
@@ -61,11 +90,18 @@ def check_range(
 def check_float(
     name: str, value, low: float = -INF, high: float = INF, *, low_open: bool = False
 ) -> float:
-    """`check_range` for one plain number, without numpy's overhead."""
-    try:
+    """`check_range` for one plain number, without numpy's overhead: a bool, a string or a
+    complex number is refused (`NOT_REAL`), though float() would take it."""
+    kind = type(value)
+    if kind is float or kind is int:  # the common case first
         number = float(value)
-    except (TypeError, ValueError) as error:
-        raise ValueError(f"{name} must be a real number, got {value!r}") from error
+    else:
+        if _not_real(value):
+            raise ValueError(f"{name} must be a real number, got {value!r}")
+        try:
+            number = float(value)
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"{name} must be a real number, got {value!r}") from error
     if not math.isfinite(number):
         raise ValueError(f"{name} must be finite (no NaN or infinity), got {value!r}")
     if (number <= low if low_open else number < low) or number > high:

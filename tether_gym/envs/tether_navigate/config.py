@@ -19,6 +19,8 @@ PUCK_MASS, PUCK_RADIUS, INERTIA_RATIO, OFFSET = 0.03, 0.04, 0.5, 1.0
 ARM = OFFSET * PUCK_RADIUS
 POST_RADIUS = 0.05
 MAX_ANCHORS, MAX_POSTS = 12, 4
+DEFAULT_ANCHORS, DEFAULT_OBSTACLES = 6, 0
+"""Pegs and posts drawn per episode when neither `n_anchors`/`n_obstacles` nor a layout says."""
 GRID = (6, 3)
 """Cells along x and y: 18 cells hold 12 pegs, 4 posts, the goal and the start."""
 CELL_X, CELL_Y = TABLE_WIDTH / GRID[0], TABLE_HEIGHT / GRID[1]
@@ -30,6 +32,17 @@ START_SPEED = (0.5, 1.5)
 MAX_SPEED = 3.0
 """m/s: observation bound on the speed (energy only falls: walls and brakes dissipate, spin
 returns at most its share)."""
+POST_CLEARANCE = {"start": POST_RADIUS + PUCK_RADIUS, "goal": POST_RADIUS,
+                  "anchors": POST_RADIUS, "posts": 2 * POST_RADIUS}  # fmt: skip
+"""m: the least distance from a post's centre to the start's centre (the puck clear of the
+post), to the goal's centre and to a peg (not inside the post) and to another post's centre
+(no overlap)."""
+WALL_CLEARANCE = {"start": PUCK_RADIUS, "posts": POST_RADIUS}
+"""m: the least distance from every wall to the start's centre and to a post's centre (posts
+wholly on the table); the goal and the pegs need only lie on the table."""
+CLEARANCE_SLACK = 1e-9
+"""m: a distance this much short of a clearance still meets it (rounding: 0.59 - 0.5 is less
+than 0.09 in floating point, and a puck at a wall bounce is at its clearance to rounding)."""
 FLIGHT_HORIZON = 5.0
 """s: a tether not taut by then ends the maneuver unbounced."""
 MAX_WALL_HITS = 8
@@ -124,8 +137,103 @@ class Layout:
             ("start cells (S or C)", layout.starts, 1, GRID[0] * GRID[1]),
         ):
             if not low <= len(items) <= high:
-                raise ValueError(f"layout must hold {low} to {high} {name}, got {len(items)}")
+                why = " (a maneuver hooks a peg)" if name.startswith("pegs") else ""
+                raise ValueError(f"layout must hold {low} to {high} {name}{why}, got {len(items)}")
+        breach = table_breach({name: _as_points(getattr(layout, field))
+                               for name, field in LAYOUT_ITEMS.items()})  # fmt: skip
+        if breach is not None:
+            raise ValueError(f"layout: {breach.describe(LAYOUT_NOUNS)}")
         return layout
+
+
+LAYOUT_ITEMS = {"start": "starts", "goal": "goals", "anchors": "anchors", "posts": "posts"}
+"""The table's items (`table_breach`) and the `Layout` fields that hold them."""
+LAYOUT_NOUNS = {"start": "start cell (S or C)", "goal": "goal cell (G or C)",
+                "anchors": "peg (A)", "posts": "post (O)"}  # fmt: skip
+
+
+def _as_points(items) -> tuple[np.ndarray, np.ndarray]:
+    """A layout's points as one row for `table_breach`: (points (1, k, 2), all present)."""
+    points = np.asarray(items, dtype=np.float64).reshape(1, -1, 2)
+    return points, np.ones(points.shape[:2], dtype=bool)
+
+
+WALLS = ("left", "right", "bottom", "top")
+
+
+@dataclass(frozen=True)
+class Breach:
+    """A table that breaks a clearance (`table_breach`): in row `row`, point `index` of `item`
+    (at `point`) is `distance` m from the wall `other`, or from point `other_index` of `other`
+    (at `other_point`), less than `least`."""
+
+    item: str
+    other: str
+    least: float
+    row: int
+    index: int
+    point: tuple[float, float]
+    distance: float
+    other_index: int = -1
+    other_point: tuple[float, float] | None = None
+
+    def describe(self, nouns: dict[str, str], sources: dict[str, str] | None = None) -> str:
+        """The breach in words: each item called by its noun (`nouns`) and followed by where
+        it comes from (`sources`, item -> text, e.g. " of options['posts']")."""
+        sources = sources or {}
+
+        def name(item: str, point: tuple[float, float]) -> str:
+            return f"the {nouns[item]} at ({point[0]:.6g}, {point[1]:.6g}){sources.get(item, '')}"
+
+        this = name(self.item, self.point)
+        if self.other_point is None:
+            room = self.least
+            return (
+                f"{this} is {self.distance:.6g} m from the {self.other} wall: its centre must "
+                f"be at least {room:g} m from every wall, x in [{room:g}, "
+                f"{TABLE_WIDTH - room:g}], y in [{room:g}, {TABLE_HEIGHT - room:g}] m"
+            )
+        return (
+            f"{this} is {self.distance:.6g} m from the centre of "
+            f"{name(self.other, self.other_point)}: it must be at least {self.least:g} m"
+        )
+
+
+def table_breach(items: dict[str, tuple[np.ndarray, np.ndarray]]) -> Breach | None:
+    """The first clearance the table breaks (`WALL_CLEARANCE`, then `POST_CLEARANCE`, each
+    met within `CLEARANCE_SLACK`), or None. `items` maps "start", "goal", "anchors" and
+    "posts" (any may be missing) to (points (n, k, 2), present (n, k) bools): n tables (a
+    vector env's rows), checked together."""
+    for item, room in WALL_CLEARANCE.items():
+        if item not in items:
+            continue
+        points, present = items[item]
+        x, y = points[..., 0], points[..., 1]
+        walls = np.stack([x, TABLE_WIDTH - x, y, TABLE_HEIGHT - y], axis=-1)
+        bad = present[..., None] & (walls < room - CLEARANCE_SLACK)
+        if bad.any():
+            row, index, wall = np.argwhere(bad)[0]
+            point, distance = tuple(points[row, index].tolist()), float(walls[row, index, wall])
+            return Breach(item, WALLS[wall], room, int(row), int(index), point, distance)
+    if "posts" not in items:
+        return None
+    posts, posts_present = items["posts"]
+    for item, least in POST_CLEARANCE.items():
+        if item not in items:
+            continue
+        points, present = items[item]
+        distance = np.linalg.norm(points[:, :, None] - posts[:, None], axis=-1)
+        pairs = present[:, :, None] & posts_present[:, None, :]
+        if item == "posts":  # each pair once
+            pairs &= np.triu(np.ones(pairs.shape[1:], dtype=bool), 1)
+        bad = pairs & (distance < least - CLEARANCE_SLACK)
+        if bad.any():
+            row, index, post = np.argwhere(bad)[0]
+            return Breach(
+                item, "posts", least, int(row), int(index), tuple(points[row, index].tolist()),
+                float(distance[row, index, post]), int(post), tuple(posts[row, post].tolist()),
+            )  # fmt: skip
+    return None
 
 
 def _count(name: str, value, low: int, high: int) -> int:
@@ -148,8 +256,8 @@ class NavigateConfig:
     dynamics: str = "hybrid"
     rho: float | None = None
     stiffness: float | None = None
-    n_anchors: int = 6
-    n_obstacles: int = 0
+    n_anchors: int | None = None
+    n_obstacles: int | None = None
     layout: str | None = None
     wall_restitution: float = 0.9
     reaction_wheel: bool = True
@@ -175,8 +283,22 @@ class NavigateConfig:
             rho = check_float("rho", DEFAULT_RHO if self.rho is None else self.rho, *RHO_RANGE)
             set_(self, "rho", rho)
             set_(self, "stiffness", stiffness_for_rho(rho, PUCK_MASS, RHO_LENGTH, RHO_SPEED))
-        set_(self, "n_anchors", _count("n_anchors", self.n_anchors, 1, MAX_ANCHORS))
-        set_(self, "n_obstacles", _count("n_obstacles", self.n_obstacles, 0, MAX_POSTS))
+        if self.layout is None:
+            n_anchors = DEFAULT_ANCHORS if self.n_anchors is None else self.n_anchors
+            n_obstacles = DEFAULT_OBSTACLES if self.n_obstacles is None else self.n_obstacles
+            set_(self, "n_anchors", _count("n_anchors", n_anchors, 1, MAX_ANCHORS))
+            set_(self, "n_obstacles", _count("n_obstacles", n_obstacles, 0, MAX_POSTS))
+        else:
+            if not isinstance(self.layout, str):
+                raise ValueError(f"layout must be a text map (str) or None, got {self.layout!r}")
+            given = [f"{name}={getattr(self, name)!r}" for name in ("n_anchors", "n_obstacles")
+                     if getattr(self, name) is not None]  # fmt: skip
+            if given:
+                raise ValueError(
+                    f"{' and '.join(given)} given with a layout, which places the pegs and "
+                    f"posts: give them only without a layout"
+                )
+            Layout.parse(self.layout)
         set_(self, "max_maneuvers", _count("max_maneuvers", self.max_maneuvers, 1, 1000))
         set_(self, "wall_restitution",
              check_float("wall_restitution", self.wall_restitution, 0.0, 1.0))  # fmt: skip
@@ -189,8 +311,6 @@ class NavigateConfig:
         if self.coast and self.control == "setup":
             raise ValueError("coast=True needs control='velocity' or 'aim' (it coasts to the aim)")
         set_(self, "wheel_rate", check_float("wheel_rate", self.wheel_rate, 0.0, 1e4))
-        if self.layout is not None and not isinstance(self.layout, str):
-            raise ValueError(f"layout must be a text map (str) or None, got {self.layout!r}")
 
     @classmethod
     def names(cls) -> tuple[str, ...]:
@@ -201,16 +321,17 @@ class NavigateConfig:
         p = np.zeros(1, PARAMS)
         p["task"], p["reward_type"] = TASKS.index(self.task), REWARD_TYPES.index(self.reward_type)
         p["dynamics"], p["control"] = DYNAMICS.index(self.dynamics), CONTROLS.index(self.control)
-        p["n_anchors"], p["n_posts"] = self.n_anchors, self.n_obstacles
         p["wall_restitution"], p["stiffness"] = self.wall_restitution, self.stiffness
         p["reaction_wheel"], p["wheel_rate"] = self.reaction_wheel, self.wheel_rate
         p["max_maneuvers"], p["coast"] = self.max_maneuvers, self.coast
-        if self.layout is not None:
+        if self.layout is None:
+            p["n_anchors"], p["n_posts"] = self.n_anchors, self.n_obstacles
+        else:
             layout = Layout.parse(self.layout)
             p["layout"] = True
             for name, items in (("anchors", layout.anchors), ("posts", layout.posts),
                                 ("goals", layout.goals), ("starts", layout.starts)):  # fmt: skip
-                p[name][0, : len(items)] = items
+                p[name][0, : len(items)] = np.reshape(items, (-1, 2))  # () for no post
             p["n_anchors"], p["n_posts"] = len(layout.anchors), len(layout.posts)
             p["n_goals"], p["n_starts"] = len(layout.goals), len(layout.starts)
         return p

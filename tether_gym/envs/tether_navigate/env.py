@@ -65,7 +65,8 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     ## Action Space
 
     `Box(-1, 1, (4,), float32)` (`(3,)` with `control="aim"`), mapped linearly; values outside
-    [-1, 1] are clipped, NaN or infinite values raise `ValueError`.
+    [-1, 1] are clipped, NaN or infinite values raise `ValueError`, as do actions that are not
+    real numbers (any integer or float dtype is taken; bool, complex, str and object are not).
 
     `control="setup"` (default): the maneuver's set-up.
 
@@ -131,7 +132,7 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
 
     ## Observation Space
 
-    `Dict` (Gymnasium-Robotics' goal convention), float32:
+    `Dict` (Gymnasium-Robotics' goal convention), float64:
 
     | Key             | Shape | Content                                                     |
     |-----------------|-------|-------------------------------------------------------------|
@@ -168,7 +169,15 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     jittered (pegs and posts at least 0.16 m apart and off the walls), or fixed by a `layout`.
     The puck starts in free flight: heading uniform, speed in [0.5, 1.5] m/s, orientation
     uniform, no spin. `reset(options=...)` fixes any of `goal` (x, y), `start` (x, y),
-    `start_velocity` (vx, vy), `start_angle`, `start_spin`, `anchors` (k, 2), `posts` (k, 2).
+    `start_velocity` (vx, vy), `start_angle`, `start_spin`, `anchors` (k, 2; 1 <= k <= 12),
+    `posts` (k, 2; 0 <= k <= 4), in every copy of a vector env. The table they make with what
+    is still drawn must be sound, else a `ValueError` names the options (and any drawn item
+    that clashes with them, to be given too: `posts` alone may cover the drawn start): the
+    start's centre at least 0.04 m from every wall and 0.09 m from every post's centre, the
+    goal's centre and the pegs on the table and at least 0.05 m from every post's centre, the
+    posts' centres at least 0.05 m from every wall and 0.1 m apart (distances to within 1e-9
+    m), the start's speed and its energy as a speed, sqrt(|v|^2 + 0.5 (0.04 m x spin)^2), at
+    most 3 m/s (the observation's bound). A `layout`'s cells obey the same clearances.
 
     ## Episode End
 
@@ -181,7 +190,10 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     `completed`, `tether_length`, `tether_angle` and `offset_angle` met at tautening (the
     paper's beta from the incoming velocity, and alpha), `offset_angle_met`, `wheel_target`
     (rad), `wheel_target_time` (s), `wheel_turn` (rad), `restitution`, `command_met` and
-    `command_error` (m) (velocity and aim control; 1 and 0 under setup control),
+    `command_error` (m) (velocity and aim control; 1 and 0 under setup control; 0 and `inf`
+    where no tautening was found, of the commanded peg or under aim control of any peg, on
+    the flight's straight stretches up to its second wall bounce, a post or 5 s: the env then
+    plays the longest tether, 0.8 m, with alpha 0 and no brake, e = 1),
     `flight_time` (s),
     `wall_hits` (in the flight and the contact), `at_rest`, `hit_post`, `maneuvers_left`,
     `taut_position` (2,) (where the contact starts), `path` (62, 2) (start, wall hits,
@@ -222,8 +234,10 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     | `rho`              | `850.0`    | stiffness as the paper's rho for the longest tether at   |
     |                    |            | the fastest start (0.8 m, 1.5 m/s), in [10, 1e6]         |
     | `stiffness`        | `None`     | a spring constant in N/m instead of `rho` (not both)     |
-    | `n_anchors`        | `6`        | pegs drawn per episode, in [1, 12]                       |
-    | `n_obstacles`      | `0`        | posts (radius 0.05 m) drawn per episode, in [0, 4]       |
+    | `n_anchors`        | `None`     | pegs drawn per episode, in [1, 12]; 6 if not given; not  |
+    |                    |            | with a `layout` (it places them)                         |
+    | `n_obstacles`      | `None`     | posts (radius 0.05 m) drawn per episode, in [0, 4]; 0 if |
+    |                    |            | not given; not with a `layout` (it places them)          |
     | `layout`           | `None`     | a text map: `A` peg, `O` post, `G` goal cell, `S` start  |
     |                    |            | cell, `C` either, `.` empty; rows from the top           |
     | `wall_restitution` | `0.9`      | in [0, 1]                                                |
@@ -270,8 +284,8 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
         dynamics: str = "hybrid",
         rho: float | None = None,
         stiffness: float | None = None,
-        n_anchors: int = 6,
-        n_obstacles: int = 0,
+        n_anchors: int | None = None,
+        n_obstacles: int | None = None,
         layout: str | None = None,
         wall_restitution: float = 0.9,
         reaction_wheel: bool = True,

@@ -14,6 +14,7 @@ by `sampling`; what the agent sees is `spaces`. The world-frame physics is
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numba
 import numpy as np
@@ -21,13 +22,16 @@ from numba import prange
 
 from tether_gym.envs.base import Kernel
 from tether_gym.envs.tether_navigate.config import (
+    INERTIA_RATIO,
     MAX_ANCHORS,
     MAX_POSTS,
     MAX_SPEED,
+    PUCK_RADIUS,
     STATE,
     TABLE_HEIGHT,
     TABLE_WIDTH,
     NavigateConfig,
+    table_breach,
 )
 from tether_gym.envs.tether_navigate.controls import ACTIONS, play
 from tether_gym.envs.tether_navigate.sampling import reset_rows, sample
@@ -41,7 +45,7 @@ from tether_gym.envs.tether_navigate.spaces import (
     observe,
     observe_all,
 )
-from tether_gym.physics.checks import check_float
+from tether_gym.physics.checks import as_finite, check_float
 from tether_gym.physics.jit import choose_threading_layer
 
 
@@ -163,50 +167,168 @@ class NavigateKernel(Kernel):
         return new_state, obs, final_obs, out
 
     def reset_options(self, options: dict, state: np.ndarray, obs: np.ndarray) -> None:
-        """Keys: "goal" (x, y), "start" (x, y), "start_velocity" (vx, vy), "start_angle",
-        "start_spin" (rad/s), "anchors" (k, 2), "posts" (k, 2); positions on the table,
-        validated with ValueErrors naming them."""
-        allowed = {"goal", "start", "start_velocity", "start_angle", "start_spin", "anchors",
-                   "posts"}  # fmt: skip
-        unknown = set(options) - allowed
+        """Keys: "goal" (x, y), "start" (x, y), "start_velocity" (vx, vy), "start_angle"
+        (rad), "start_spin" (rad/s), "anchors" (k, 2), "posts" (k, 2) (m, on the table):
+        they replace what was drawn in every row, and the table each row makes must be sound
+        (`table_breach`: the start clear of the walls and posts, the goal and the pegs outside
+        the posts, the posts on the table and apart; the start's energy within the
+        observation's bound). ValueError names the option and its allowed range, and where a
+        drawn item clashes with an option, the option to give too (`posts` alone can fall on
+        the drawn start: give `start` with it). Nothing changes unless every check passes."""
+        if not isinstance(options, Mapping):
+            raise ValueError(f"options must be a dict, got {options!r}")
+        unknown = set(options) - set(OPTIONS)
         if unknown:
-            raise ValueError(f"options may hold {sorted(allowed)}; got {sorted(unknown)}")
-        for name, limit in (("anchors", MAX_ANCHORS), ("posts", MAX_POSTS)):
+            raise ValueError(f"options may hold {sorted(OPTIONS)}; got {sorted(unknown)}")
+        new = state.copy()
+        for name in ("anchors", "posts"):
             if name in options:
                 points = _table_points(name, options[name])
-                low = 1 if name == "anchors" else 0
-                if not low <= len(points) <= limit:
-                    raise ValueError(f"options['{name}'] must hold {low} to {limit} points")
-                state[name] = 0.0
-                state[name][:, : len(points)] = points
-                state["n_" + name] = len(points)
-        for name, fields_ in (("goal", ("goal_x", "goal_y")), ("start", ("x", "y"))):
+                new[name] = 0.0
+                new[name][:, : len(points)] = points
+                new["n_" + name] = len(points)
+        for name, (x, y) in (("goal", ("goal_x", "goal_y")), ("start", ("x", "y"))):
             if name in options:
-                point = _table_points(name, [options[name]])[0]
-                state[fields_[0]], state[fields_[1]] = point
+                new[x], new[y] = _point(name, options[name], on_table=name == "goal")
         if "start_velocity" in options:
-            vx, vy = (check_float("start_velocity", v, -MAX_SPEED, MAX_SPEED)
-                      for v in options["start_velocity"])  # fmt: skip
-            state["vx"], state["vy"] = vx, vy
+            new["vx"], new["vy"] = _velocity(options["start_velocity"])
         if "start_angle" in options:
-            state["angle"] = check_float("start_angle", options["start_angle"], -math.pi, math.pi)
+            new["angle"] = check_float(
+                "options['start_angle']", options["start_angle"], -math.pi, math.pi
+            )
         if "start_spin" in options:
-            state["spin"] = check_float("start_spin", options["start_spin"], -MAX_SPIN, MAX_SPIN)
+            new["spin"] = check_float(
+                "options['start_spin']", options["start_spin"], -MAX_SPIN, MAX_SPIN
+            )
+        _check_table(new, options)
+        _check_energy(new, options)
+        state[...] = new
         observe_all(state, self.params, obs)
 
 
+OPTIONS = ("goal", "start", "start_velocity", "start_angle", "start_spin", "anchors", "posts")
+"""The keys of `reset(options=...)`."""
 MAX_SPIN = MAX_SPIN_SCALED / SPIN_SCALE
 """rad/s: the observation's bound on the spin."""
+ITEMS = {"start": (("x", "y"), None), "goal": (("goal_x", "goal_y"), None),
+         "anchors": ("anchors", "n_anchors"), "posts": ("posts", "n_posts")}  # fmt: skip
+"""The table's items in a `STATE` record: (the point's fields, or the points' field and their
+count's)."""
+SINGULAR = {"start": "start", "goal": "goal", "anchors": "peg", "posts": "post"}
 
 
-def _table_points(name: str, points) -> np.ndarray:
-    array = np.asarray(points, dtype=np.float64)
-    if array.ndim != 2 or array.shape[1] != 2 or not np.all(np.isfinite(array)):
-        raise ValueError(f"options['{name}'] must be finite (x, y) points, got {points!r}")
-    inside = (array[:, 0] >= 0) & (array[:, 0] <= TABLE_WIDTH)
-    inside &= (array[:, 1] >= 0) & (array[:, 1] <= TABLE_HEIGHT)
-    if not np.all(inside):
-        raise ValueError(
-            f"options['{name}'] must lie on the table [0, {TABLE_WIDTH}] x [0, {TABLE_HEIGHT}] m"
-        )
+def _real(name: str, value) -> np.ndarray:
+    """Option `name` as a float64 array: real numbers only, finite."""
+    try:
+        return as_finite(f"options['{name}']", value)
+    except ValueError as error:
+        raise ValueError(f"{error} ({_SHAPES[name]})") from None
+
+
+_SHAPES = {"goal": "a point (x, y), m", "start": "a point (x, y), m",
+           "start_velocity": "a velocity (vx, vy), m/s",
+           "anchors": f"points (k, 2), m, 1 <= k <= {MAX_ANCHORS}",
+           "posts": f"points (k, 2), m, 0 <= k <= {MAX_POSTS}"}  # fmt: skip
+
+
+def _pair(name: str, value) -> np.ndarray:
+    array = _real(name, value)
+    if array.shape != (2,):
+        raise ValueError(f"options['{name}'] must be {_SHAPES[name]}, got shape {array.shape}")
     return array
+
+
+def _on_table(name: str, points: np.ndarray) -> None:
+    inside = (points[..., 0] >= 0) & (points[..., 0] <= TABLE_WIDTH)
+    inside &= (points[..., 1] >= 0) & (points[..., 1] <= TABLE_HEIGHT)
+    if not np.all(inside):
+        bad = points.reshape(-1, 2)[~inside.reshape(-1)][0]
+        raise ValueError(
+            f"options['{name}'] must lie on the table, x in [0, {TABLE_WIDTH:g}], y in "
+            f"[0, {TABLE_HEIGHT:g}] m, got ({bad[0]:.6g}, {bad[1]:.6g})"
+        )
+
+
+def _point(name: str, value, on_table: bool) -> np.ndarray:
+    """The goal or the start, (x, y); the start's clearance is `_check_table`'s."""
+    point = _pair(name, value)
+    if on_table:
+        _on_table(name, point)
+    return point
+
+
+def _velocity(value) -> np.ndarray:
+    """The start velocity, (vx, vy), by its magnitude at most MAX_SPEED (the observation's)."""
+    velocity = _pair("start_velocity", value)
+    speed = math.hypot(velocity[0], velocity[1])
+    if speed > MAX_SPEED:
+        raise ValueError(
+            f"options['start_velocity'] must have a speed in [0, {MAX_SPEED:g}] m/s (the "
+            f"observation's bound), got {speed:.6g} m/s"
+        )
+    return velocity
+
+
+def _table_points(name: str, value) -> np.ndarray:
+    """Pegs (at least one: a maneuver hooks a peg) or posts (none is a table too), (k, 2)."""
+    points = _real(name, value)
+    if points.size == 0 and points.ndim == 1:
+        points = points.reshape(0, 2)  # [] as no point
+    if points.ndim != 2 or points.shape[1] != 2:
+        raise ValueError(f"options['{name}'] must be {_SHAPES[name]}, got shape {points.shape}")
+    low, high = (1, MAX_ANCHORS) if name == "anchors" else (0, MAX_POSTS)
+    if not low <= len(points) <= high:
+        why = " (a maneuver hooks a peg)" if name == "anchors" else ""
+        raise ValueError(
+            f"options['{name}'] must hold {low} to {high} points{why}, got {len(points)}"
+        )
+    if name == "anchors":
+        _on_table(name, points)
+    return points
+
+
+def _check_table(state: np.ndarray, options: dict) -> None:
+    """ValueError unless every row's table is sound (`table_breach`), naming the options
+    involved; a drawn item that clashes with an option must be given too."""
+    items = {}
+    for item, (field, count) in ITEMS.items():
+        if count is None:
+            points = np.stack([state[field[0]], state[field[1]]], axis=-1)[:, None]
+            present = np.ones(points.shape[:2], dtype=bool)
+        else:
+            points = state[field]
+            present = np.arange(points.shape[1]) < state[count][:, None]
+        items[item] = (points, present)
+    breach = table_breach(items)
+    if breach is None:
+        return
+    sources = {item: f" of options[{item!r}]" if item in options else " (drawn)" for item in ITEMS}
+    message = "reset options: " + breach.describe(SINGULAR, sources)
+    if len(state) > 1:
+        message += f" (in copy {breach.row} of the vector env)"
+    involved = {breach.item} if breach.other_point is None else {breach.item, breach.other}
+    drawn = [f"options[{item!r}]" for item in ITEMS if item in involved - set(options)]
+    if drawn:
+        message += f"; give {' and '.join(drawn)} too (what is drawn fits the drawn table)"
+    raise ValueError(message)
+
+
+def _check_energy(state: np.ndarray, options: dict) -> None:
+    """ValueError unless every row's start can stay in the observation: its kinetic energy,
+    as a speed sqrt(|v|^2 + kappa (R spin)^2), at most MAX_SPEED (spin turns into speed at a
+    bounce, at most this much)."""
+    spin = PUCK_RADIUS * state["spin"]
+    energy = state["vx"] ** 2 + state["vy"] ** 2 + INERTIA_RATIO * spin**2
+    bad = energy > MAX_SPEED**2 * (1.0 + 1e-12)
+    if not bad.any():
+        return
+    row = int(np.argmax(bad))
+    drawn = [name for name in ("start_velocity", "start_spin") if name not in options]
+    hint = f" (in copy {row} of the vector env)" if len(state) > 1 else ""
+    hint += f" ({' and '.join(drawn)} drawn: give it too)" if drawn else ""
+    raise ValueError(
+        f"options['start_velocity'] and options['start_spin'] together must keep the puck's "
+        f"energy within the observation's bound: sqrt(vx^2 + vy^2 + {INERTIA_RATIO:g} "
+        f"({PUCK_RADIUS:g} m x spin)^2) in [0, {MAX_SPEED:g}] m/s, got "
+        f"{math.sqrt(energy[row]):.6g} m/s{hint}"
+    )
