@@ -39,10 +39,10 @@ def contact(
         posts_array[: len(posts)] = posts
     table = on_table(*ANCHOR, 2.0, height, RADIUS, wall_restitution, posts_array, len(posts), 0.05)
     arc = np.zeros((points, 2))
-    after, _, completed, _, hit_post, hits, n = hybrid_contact_among_row(
+    after, _, completed, time, hit_post, hits, n = hybrid_contact_among_row(
         start, *ANCHOR, MASS, RADIUS, KAPPA, OFFSET, LENGTH, STIFFNESS, zeta, table, arc, tolerance
     )
-    return after, completed, hit_post, hits, arc[:n], table
+    return after, completed, hit_post, hits, arc[:n], table, time
 
 
 def energy(state) -> float:
@@ -51,7 +51,7 @@ def energy(state) -> float:
 
 def test_far_obstacles_change_nothing():
     """Among walls and posts out of reach the contact is the open one, bit for bit."""
-    after, completed, hit_post, hits, _, _ = contact(height=50.0, posts=[(10.0, 10.0)])
+    after, completed, hit_post, hits, *_ = contact(height=50.0, posts=[(10.0, 10.0)])
     open_after, _, open_completed, _ = hybrid_contact_row(
         START, *ANCHOR, MASS, RADIUS, KAPPA, OFFSET, LENGTH, STIFFNESS, 0.0
     )
@@ -68,19 +68,31 @@ HEIGHT = 0.87
 """m: a table whose top wall the open contact would cross."""
 
 
+def test_a_post_just_clear_of_the_contact_changes_nothing():
+    """A post 1 um beyond where the contact ends, ahead of the puck (so the search for a touch
+    runs on the last steps): the contact is the open one, its time too."""
+    open_after, _, _, _, _, _, open_time = contact(height=50.0)
+    heading = np.array([open_after.vx, open_after.vy]) / math.hypot(open_after.vx, open_after.vy)
+    post = np.array([open_after.x, open_after.y]) + (0.05 + RADIUS + 1e-6) * heading
+    after, completed, hit_post, hits, _, _, time = contact(height=50.0, posts=[tuple(post)])
+    assert not hit_post and hits == 0 and completed
+    assert tuple(after) == tuple(open_after) and time == open_time
+
+
 def test_a_wall_in_the_way_bounces_the_puck_and_keeps_it_on_the_table():
     """Elastic walls and an undamped tether keep the energy through the wall bounces; no point
     of the contact is beyond the wall."""
     assert open_arc()[:, 1].max() > HEIGHT - RADIUS  # in the open it would cross the wall
-    after, completed, hit_post, hits, arc, table = contact(height=HEIGHT)
+    after, completed, hit_post, hits, arc, table, time = contact(height=HEIGHT)
     assert completed and not hit_post and hits >= 1
+    assert 0.0 < time < contact(height=50.0)[-1]  # the wall cuts the swing short
     for x, y in (*arc, (after.x, after.y)):
         assert clearance(table, x - ANCHOR[0], y - ANCHOR[1])[0] >= -1e-12
     assert energy(after) == pytest.approx(energy(START), rel=1e-6)
 
 
 def test_a_lossy_wall_takes_its_share_of_the_energy():
-    after, _, _, hits, _, _ = contact(height=HEIGHT, wall_restitution=0.5)
+    after, _, _, hits, *_ = contact(height=HEIGHT, wall_restitution=0.5)
     assert hits >= 1 and energy(after) < 0.99 * energy(START)
 
 
@@ -88,7 +100,7 @@ def test_a_post_in_the_way_ends_the_contact_where_the_rim_touches_it():
     arc = open_arc()
     # a post just beside the open contact's way, halfway along it
     x, y = arc[len(arc) // 2]
-    after, _, hit_post, _, _, table = contact(posts=[(x, y + 0.085)])
+    after, _, hit_post, _, _, table, _ = contact(posts=[(x, y + 0.085)])
     assert hit_post
     gap, which = clearance(table, after.x - ANCHOR[0], after.y - ANCHOR[1])
     assert which == POST and -1e-12 <= gap <= 1e-9
@@ -99,8 +111,8 @@ def test_a_post_in_the_way_ends_the_contact_where_the_rim_touches_it():
 def test_the_drawn_arc_keeps_within_its_tolerance_of_the_simulated_one(tolerance, start):
     """Every point of a dense drawing (1 um) is within `tolerance` of the coarse polyline, the
     turning point of a rebound too."""
-    after, _, _, _, coarse, _ = contact(tolerance=tolerance, points=2000, start=start)
-    _, _, _, _, dense, _ = contact(tolerance=1e-6, points=100_000, start=start)
+    after, _, _, _, coarse, *_ = contact(tolerance=tolerance, points=2000, start=start)
+    _, _, _, _, dense, *_ = contact(tolerance=1e-6, points=100_000, start=start)
     assert 1 <= len(coarse) <= len(dense) < 100_000
     line = np.vstack([start[:2], coarse, (after.x, after.y)])
     worst = max(

@@ -338,13 +338,13 @@ def _contact(
         if t + span > safe:  # an obstacle may be within reach in this step
             gap0 = clearance(obstacles, cx, cy)[0]
             gap1 = clearance(obstacles, ncx, ncy)[0]
-            tau, s, which = _first_touch(
+            touch, s, which = _first_touch(
                 cx, cy, vx, vy, rx, ry, w, ax, ay, al, span, gap0, gap1, bound, p, obstacles
             )
-            if tau < math.inf:
+            if touch < math.inf:
                 cx, cy, vx, vy, rx, ry, w = s[0], s[1], s[2], s[3], s[4], s[5], s[6]
                 angle += s[7]
-                t += tau
+                t += touch
                 if which >= POST:
                     return PuckState(cx, cy, vx, vy, angle, w), True, t, True, wall_hits, n_points
                 bounced = wall_bounce_row(
