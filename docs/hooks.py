@@ -352,6 +352,30 @@ def imitation_table(sources: dict[str, str], root: Path = ROOT) -> str:
     return header + "\n".join(rows) + sources_line(sources)
 
 
+def fuzz_table(sources: dict[str, str], root: Path = ROOT) -> str:
+    """The public-API fuzz's findings (`benchmarks/fuzz_navigate.py`): one row per class, and
+    per results file the transitions with that finding among the single env's steps and among
+    the vector env's transitions."""
+    _check_sources(sources)
+    runs = [(path, json.loads(path.read_text())) for p in sources for path in files_of(p, root)]
+    classes = list(dict.fromkeys(c for _, data in runs for c in data["holes"] + data["notes"]))
+    header = "| finding | " + " | ".join(
+        f"`{path.stem}` single ({data['counts']['single']['steps']:,} steps) | "
+        f"`{path.stem}` vector ({data['counts']['vector']['steps']:,})"
+        for path, data in runs
+    )
+    rows = [header + " |", "|---|" + "---:|---:|" * len(runs)]
+    for name in classes:
+        cells = []
+        for _, data in runs:
+            for kind in ("single", "vector"):
+                count = data["counts"][kind]["counts"].get(name)
+                cells.append("-" if count is None else f"{count:,}")
+        note = " (not a hole)" if any(name in data["notes"] for _, data in runs) else ""
+        rows.append(f"| `{name}`{note} | " + " | ".join(cells) + " |")
+    return "\n".join(rows) + sources_line(sources)
+
+
 def _rate_cell(rate: float | dict[str, Any]) -> str:
     """A rate as a percentage, or a mean over seeds with its 95% interval."""
     if not isinstance(rate, dict):
@@ -418,6 +442,7 @@ MACROS: dict[str, Callable[..., str]] = {
     "ladder_seeds_table": ladder_seeds_table,
     "planner_table": planner_table,
     "imitation_table": imitation_table,
+    "fuzz_table": fuzz_table,
     "cli_help": cli_help,
     "ladder_ids": ladder_ids,
 }
@@ -429,6 +454,7 @@ RESULTS_MACROS = (
     "ladder_seeds_table",
     "planner_table",
     "imitation_table",
+    "fuzz_table",
 )
 
 
