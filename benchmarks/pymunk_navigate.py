@@ -15,14 +15,15 @@ start, the world carrying its own state from maneuver to maneuver, up to the epi
 A maneuver agrees when the world ends it within `POSITION_TOLERANCE` (2 mm) of the kernel's
 position, within `VELOCITY_TOLERANCE` (1%) of its velocity, with the same `hit_post`.
 
-A whole-episode replay that disagrees is classified (`CLASSES`): "sensitive" where the world
-replaying that maneuver from the kernel's state agrees with the kernel and the kernel replaying
-it from the world's state agrees with the world (the two engines compute the same maneuver; the
-episode's replay entered it with its own error, from earlier maneuvers, of micrometres, which
-the maneuver amplifies past the tolerance: a spinning puck's tautening, a tether raised to its
-length, a tautening at the flight's horizon, a post touched at a glancing angle); "parted" for
-the later maneuvers of that episode where they agree maneuver by maneuver (the replay has left
-the kernel's trajectory); "unexplained" otherwise (none should be).
+A whole-episode replay that disagrees is classified (`CLASSES`): "sensitive" where the two
+engines agree on that maneuver from either state (the world replaying it from the kernel's
+state agrees with the kernel, and the kernel playing the same action from the replay's state
+agrees with the world replaying that): the episode's replay entered it with its own error,
+from earlier maneuvers, of micrometres to a tenth of a millimetre, which the maneuver amplifies
+past the tolerance (a spinning puck's tautening, a wheel target at the flight's 5 s horizon, a
+post touched at a glancing angle); "parted" for the later maneuvers of that episode where they
+agree maneuver by maneuver (the replay has left the kernel's trajectory); "unexplained"
+otherwise (none should be).
 
 The JSON holds, per rung and rho: the maneuvers, how many had a wall touch during the contact
 and how many ended on a post (the kernel's counts, and the world's maneuver by maneuver), the
@@ -79,10 +80,12 @@ PUCK = dict(mass=PUCK_MASS, radius=PUCK_RADIUS, inertia_ratio=INERTIA_RATIO, off
 AGREE, SENSITIVE, PARTED, UNEXPLAINED = "agree", "sensitive", "parted", "unexplained"
 CLASSES = {
     AGREE: "the episode's replay ends the maneuver within tolerance of the kernel",
-    SENSITIVE: "the first maneuver of an episode's replay outside tolerance, where the world "
-    "replaying it from the kernel's state agrees with the kernel and the kernel replaying it "
-    "from the world's state agrees with the world: the replay entered it with its own earlier "
-    "error, which the maneuver amplifies",
+    SENSITIVE: "the first maneuver of an episode's replay outside tolerance, where the two "
+    "engines agree from either state: the world replaying it from the kernel's state agrees "
+    "with the kernel, and the kernel playing its action from the replay's state agrees with "
+    "the world replaying that (the kernel's controls there: its wheel plans from where the "
+    "puck is). The replay entered it with its own earlier error, within tolerance, which the "
+    "maneuver amplifies",
     PARTED: "a later maneuver of an episode whose replay left the kernel's trajectory, where "
     "the world replaying it from the kernel's state agrees with the kernel",
     UNEXPLAINED: "any other maneuver outside tolerance",
@@ -155,10 +158,13 @@ def contact_wall_hits(info: dict) -> int:
 
 
 def replay_from(episode: KernelEpisode, j: int = 0, count: int | None = None,
-                start: PuckState | None = None) -> list[Maneuver]:  # fmt: skip
+                start: PuckState | None = None, infos: list[dict] | None = None,
+                ) -> list[Maneuver]:  # fmt: skip
     """The world's replay of `count` maneuvers (all to the end by default) from maneuver j,
-    starting from `start` (the kernel's state before maneuver j by default)."""
-    plans = [ManeuverPlan.from_info(info) for info in episode.infos[j:]][:count]
+    starting from `start` (the kernel's state before maneuver j by default), with the control
+    inputs of `infos` (the kernel's from maneuver j on by default)."""
+    infos = episode.infos[j:] if infos is None else infos
+    plans = [ManeuverPlan.from_info(info) for info in infos][:count]
     config = episode.config
     return replay(
         episode.before(j) if start is None else start, episode.pegs, plans,
@@ -261,9 +267,10 @@ def compare(episode: KernelEpisode, alone: str = "needed") -> list[Row]:
         elif not agrees:
             parted = True
             row["kind"] = UNEXPLAINED
-            if j > 0 and m is not None and row["alone_agrees"]:
-                there = kernel_from(episode, j, chained[j - 1].state)
-                if within(there, m):
+            if j > 0 and row["alone_agrees"]:  # the two engines from the replay's state
+                start = chained[j - 1].state
+                there = kernel_from(episode, j, start)
+                if within(there, replay_from(episode, j, 1, start, [there])[0]):
                     row["kind"] = SENSITIVE
         rows.append(Row(**row))
     return rows

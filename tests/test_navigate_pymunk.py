@@ -140,12 +140,13 @@ def test_whole_episodes_agree_with_the_kernel_walls_and_posts_included() -> None
     and 45 soft-tether episodes in which a contact bounces off a wall) replayed whole: about
     70 contacts touch a wall, about 60 maneuvers end on a post (a dozen during the contact).
     Every maneuver agrees (2 mm, 1%, the same post hit) or is explained: the first maneuver of
-    an episode's replay outside tolerance is one the two engines compute alike (the world from
-    the kernel's state agrees with the kernel, and the kernel from the world's state agrees
-    with the world: "sensitive", a maneuver amplifying the replay's micrometre errors, such as
-    a spinning puck's tautening on a tether raised to its length, a tautening at the flight's
-    5 s horizon or a post met at a glancing angle), and each later one of that episode agrees
-    when replayed from the kernel's state ("parted"). Bounded: at most `OUTSIDE_SHARE` of the
+    an episode's replay outside tolerance is one the two engines compute alike from either
+    state (the world from the kernel's state agrees with the kernel, and the kernel playing
+    the same action from the replay's state agrees with the world replaying that:
+    "sensitive", a maneuver amplifying the replay's own small errors, such as a spinning
+    puck's tautening, a wheel target at the flight's 5 s horizon or a post met at a glancing
+    angle), and each later one of that episode agrees when replayed from the kernel's state
+    ("parted"). Bounded: at most `OUTSIDE_SHARE` of the
     maneuvers, and every maneuver replayed on its own from the kernel's state (each one with a
     wall touched during the contact or a post, and each one outside tolerance) agrees, with
     the kernel's wall touches and post hits."""
