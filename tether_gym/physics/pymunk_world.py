@@ -29,9 +29,13 @@ time (1e-4 of the contact time at the default step). The velocity is not interpo
 force of the last taut sample acts over its whole step, an error that the step keeps small
 (`benchmarks/pymunk_model.py` measures it).
 
-Walls. An optional rectangular `Table` adds four static segments. Chipmunk's restitution of a
-contact is the product of the two shapes' elasticities; the puck's is 1, so a wall's elasticity
-is the restitution of a puck-wall collision (1: elastic). Friction defaults to 0 (air table).
+Walls and posts. An optional rectangular `Table` adds four static segments, and its round posts
+as static circles. Chipmunk's restitution of a contact is the product of the two shapes'
+elasticities; the puck's is 1, so a wall's elasticity is the restitution of a puck-wall
+collision (1: elastic). Friction defaults to 0 (air table). Here a post is a hard obstacle with
+the walls' elasticity and friction; the shapes carry collision types (`PUCK`, `WALL`, `POST`)
+so that a world can handle each on its own (`pymunk_maneuver` ends a maneuver on a post, as
+TetherNavigate does).
 
 Release. With `release=True` the tether is removed at its first slack instant, as the paper's
 deadspin experiment removed its bar (Fig. 10): otherwise a spinning puck bounces again. `hook`
@@ -50,6 +54,8 @@ from tether_gym.physics.geometry import initial_state
 from tether_gym.physics.hybrid import damping_ratio, effective_mass, fastest_rate
 from tether_gym.physics.state import PuckState
 
+PUCK, WALL, POST = 1, 2, 3
+"""The collision types of the puck's, the walls' and the posts' shapes."""
 EULER_STEPS_PER_HALF_PERIOD = 64
 """Symplectic Euler steps per half period of the fastest spring, while the tether may be taut."""
 FREE_STEP = 1.0 / 240.0
@@ -78,10 +84,17 @@ class Table:
     friction: float = 0.0
     """Friction coefficient of a puck-wall contact, >= 0 (Chipmunk multiplies the two shapes'
     coefficients; the puck's is 1)."""
+    posts: tuple[tuple[float, float], ...] = ()
+    """The centres of round posts standing on the table (m)."""
+    post_radius: float = 0.0
+    """m, > 0 if there are posts."""
 
     def __post_init__(self) -> None:
         for name in ("x_min", "x_max", "y_min", "y_max"):
             check_float(name, getattr(self, name))
+        posts = tuple((check_float("post x", x), check_float("post y", y)) for x, y in self.posts)
+        object.__setattr__(self, "posts", posts)
+        check_float("post_radius", self.post_radius, 0.0, INF, low_open=bool(posts))
         if self.x_min >= self.x_max or self.y_min >= self.y_max:
             raise ValueError(
                 f"the table needs x_min < x_max and y_min < y_max, got {self.x_min}, "
@@ -144,16 +157,24 @@ class TetherWorld:
         self.body = pymunk.Body(self.mass, self.inertia)
         self.shape = pymunk.Circle(self.body, self.radius)
         self.shape.elasticity, self.shape.friction = 1.0, 1.0
+        self.shape.collision_type = PUCK
         self.space.add(self.body, self.shape)
         self.walls: list[pymunk.Segment] = []
+        self.posts: list[pymunk.Circle] = []
         if table is not None:
             self.space.collision_slop = 1e-3 * self.radius
             corners = table.corners
+            static = self.space.static_body
             for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
-                wall = pymunk.Segment(self.space.static_body, a, b, 0.0)
-                wall.elasticity, wall.friction = table.elasticity, table.friction
-                self.walls.append(wall)
-            self.space.add(*self.walls)
+                self.walls.append(pymunk.Segment(static, a, b, 0.0))
+            for centre in table.posts:
+                self.posts.append(pymunk.Circle(static, table.post_radius, offset=centre))
+            for shape, kind in [(wall, WALL) for wall in self.walls] + [
+                (post, POST) for post in self.posts
+            ]:
+                shape.elasticity, shape.friction = table.elasticity, table.friction
+                shape.collision_type = kind
+            self.space.add(*self.walls, *self.posts)
         self.place(0.0, -self.tether_length, 0.0, 0.0, 0.0, self.arm, 0.0)
 
     @classmethod
