@@ -22,6 +22,7 @@ from tether_gym.envs.tether_bounce.rendering import CONTACT_FRAMES, SIZE
 from tether_gym.envs.tether_navigate import config as navigate_config
 from tether_gym.envs.tether_navigate import rendering as navigate_rendering
 from tether_gym.envs.tether_navigate.controls.setup import ACTION as SETUP_ACTION
+from tether_gym.envs.tether_navigate.spaces import OUT
 from tether_gym.tasks.navigate import segment_distance
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
@@ -313,4 +314,41 @@ def test_a_coast_to_the_aim_is_drawn_after_the_release():
     off = [min(segment_distance(*c, *a, *b) for a, b in itertools.pairwise(path)) for c in centres]
     assert max(off) < 1.5 / PER_METRE
     assert not any(taut_tether(f, anchor) for f in coasting)
+    env.close()
+
+
+def test_a_contact_is_drawn_along_its_arc_and_its_wall_bounces_are_not_the_flight_s():
+    """A soft tether (rho 10) whose contacts swing the puck into a wall: the drawn flight ends
+    at the tautening, the contact follows the arc the path draws, and without `coast` nothing
+    is drawn after the release."""
+    env = gym.make("TetherNavigate_OpenReach-v1", rho=10.0)
+    kernel, rng = env.unwrapped.kernel, np.random.default_rng(0)
+    checked = 0
+    for seed in range(40):
+        env.reset(seed=seed)
+        state = env.unwrapped.state.reshape(1).copy()
+        for _ in range(3):
+            new_state, _, out = kernel.step(state, rng.uniform(-1, 1, (1, 4)))
+            row = out[0]
+            taut = row[OUT.taut_position : OUT.taut_position + 2]
+            release = row[OUT.release_position : OUT.release_position + 2]
+            drawn = navigate_rendering.Maneuver(
+                env.unwrapped.config, state[0], new_state[0], row, 30
+            )
+            np.testing.assert_array_equal(drawn.flight[-1], taut)
+            if row[OUT.bounced]:
+                np.testing.assert_array_equal(drawn.arc[[0, -1]], [taut, release])
+                contact = drawn.com[len(drawn.t) : drawn.coasting]
+                gaps = [
+                    min(segment_distance(*c, *a, *b) for a, b in itertools.pairwise(drawn.arc))
+                    if len(drawn.arc) > 1 else np.hypot(*(c - drawn.arc[0]))
+                    for c in contact
+                ]  # fmt: skip
+                assert max(gaps) < 1e-9
+                assert len(drawn.coast) <= 1  # no coast without `coast`
+                checked += len(drawn.arc) > 2 and row[OUT.wall_hits] > len(drawn.flight) - 2
+            if row[OUT.terminated] or row[OUT.truncated]:
+                break
+            state = new_state
+    assert checked >= 1  # a contact that bounced off a wall, drawn along its arc
     env.close()

@@ -196,7 +196,8 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     plays the longest tether, 0.8 m, with alpha 0 and no brake, e = 1),
     `flight_time` (s),
     `wall_hits` (in the flight and the contact), `at_rest`, `hit_post`, `maneuvers_left`,
-    `taut_position` (2,) (where the contact starts), `path` (62, 2) (start, wall hits,
+    `taut_position` and `release_position` (2,) (where the contact starts and ends), `path`
+    (62, 2) (start, wall hits,
     tautening, the contact's arc, slack instant, with `coast` the coast's wall hits and end,
     padded with the last point) and `reward_terms`.
 

@@ -69,6 +69,7 @@ def maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out):
             )  # fmt: skip
             hits += contact_hits
             n += drawn
+    out[OUT.release_position], out[OUT.release_position + 1] = puck.x, puck.y
     if taut:
         n = path_point(out, n, puck.x, puck.y)
         if p.coast and not hit_post and math.hypot(puck.vx, puck.vy) >= task.REST_SPEED:

@@ -198,6 +198,19 @@ def _result(state: np.void, outcome: np.ndarray) -> Lines:
     return lines
 
 
+def _index(path: np.ndarray, point: np.ndarray, start: int) -> int:
+    """The first of the path's points from `start` on that is `point` (the maneuver writes
+    its tautening and its release into the path as it reports them)."""
+    return start + int(np.flatnonzero(np.all(path[start:] == point, axis=1))[0])
+
+
+def _along(points: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """The points at fractions `s` of the polyline's length."""
+    lengths = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+    at = s * lengths[-1]
+    return np.column_stack([np.interp(at, lengths, points[:, k]) for k in (0, 1)])
+
+
 def _coast_path(path: np.ndarray, release: int) -> np.ndarray:
     """The path from the slack instant (point `release`) on, its padding dropped: the release
     alone unless the puck coasted to an aim."""
@@ -240,7 +253,8 @@ class Maneuver:
         self.config, self.state, self.outcome = config, state, outcome
         path = _path(outcome)
         bounced = bool(outcome[OUT.bounced])
-        flight = path[: int(outcome[OUT.wall_hits]) + 2]
+        taut = _index(path, outcome[OUT.taut_position : OUT.taut_position + 2], 1)
+        flight = path[: taut + 1]
         duration = float(outcome[OUT.flight_time])
         times = flight_times(
             flight, (before["vx"], before["vy"]), duration, config.wall_restitution
@@ -259,11 +273,16 @@ class Maneuver:
         n_contact = CONTACT_FRAMES if bounced else 0
         if bounced:
             taut_angle = outcome[OUT.taut_angle]
-            s = np.linspace(0.0, 1.0, n_contact)[:, None]
-            com = np.vstack([com, flight[-1] + s * (path[len(flight)] - flight[-1])])
+            s = np.linspace(0.0, 1.0, n_contact)
+            release = _index(path, outcome[OUT.release_position : OUT.release_position + 2], taut)
+            com = np.vstack([com, _along(path[taut : release + 1], s)])
             spun = fold_angle(outcome[OUT.angle] - taut_angle)
-            orientation = np.concatenate([orientation, taut_angle + s[:, 0] * spun])
-        self.coast = _coast_path(path, len(flight)) if bounced else path[:0]
+            orientation = np.concatenate([orientation, taut_angle + s * spun])
+        else:
+            release = taut
+        self.arc = path[taut : release + 1]
+        "The contact's arc, from the tautening to the release."
+        self.coast = _coast_path(path, release) if bounced else path[:0]
         """With `coast`: the release, the coast's wall hits and its end."""
         self.coasting = n_flight + n_contact
         """The first frame after the contact."""
@@ -299,7 +318,7 @@ class Maneuver:
         centre = self.com[frame]
         if frame >= self.coasting:  # the tether released, the puck on its way to the aim
             behind = self.coast[: self.coast_passed[frame - self.coasting]]
-            canvas.path([*self.flight, *behind, centre])
+            canvas.path([*self.flight, *self.arc, *behind, centre])
             _puck(canvas, centre, self.orientation[frame])
             _header(canvas, self.config, self.state, centre, ["coasting to the aim"])
             return

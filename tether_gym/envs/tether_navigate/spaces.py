@@ -115,6 +115,7 @@ OUTCOME = Fields(
     Field("spin", doc="rad/s"),
     Field("anchor", doc="m, the hooked peg", shape=(2,)),
     Field("taut_position", doc="m, at tautening (where the contact starts)", shape=(2,)),
+    Field("release_position", doc="m, at the slack instant (where the contact ends)", shape=(2,)),
     Field("taut_velocity", doc="m/s, at tautening (before the contact)", shape=(2,)),
     Field("taut_angle", doc="rad, the orientation at tautening"),
     Field("taut_spin", doc="rad/s, at tautening"),
