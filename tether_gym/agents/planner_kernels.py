@@ -23,7 +23,7 @@ from numba import prange
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     FLIGHT_HORIZON,
-    INERTIA_RATIO,
+    GYRATION2,
     MAX_ANCHORS,
     MAX_SPEED,
     POST_RADIUS,
@@ -37,6 +37,7 @@ from tether_gym.envs.tether_navigate.controls.setup import ACTION
 from tether_gym.envs.tether_navigate.kernel import finite_action
 from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION, OUT, OUTCOME
 from tether_gym.physics.events import free_flight_row, time_to_wall_row, wall_bounce_row
+from tether_gym.physics.impulse import impulse_change_row, impulse_restitution_row
 from tether_gym.physics.jit import choose_threading_layer, serial_and_parallel
 from tether_gym.physics.state import PuckState
 from tether_gym.tasks.navigate import GOAL_RADIUS
@@ -58,8 +59,6 @@ squared speed in its speed's order to about 1e-16."""
 LENGTH_LOW, LENGTH_HIGH = ACTION["tether_length"].low, ACTION["tether_length"].high
 BRAKE_LOW, BRAKE_HIGH = ACTION["restitution"].low, ACTION["restitution"].high
 ACTION_LOW, ACTION_HIGH = ACTION.low, ACTION.high
-GYRATION2 = INERTIA_RATIO * PUCK_RADIUS**2
-"""I / m, m^2."""
 POST_REACH = POST_RADIUS + PUCK_RADIUS
 """m: a puck's centre this near a post's touches it."""
 FAIL = 1e6
@@ -357,7 +356,7 @@ def _line_up(s, x, y, vx, vy, wx, wy, q, shortest, out, n):
         if turn == 0.0:
             continue
         dv = (vx * wy - vy * wx) / turn
-        e = dv * (1.0 + arm**2 / GYRATION2) / pull - 1.0 if pull != 0.0 else math.nan
+        e = impulse_restitution_row(dv, pull, arm, GYRATION2) if pull != 0.0 else math.nan
         ok = pull > 0.0 and dv > 0.0 and BRAKE_LOW <= e <= BRAKE_HIGH
         ok = ok and (vx - dv * ux) * wx + (vy - dv * uy) * wy > 0.0
         if ok and shortest <= length <= LENGTH_HIGH:
@@ -479,8 +478,9 @@ def _first_least(sin, cos, rx, ry, radius, vx, vy, spin, squares):
 @numba.njit(cache=True, error_model="numpy")
 def _squares(sin, cos, rx, ry, radius, vx, vy, spin, squares):
     """The squared speeds `_bounce` leaves at the offset angles whose sines and cosines are
-    `sin`, `cos` into `squares` (inf where the length is out of range): its steps without
-    branches, so that they run on vectors (its speed is the hypotenuse of the same velocity)."""
+    `sin`, `cos` into `squares` (inf where the length is out of range): its steps as selects
+    rather than branches (the brake computed whatever the pull), so that they run on vectors
+    (its speed is the hypotenuse of the same velocity)."""
     r2, spin_arm = radius * radius, spin * ARM
     for k in range(squares.shape[0]):
         arm = ARM * sin[k]
@@ -489,10 +489,9 @@ def _squares(sin, cos, rx, ry, radius, vx, vy, spin, squares):
         ux, uy = (rx * projected + ry * arm) / r2, (ry * projected - rx * arm) / r2
         along = vx * ux + vy * uy
         pull = along + spin_arm * sin[k]
-        compliance = 1.0 + arm**2 / GYRATION2
-        e = along * compliance / pull - 1.0
+        e = impulse_restitution_row(along, pull, arm, GYRATION2)
         e = BRAKE_LOW if e < BRAKE_LOW else (BRAKE_HIGH if e > BRAKE_HIGH else e)
-        dv = (1.0 + e) * pull / compliance if pull > 0.0 else 0.0
+        dv = impulse_change_row(pull, arm, GYRATION2, e) if pull > 0.0 else 0.0
         wx, wy = vx - dv * ux, vy - dv * uy
         in_range = length >= LENGTH_LOW and length <= LENGTH_HIGH
         squares[k] = wx * wx + wy * wy if in_range else math.inf
@@ -572,9 +571,8 @@ def _bounce(sin, cos, rx, ry, radius, vx, vy, spin):
     pull = along + spin * ARM * sin
     e, dv = 1.0, 0.0
     if pull > 0.0:  # else the tether stays slack: no bounce, whatever the brake
-        compliance = 1.0 + arm**2 / GYRATION2
-        e = min(max(along * compliance / pull - 1.0, BRAKE_LOW), BRAKE_HIGH)
-        dv = (1.0 + e) * pull / compliance
+        e = min(max(impulse_restitution_row(along, pull, arm, GYRATION2), BRAKE_LOW), BRAKE_HIGH)
+        dv = impulse_change_row(pull, arm, GYRATION2, e)
     speed = math.hypot(vx - dv * ux, vy - dv * uy)
     if not LENGTH_LOW <= length <= LENGTH_HIGH:
         speed = math.inf

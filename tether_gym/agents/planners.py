@@ -35,7 +35,6 @@ from tether_gym.agents.planner_kernels import (
     DUMP,
     EXTREME,
     FAIL,
-    GYRATION2,
     KINDS,  # noqa: F401  (the planners' names for the kinds, as `planned` reads them)
     LINE_UP,
     LINE_UP_ALPHAS,
@@ -47,6 +46,7 @@ from tether_gym.agents.planner_kernels import (
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     FLIGHT_HORIZON,
+    GYRATION2,
     MAX_ANCHORS,
     MAX_POSTS,
     MAX_SPEED,
@@ -61,6 +61,7 @@ from tether_gym.envs.tether_navigate.controls.setup import ACTION
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OUT, decode_observation
 from tether_gym.physics import PUCK_STATE, free_flight, time_to_wall, wall_bounce, wrap_angle
+from tether_gym.physics.impulse import impulse_change, impulse_restitution
 from tether_gym.tasks.navigate import GOAL_RADIUS, STOP, TASKS
 
 LENGTH, BRAKE = ACTION["tether_length"], ACTION["restitution"]
@@ -217,8 +218,11 @@ def _bounce_speeds(alpha, rx, ry, radius, vx, vy, spin) -> tuple[np.ndarray, ...
     along = vx * ux + vy * uy
     pull = along + spin * ARM * np.sin(alpha)
     pulls = pull > 0  # else the tether stays slack: no bounce, whatever the brake
-    e = np.where(pulls, np.clip(_brake(along, pull, alpha), BRAKE.low, BRAKE.high), 1.0)
-    dv = np.where(pulls, (1.0 + e) * pull / _compliance(alpha), 0.0)
+    lever = ARM * np.sin(alpha)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        brake = impulse_restitution(along, pull, lever, GYRATION2)
+    e = np.where(pulls, np.clip(brake, BRAKE.low, BRAKE.high), 1.0)
+    dv = np.where(pulls, impulse_change(pull, lever, GYRATION2, e), 0.0)
     speed = np.hypot(vx - dv * ux, vy - dv * uy)
     speed = np.where((length >= LENGTH.low) & (length <= LENGTH.high), speed, np.inf)
     return np.broadcast_to(e, speed.shape), length, speed
@@ -236,18 +240,6 @@ def _taut_tether(rx, ry, radius, alpha) -> tuple[np.ndarray, np.ndarray, np.ndar
         projected = np.sqrt(r2 - arm * arm)  # L + R cos(alpha): the centre's reach along it
         ux, uy = (rx * projected + ry * arm) / r2, (ry * projected - rx * arm) / r2
     return projected - lateral, ux, uy
-
-
-def _compliance(alpha):
-    """1 + (R sin alpha)^2 / (kappa R^2): the impulse model's dv = (1 + e) pull / this."""
-    return 1.0 + (ARM * np.sin(alpha)) ** 2 / GYRATION2
-
-
-def _brake(dv, pull, alpha):
-    """The restitution e whose impulse changes the velocity by `dv` along the tether for an
-    attachment point stretching it at `pull` (NaN or inf where pull is 0)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return dv * _compliance(alpha) / pull - 1.0
 
 
 @dataclass(frozen=True)
@@ -396,7 +388,7 @@ def _line_ups(states: np.ndarray, flight: Flight) -> Candidates:
     pull = vx * ux + vy * uy + states["spin"][i, None, None] * ARM * np.sin(LINE_UP_ALPHAS)
     with np.errstate(divide="ignore", invalid="ignore"):
         dv = (vx * wy - vy * wx) / (ux * wy - uy * wx)
-    e = _brake(dv, pull, LINE_UP_ALPHAS)
+        e = impulse_restitution(dv, pull, ARM * np.sin(LINE_UP_ALPHAS), GYRATION2)
     ok = (pull > 0) & (dv > 0) & (e >= BRAKE.low) & (e <= BRAKE.high)
     ok &= (vx - dv * ux) * wx + (vy - dv * uy) * wy > 0
     ok &= (length >= shortest[i][..., None]) & (length <= LENGTH.high) & present[i][..., None]

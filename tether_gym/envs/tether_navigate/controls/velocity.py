@@ -9,14 +9,14 @@ The inverse is the impulse model's, in closed form at each tautening point. The 
 along the change of velocity: a tether from the peg, taut with the centre of mass at distance r
 from it, changes the velocity by -k u, u the unit vector from the peg to the attachment point,
 
-    k = (1 + e) (v . u + spin s) / (1 + s^2 / (I/m)),   s = R sin(alpha) the moment arm,
+    k = (1 + e) (v . u + spin s) / (1 + s^2 / (I/m)),   s = R sin(alpha) the moment arm
 
-and u is the centre's direction from the peg turned back by asin(s / r). So the velocity the
-command asks for, v', fixes u along v - v' (hence s = r sin of the angle between them), then
-k = |v - v'| (hence the brake e). The path off the walls counts too: along that u, the changes
-that point the puck at the aim's image in a wall are tried as well (`_change_towards`). Where s
-or e falls out of range the nearest set-up is clipped into it, with the change along u that
-misses the command least (`_wanted`).
+(`physics.impulse.impulse_change`), and u is the centre's direction from the peg turned back by
+asin(s / r). So the velocity the command asks for, v', fixes u along v - v' (hence s = r sin of the
+angle between them), then k = |v - v'| (hence the brake e). The path off the walls counts too:
+along that u, the changes that point the puck at the aim's image in a wall are tried as well
+(`_change_towards`). Where s or e falls out of range the nearest set-up is clipped into it, with
+the change along u that misses the command least (`_wanted`).
 
 Where the bounce happens is the environment's choice, after the flight's closest approach to the
 aim (so that a flight through the aim reaches it first; anywhere on the flight if no tautening comes
@@ -44,7 +44,7 @@ from tether_gym.envs.tether_navigate.config import (
     ARM,
     COAST_STRETCHES,
     FLIGHT_HORIZON,
-    INERTIA_RATIO,
+    GYRATION2,
     PATH_TIME,
     PUCK_RADIUS,
     TABLE_HEIGHT,
@@ -60,6 +60,7 @@ from tether_gym.envs.tether_navigate.flight import (
 )
 from tether_gym.envs.tether_navigate.spaces import OUT
 from tether_gym.physics.events import free_flight_row, time_to_wall_row, wall_bounce_row
+from tether_gym.physics.impulse import impulse_change_row, impulse_restitution_row
 from tether_gym.physics.state import PuckState
 
 ACTION = Fields(
@@ -73,8 +74,6 @@ AIM_ACTION = Fields(*ACTION.fields[1:])
 ACTION_LOW, ACTION_HIGH = ACTION.low, ACTION.high
 LENGTH_LOW, LENGTH_HIGH = SETUP_ACTION["tether_length"].low, SETUP_ACTION["tether_length"].high
 BRAKE_LOW, BRAKE_HIGH = SETUP_ACTION["restitution"].low, SETUP_ACTION["restitution"].high
-GYRATION2 = INERTIA_RATIO * PUCK_RADIUS**2
-"""I / m, m^2."""
 SEGMENTS = 3
 """Straight stretches of the flight searched for the tautening: up to the second wall bounce."""
 SAMPLES = 10
@@ -262,16 +261,15 @@ def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest, tab
         arm = min(max((ry * cx - rx * cy) / change, -limit), limit)
     length, ux, uy = _taut(radius, math.atan2(ry, rx), arm)
     pull = vx * ux + vy * uy + spin * arm
-    compliance = 1.0 + arm * arm / GYRATION2
-    k_low = max((1.0 + BRAKE_LOW) * pull / compliance, 0.0)
-    k_high = max((1.0 + BRAKE_HIGH) * pull / compliance, 0.0)
+    k_low = max(impulse_change_row(pull, arm, GYRATION2, BRAKE_LOW), 0.0)
+    k_high = max(impulse_change_row(pull, arm, GYRATION2, BRAKE_HIGH), 0.0)
     # a candidate whose speed error alone passes the cutoff scores over the bound (with room
     # for rounding): it need not be walked
     cutoff = bound - ARM_WEIGHT * abs(arm) + BOUND_SLACK * max(1.0, abs(bound))
     k, miss, blocked = _wanted(
         px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, table, cutoff
     )
-    e = k * compliance / pull - 1.0 if pull > 0.0 else BRAKE_HIGH
+    e = impulse_restitution_row(k, pull, arm, GYRATION2) if pull > 0.0 else BRAKE_HIGH
     score = miss + ARM_WEIGHT * abs(arm) + (POST_PENALTY if blocked else 0.0)
     return score, miss, length, arm, e
 
