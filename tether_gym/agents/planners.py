@@ -15,7 +15,9 @@ The state is rebuilt from the observation (`decode_observation`). `implementatio
 the default, generates the candidates and computes the costs in numba (`planner_kernels`, one
 loop per state or per maneuver, the same candidates in the same order; their actions, kernel
 maneuvers and costs in one loop, the beam's choice too); "numpy" is the reference the tests
-hold it to. Both predict with the same kernel maneuver.
+hold it to. Both predict with the same kernel maneuver. The numpy one has its own vectorised
+twins of the compiled one's geometry (`envs.tether_navigate.geometry`): `Flight`, `_entering`,
+`_taut_tether`; both take the impact's change of velocity from `physics.impulse`.
 """
 
 from __future__ import annotations
@@ -104,7 +106,8 @@ def _xy(states: np.ndarray, x: str = "x", y: str = "y") -> np.ndarray:
 class Flight:
     """The first `SEGMENTS` straight segments of the free flights of n states, with wall
     bounces between them, cut at the flight horizon or a post: `start` (n, S, 2) m,
-    `velocity` (n, S, 2) m/s, `duration` (n, S) s, `blocked` (n,) whether a post ends it."""
+    `velocity` (n, S, 2) m/s, `duration` (n, S) s, `blocked` (n,) whether a post ends it
+    (`geometry.flight_stretches` without `touching`, on arrays)."""
 
     start: np.ndarray
     velocity: np.ndarray
@@ -152,7 +155,8 @@ class Flight:
         """(t_low, t_high), (n, S, P): the instants of each segment where a tether on the centre
         of mass from each peg (n, P, 2) goes taut pulling, its length in [low (n, P), the
         longest]; empty (t_low > t_high) where there are none. The centre of mass then leaves
-        the circle of radius L + R about the peg: past its closest approach to the peg."""
+        the circle of radius L + R about the peg: past its closest approach to the peg
+        (`geometry.tautening_window` on arrays)."""
         rel = self.start[:, :, None] - pegs[:, None]
         v = self.velocity[:, :, None]
         v2 = np.sum(v * v, axis=-1)
@@ -172,7 +176,8 @@ class Flight:
 
 def _entering(start: np.ndarray, velocity: np.ndarray, centres: np.ndarray, radius: float):
     """(n, k): when points at `start` (n, 2) moving at `velocity` enter the circles of `radius`
-    about `centres` (n, k, 2); NaN if they never come that close."""
+    about `centres` (n, k, 2); NaN if they never come that close (`geometry.first_post_hit`'s
+    crossing, on arrays)."""
     rel = start[:, None] - centres
     v2 = np.sum(velocity**2, axis=-1)[:, None]
     b = np.sum(rel * velocity[:, None], axis=-1)
@@ -233,7 +238,8 @@ def _taut_tether(rx, ry, radius, alpha) -> tuple[np.ndarray, np.ndarray, np.ndar
     is at (rx, ry) from the peg, `radius` away, u the unit vector from the peg to the
     attachment point. The centre lies on the circle of radius sqrt(L^2 + R^2 + 2 L R cos alpha)
     about the peg, the tether turned back from its direction by the angle whose sine is
-    R sin(alpha) / radius (NaN where the centre is nearer the peg than that, or on it)."""
+    R sin(alpha) / radius (NaN where the centre is nearer the peg than that, or on it):
+    `geometry.taut_tether` on arrays."""
     arm, lateral = ARM * np.sin(alpha), ARM * np.cos(alpha)
     r2 = radius * radius
     with np.errstate(invalid="ignore", divide="ignore"):
