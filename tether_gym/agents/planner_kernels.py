@@ -4,7 +4,9 @@ candidate maneuvers (`candidates`, one loop per state) and the costs of their pr
 (`planners.Flight`, `least_speed_bounce`, scipy's `find_root` in `_aims`, `_dumps`,
 `_line_ups`, `_extremes`, `GreedyPlanner.costs`) in the same order of operations where they can,
 so that the planners pick the same maneuvers; the prediction between them is the env kernel's
-maneuver, as in the numpy planner. `predict` runs the candidates' actions, predictions and costs
+maneuver, as in the numpy planner. The flight, the tautening windows and the taut tether are the
+env's (`envs.tether_navigate.geometry`), the impact's change of velocity the physics'
+(`physics.impulse`). `predict` runs the candidates' actions, predictions and costs
 in one loop, and `beam` the lookahead's choice at one depth: at batch 1 numpy's calls on small
 arrays would cost more than the kernels.
 
@@ -22,23 +24,22 @@ from numba import prange
 
 from tether_gym.envs.tether_navigate.config import (
     ARM,
-    FLIGHT_HORIZON,
-    INERTIA_RATIO,
+    GYRATION2,
     MAX_ANCHORS,
     MAX_SPEED,
-    POST_RADIUS,
-    PUCK_RADIUS,
     STATE,
-    TABLE_HEIGHT,
-    TABLE_WIDTH,
 )
 from tether_gym.envs.tether_navigate.controls import play
 from tether_gym.envs.tether_navigate.controls.setup import ACTION
+from tether_gym.envs.tether_navigate.geometry import (
+    flight_stretches,
+    taut_tether,
+    tautening_window,
+)
 from tether_gym.envs.tether_navigate.kernel import finite_action
 from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION, OUT, OUTCOME
-from tether_gym.physics.events import free_flight_row, time_to_wall_row, wall_bounce_row
+from tether_gym.physics.impulse import impulse_change_row, impulse_restitution_row
 from tether_gym.physics.jit import choose_threading_layer, serial_and_parallel
-from tether_gym.physics.state import PuckState
 from tether_gym.tasks.navigate import GOAL_RADIUS
 
 SEGMENTS = 3
@@ -58,10 +59,6 @@ squared speed in its speed's order to about 1e-16."""
 LENGTH_LOW, LENGTH_HIGH = ACTION["tether_length"].low, ACTION["tether_length"].high
 BRAKE_LOW, BRAKE_HIGH = ACTION["restitution"].low, ACTION["restitution"].high
 ACTION_LOW, ACTION_HIGH = ACTION.low, ACTION.high
-GYRATION2 = INERTIA_RATIO * PUCK_RADIUS**2
-"""I / m, m^2."""
-POST_REACH = POST_RADIUS + PUCK_RADIUS
-"""m: a puck's centre this near a post's touches it."""
 FAIL = 1e6
 """The cost of an episode that ends without success."""
 AIM_RESTITUTIONS = np.array([1.0, 0.6])
@@ -90,43 +87,13 @@ per peg."""
 
 
 @numba.njit(cache=True, inline="always")
-def _flight(s, wall_restitution, start, velocity, duration):
-    """One state's flight into start, velocity (S, 2) and duration (S,): whether a post ends
-    it."""
-    puck = PuckState(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
-    elapsed, blocked = 0.0, False
-    for k in range(SEGMENTS):
-        t_wall, wall = time_to_wall_row(puck, TABLE_WIDTH, TABLE_HEIGHT, PUCK_RADIUS)
-        t_post = _first_post(puck, s.posts, s.n_posts)
-        t = min(t_wall, FLIGHT_HORIZON - elapsed)
-        hit = t_post <= t
-        blocked |= hit
-        t = min(t, t_post)
-        start[k, 0], start[k, 1] = puck.x, puck.y
-        velocity[k, 0], velocity[k, 1] = puck.vx, puck.vy
-        duration[k] = t
-        puck = wall_bounce_row(free_flight_row(puck, t), wall, wall_restitution)
-        elapsed = FLIGHT_HORIZON if hit else elapsed + t
-    return blocked
-
-
-@numba.njit(cache=True, inline="always")
-def _first_post(puck, posts, n_posts):
-    """s: when the puck's centre first enters the reach of a post, ahead (inf if never)."""
-    v2 = puck.vx**2 + puck.vy**2
-    first = math.inf
-    if v2 == 0.0:
-        return first
-    for j in range(n_posts):
-        rx, ry = puck.x - posts[j, 0], puck.y - posts[j, 1]
-        b = rx * puck.vx + ry * puck.vy
-        c = rx * rx + ry * ry
-        discriminant = b * b - v2 * (c - POST_REACH * POST_REACH)
-        if discriminant >= 0.0:
-            t = (-b - math.sqrt(discriminant)) / v2
-            if t >= 0.0:
-                first = min(first, t)
-    return first
+def _flight(s, wall_restitution):
+    """One state's flight (`geometry.flight_stretches`, only crossings into posts counted):
+    its `SEGMENTS` stretches' start points (S, 2), velocities (S, 2) and lengths (S,), and
+    whether a post ends it."""
+    starts, elapsed, lengths = np.empty((SEGMENTS, 6)), np.empty(SEGMENTS), np.empty(SEGMENTS)
+    _, blocked = flight_stretches(s, wall_restitution, starts, elapsed, lengths, False)
+    return starts[:, :2], starts[:, 2:4], lengths, blocked
 
 
 def _observed_rows(obs, max_maneuvers, states):
@@ -231,8 +198,7 @@ def _candidate_rows(states, wall_restitution, stop, count, anchor, length, alpha
 @numba.njit(cache=True, inline="always")
 def _candidates(s, wall_restitution, stop, out):
     """One state's candidates into `out` (anchor, length, alpha, brake, kind): how many."""
-    start, velocity, duration = np.empty((SEGMENTS, 2)), np.empty((SEGMENTS, 2)), np.empty(SEGMENTS)
-    _flight(s, wall_restitution, start, velocity, duration)
+    start, velocity, duration, _ = _flight(s, wall_restitution)
     shortest = np.empty(s.n_anchors)
     tx, ty = s.x + ARM * math.cos(s.angle), s.y + ARM * math.sin(s.angle)
     for j in range(s.n_anchors):
@@ -241,9 +207,7 @@ def _candidates(s, wall_restitution, stop, out):
     t_low, t_high = np.empty((SEGMENTS, s.n_anchors)), np.empty((SEGMENTS, s.n_anchors))
     for k in range(SEGMENTS):
         for j in range(s.n_anchors):
-            t_low[k, j], t_high[k, j] = _window(
-                start[k], velocity[k], duration[k], s.anchors[j, 0], s.anchors[j, 1], shortest[j]
-            )
+            t_low[k, j], t_high[k, j] = _window(start, velocity, duration, k, s, j, shortest[j])
     n = _aims(s, start, velocity, t_low, t_high, out, 0)
     n = _dumps(s, start, velocity, duration, t_low, t_high, out, n)
     for j in range(s.n_anchors):
@@ -351,13 +315,13 @@ def _line_up(s, x, y, vx, vy, wx, wy, q, shortest, out, n):
     radius = math.sqrt(rx * rx + ry * ry)
     for a in range(LINE_UP_ALPHAS.shape[0]):
         alpha, arm = LINE_UP_ALPHAS[a], ARM * LINE_UP_SIN[a]
-        length, ux, uy = _taut_tether(rx, ry, radius, arm, ARM * LINE_UP_COS[a])
+        length, ux, uy = taut_tether(rx, ry, radius, arm, ARM * LINE_UP_COS[a])
         pull = vx * ux + vy * uy + s.spin * ARM * LINE_UP_SIN[a]
         turn = ux * wy - uy * wx
         if turn == 0.0:
             continue
         dv = (vx * wy - vy * wx) / turn
-        e = dv * (1.0 + arm**2 / GYRATION2) / pull - 1.0 if pull != 0.0 else math.nan
+        e = impulse_restitution_row(dv, pull, arm, GYRATION2) if pull != 0.0 else math.nan
         ok = pull > 0.0 and dv > 0.0 and BRAKE_LOW <= e <= BRAKE_HIGH
         ok = ok and (vx - dv * ux) * wx + (vy - dv * uy) * wy > 0.0
         if ok and shortest <= length <= LENGTH_HIGH:
@@ -368,8 +332,8 @@ def _line_up(s, x, y, vx, vy, wx, wy, q, shortest, out, n):
 @numba.njit(cache=True, inline="always")
 def _running(s, stop, spin_weight, wall_restitution):
     """(tier, value) of an episode still running in state `s` (`GreedyPlanner.costs`)."""
-    start, velocity, duration = np.empty((SEGMENTS, 2)), np.empty((SEGMENTS, 2)), np.empty(SEGMENTS)
-    tier = 2.0 if _flight(s, wall_restitution, start, velocity, duration) else 1.0
+    start, velocity, duration, blocked = _flight(s, wall_restitution)
+    tier = 2.0 if blocked else 1.0
     value = math.inf
     for k in range(SEGMENTS):
         t = _nearest(start[k], velocity[k], duration[k], s.goal_x, s.goal_y)
@@ -405,7 +369,7 @@ def _speed_left(s, start, velocity, duration):
         dx, dy = tx - px, ty - py
         shortest = max(math.sqrt(dx * dx + dy * dy), LENGTH_LOW)
         for k in range(SEGMENTS):
-            t_low, t_high = _window(start[k], velocity[k], duration[k], px, py, shortest)
+            t_low, t_high = _window(start, velocity, duration, k, s, j, shortest)
             if not t_low <= t_high:
                 continue
             t = _nearest(start[k], velocity[k], duration[k], s.goal_x, s.goal_y)
@@ -419,28 +383,12 @@ def _speed_left(s, start, velocity, duration):
 
 
 @numba.njit(cache=True, inline="always")
-def _window(start, velocity, duration, px, py, low):
-    """`planners.Flight.windows` of one segment and peg (px, py): (t_low, t_high), empty
-    (t_low > t_high) where a tether of length in [low, the longest] never goes taut pulling."""
-    rx, ry = start[0] - px, start[1] - py
-    v2 = velocity[0] * velocity[0] + velocity[1] * velocity[1]
-    b = rx * velocity[0] + ry * velocity[1]
-    c = rx * rx + ry * ry
-    if not v2 > 0.0:
-        return max(0.0, -b), -math.inf
-    t_low = max(0.0, -b / v2)
-    inner = _leaving(b, c, v2, low + ARM)
-    if not math.isnan(inner):
-        t_low = max(t_low, inner)
-    outer = _leaving(b, c, v2, LENGTH_HIGH + ARM)
-    return t_low, (-math.inf if math.isnan(outer) else min(duration, outer))
-
-
-@numba.njit(cache=True, inline="always")
-def _leaving(b, c, v2, radius):
-    """The outward crossing of the circle of `radius` about the peg, NaN if never that close."""
-    discriminant = b * b - v2 * (c - radius * radius)
-    return (math.sqrt(discriminant) - b) / v2 if discriminant >= 0.0 else math.nan
+def _window(start, velocity, duration, k, s, j, low):
+    """`planners.Flight.windows` of segment k and peg j (`geometry.tautening_window`): where a
+    tether of length in [low, the longest] goes taut pulling."""
+    x, y, vx, vy = start[k, 0], start[k, 1], velocity[k, 0], velocity[k, 1]
+    ax, ay = s.anchors[j, 0], s.anchors[j, 1]
+    return tautening_window(x, y, vx, vy, ax, ay, low + ARM, LENGTH_HIGH + ARM, duration[k])
 
 
 @numba.njit(cache=True, inline="always")
@@ -479,20 +427,18 @@ def _first_least(sin, cos, rx, ry, radius, vx, vy, spin, squares):
 @numba.njit(cache=True, error_model="numpy")
 def _squares(sin, cos, rx, ry, radius, vx, vy, spin, squares):
     """The squared speeds `_bounce` leaves at the offset angles whose sines and cosines are
-    `sin`, `cos` into `squares` (inf where the length is out of range): its steps without
-    branches, so that they run on vectors (its speed is the hypotenuse of the same velocity)."""
-    r2, spin_arm = radius * radius, spin * ARM
+    `sin`, `cos` into `squares` (inf where the length is out of range): its steps as selects
+    rather than branches (the brake computed whatever the pull), so that they run on vectors
+    (its speed is the hypotenuse of the same velocity)."""
+    spin_arm = spin * ARM
     for k in range(squares.shape[0]):
         arm = ARM * sin[k]
-        projected = math.sqrt(r2 - arm * arm)
-        length = projected - ARM * cos[k]
-        ux, uy = (rx * projected + ry * arm) / r2, (ry * projected - rx * arm) / r2
+        length, ux, uy = taut_tether(rx, ry, radius, arm, ARM * cos[k])
         along = vx * ux + vy * uy
         pull = along + spin_arm * sin[k]
-        compliance = 1.0 + arm**2 / GYRATION2
-        e = along * compliance / pull - 1.0
+        e = impulse_restitution_row(along, pull, arm, GYRATION2)
         e = BRAKE_LOW if e < BRAKE_LOW else (BRAKE_HIGH if e > BRAKE_HIGH else e)
-        dv = (1.0 + e) * pull / compliance if pull > 0.0 else 0.0
+        dv = impulse_change_row(pull, arm, GYRATION2, e) if pull > 0.0 else 0.0
         wx, wy = vx - dv * ux, vy - dv * uy
         in_range = length >= LENGTH_LOW and length <= LENGTH_HIGH
         squares[k] = wx * wx + wy * wy if in_range else math.inf
@@ -567,32 +513,17 @@ def _bounce(sin, cos, rx, ry, radius, vx, vy, spin):
     sine and cosine are `sin`, `cos`, the centre of mass at (rx, ry) from the peg, `radius`
     away (`planners._bounce_speeds`): the speed inf where the length is out of range."""
     arm = ARM * sin
-    length, ux, uy = _taut_tether(rx, ry, radius, arm, ARM * cos)
+    length, ux, uy = taut_tether(rx, ry, radius, arm, ARM * cos)
     along = vx * ux + vy * uy
     pull = along + spin * ARM * sin
     e, dv = 1.0, 0.0
     if pull > 0.0:  # else the tether stays slack: no bounce, whatever the brake
-        compliance = 1.0 + arm**2 / GYRATION2
-        e = min(max(along * compliance / pull - 1.0, BRAKE_LOW), BRAKE_HIGH)
-        dv = (1.0 + e) * pull / compliance
+        e = min(max(impulse_restitution_row(along, pull, arm, GYRATION2), BRAKE_LOW), BRAKE_HIGH)
+        dv = impulse_change_row(pull, arm, GYRATION2, e)
     speed = math.hypot(vx - dv * ux, vy - dv * uy)
     if not LENGTH_LOW <= length <= LENGTH_HIGH:
         speed = math.inf
     return e, length, speed
-
-
-@numba.njit(cache=True, inline="always")
-def _taut_tether(rx, ry, radius, arm, lateral):
-    """`planners._taut_tether` of one tautening: (tether length, ux, uy) with moment arm
-    `arm` = R sin(alpha) and `lateral` = R cos(alpha), the centre of mass at (rx, ry) from
-    the peg, `radius` away; NaN where no tether reaches (the centre nearer than the arm, or
-    on the peg)."""
-    squared = radius * radius - arm * arm
-    r2 = radius * radius
-    if squared < 0.0 or r2 == 0.0:
-        return math.nan, math.nan, math.nan
-    projected = math.sqrt(squared)  # L + R cos(alpha): the centre's reach along the tether
-    return projected - lateral, (rx * projected + ry * arm) / r2, (ry * projected - rx * arm) / r2
 
 
 @numba.njit(cache=True)

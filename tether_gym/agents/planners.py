@@ -15,7 +15,9 @@ The state is rebuilt from the observation (`decode_observation`). `implementatio
 the default, generates the candidates and computes the costs in numba (`planner_kernels`, one
 loop per state or per maneuver, the same candidates in the same order; their actions, kernel
 maneuvers and costs in one loop, the beam's choice too); "numpy" is the reference the tests
-hold it to. Both predict with the same kernel maneuver.
+hold it to. Both predict with the same kernel maneuver. The numpy one has its own vectorised
+twins of the compiled one's geometry (`envs.tether_navigate.geometry`): `Flight`, `_entering`,
+`_taut_tether`; both take the impact's change of velocity from `physics.impulse`.
 """
 
 from __future__ import annotations
@@ -35,7 +37,6 @@ from tether_gym.agents.planner_kernels import (
     DUMP,
     EXTREME,
     FAIL,
-    GYRATION2,
     KINDS,  # noqa: F401  (the planners' names for the kinds, as `planned` reads them)
     LINE_UP,
     LINE_UP_ALPHAS,
@@ -47,6 +48,7 @@ from tether_gym.agents.planner_kernels import (
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     FLIGHT_HORIZON,
+    GYRATION2,
     MAX_ANCHORS,
     MAX_POSTS,
     MAX_SPEED,
@@ -61,6 +63,7 @@ from tether_gym.envs.tether_navigate.controls.setup import ACTION
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OUT, decode_observation
 from tether_gym.physics import PUCK_STATE, free_flight, time_to_wall, wall_bounce, wrap_angle
+from tether_gym.physics.impulse import impulse_change, impulse_restitution
 from tether_gym.tasks.navigate import GOAL_RADIUS, STOP, TASKS
 
 LENGTH, BRAKE = ACTION["tether_length"], ACTION["restitution"]
@@ -103,7 +106,8 @@ def _xy(states: np.ndarray, x: str = "x", y: str = "y") -> np.ndarray:
 class Flight:
     """The first `SEGMENTS` straight segments of the free flights of n states, with wall
     bounces between them, cut at the flight horizon or a post: `start` (n, S, 2) m,
-    `velocity` (n, S, 2) m/s, `duration` (n, S) s, `blocked` (n,) whether a post ends it."""
+    `velocity` (n, S, 2) m/s, `duration` (n, S) s, `blocked` (n,) whether a post ends it
+    (`geometry.flight_stretches` without `touching`, on arrays)."""
 
     start: np.ndarray
     velocity: np.ndarray
@@ -151,7 +155,8 @@ class Flight:
         """(t_low, t_high), (n, S, P): the instants of each segment where a tether on the centre
         of mass from each peg (n, P, 2) goes taut pulling, its length in [low (n, P), the
         longest]; empty (t_low > t_high) where there are none. The centre of mass then leaves
-        the circle of radius L + R about the peg: past its closest approach to the peg."""
+        the circle of radius L + R about the peg: past its closest approach to the peg
+        (`geometry.tautening_window` on arrays)."""
         rel = self.start[:, :, None] - pegs[:, None]
         v = self.velocity[:, :, None]
         v2 = np.sum(v * v, axis=-1)
@@ -171,7 +176,8 @@ class Flight:
 
 def _entering(start: np.ndarray, velocity: np.ndarray, centres: np.ndarray, radius: float):
     """(n, k): when points at `start` (n, 2) moving at `velocity` enter the circles of `radius`
-    about `centres` (n, k, 2); NaN if they never come that close."""
+    about `centres` (n, k, 2); NaN if they never come that close (`geometry.first_post_hit`'s
+    crossing, on arrays)."""
     rel = start[:, None] - centres
     v2 = np.sum(velocity**2, axis=-1)[:, None]
     b = np.sum(rel * velocity[:, None], axis=-1)
@@ -217,8 +223,11 @@ def _bounce_speeds(alpha, rx, ry, radius, vx, vy, spin) -> tuple[np.ndarray, ...
     along = vx * ux + vy * uy
     pull = along + spin * ARM * np.sin(alpha)
     pulls = pull > 0  # else the tether stays slack: no bounce, whatever the brake
-    e = np.where(pulls, np.clip(_brake(along, pull, alpha), BRAKE.low, BRAKE.high), 1.0)
-    dv = np.where(pulls, (1.0 + e) * pull / _compliance(alpha), 0.0)
+    lever = ARM * np.sin(alpha)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        brake = impulse_restitution(along, pull, lever, GYRATION2)
+    e = np.where(pulls, np.clip(brake, BRAKE.low, BRAKE.high), 1.0)
+    dv = np.where(pulls, impulse_change(pull, lever, GYRATION2, e), 0.0)
     speed = np.hypot(vx - dv * ux, vy - dv * uy)
     speed = np.where((length >= LENGTH.low) & (length <= LENGTH.high), speed, np.inf)
     return np.broadcast_to(e, speed.shape), length, speed
@@ -229,25 +238,14 @@ def _taut_tether(rx, ry, radius, alpha) -> tuple[np.ndarray, np.ndarray, np.ndar
     is at (rx, ry) from the peg, `radius` away, u the unit vector from the peg to the
     attachment point. The centre lies on the circle of radius sqrt(L^2 + R^2 + 2 L R cos alpha)
     about the peg, the tether turned back from its direction by the angle whose sine is
-    R sin(alpha) / radius (NaN where the centre is nearer the peg than that, or on it)."""
+    R sin(alpha) / radius (NaN where the centre is nearer the peg than that, or on it):
+    `geometry.taut_tether` on arrays."""
     arm, lateral = ARM * np.sin(alpha), ARM * np.cos(alpha)
     r2 = radius * radius
     with np.errstate(invalid="ignore", divide="ignore"):
         projected = np.sqrt(r2 - arm * arm)  # L + R cos(alpha): the centre's reach along it
         ux, uy = (rx * projected + ry * arm) / r2, (ry * projected - rx * arm) / r2
     return projected - lateral, ux, uy
-
-
-def _compliance(alpha):
-    """1 + (R sin alpha)^2 / (kappa R^2): the impulse model's dv = (1 + e) pull / this."""
-    return 1.0 + (ARM * np.sin(alpha)) ** 2 / GYRATION2
-
-
-def _brake(dv, pull, alpha):
-    """The restitution e whose impulse changes the velocity by `dv` along the tether for an
-    attachment point stretching it at `pull` (NaN or inf where pull is 0)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return dv * _compliance(alpha) / pull - 1.0
 
 
 @dataclass(frozen=True)
@@ -396,7 +394,7 @@ def _line_ups(states: np.ndarray, flight: Flight) -> Candidates:
     pull = vx * ux + vy * uy + states["spin"][i, None, None] * ARM * np.sin(LINE_UP_ALPHAS)
     with np.errstate(divide="ignore", invalid="ignore"):
         dv = (vx * wy - vy * wx) / (ux * wy - uy * wx)
-    e = _brake(dv, pull, LINE_UP_ALPHAS)
+        e = impulse_restitution(dv, pull, ARM * np.sin(LINE_UP_ALPHAS), GYRATION2)
     ok = (pull > 0) & (dv > 0) & (e >= BRAKE.low) & (e <= BRAKE.high)
     ok &= (vx - dv * ux) * wx + (vy - dv * uy) * wy > 0
     ok &= (length >= shortest[i][..., None]) & (length <= LENGTH.high) & present[i][..., None]

@@ -11,6 +11,8 @@ changes by -J d R sin(alpha) / I (eqs. 8-9). For e = 1 kinetic energy is conserv
 If v_n <= 0 the attachment point is not moving away from the anchor: the tether stays slack
 and nothing changes (the tether never pushes).
 
+`impulse_change` is J/m and `impulse_restitution` the e that makes a given change (over floats or
+numpy arrays; `*_row` compiled, for kernels): the inverses of the bounce solve with them.
 `impulse_response` is that impact in any frame, from the vectors of the set-up; the launch-frame
 bounce (`impulse_core`, `impulse_bounce`, `impulse_kernel`) and the world contact
 (`impulse_contact_row`) both apply it. The contact is instantaneous: the pose is unchanged.
@@ -28,6 +30,24 @@ from tether_gym.physics.jit import serial_and_parallel
 from tether_gym.physics.state import PuckState, attachment_offset, stretch_rate
 
 
+def impulse_change(v_n, lever, gyration2, e):
+    """J/m: the impact's change of the centre of mass's velocity along the tether, for the
+    attachment point stretching it at `v_n`, the tether's moment arm `lever` (d R sin alpha)
+    and I/m = `gyration2`, restitution `e`."""
+    return (1.0 + e) * v_n / (1.0 + lever * lever / gyration2)
+
+
+def impulse_restitution(dv, v_n, lever, gyration2):
+    """The restitution e whose impact changes the velocity by `dv` along the tether
+    (`impulse_change` solved for e)."""
+    return dv * (1.0 + lever * lever / gyration2) / v_n - 1.0
+
+
+# inlined: a caller's error model decides what a division by zero does
+impulse_change_row = numba.njit(cache=True, inline="always")(impulse_change)
+impulse_restitution_row = numba.njit(cache=True, inline="always")(impulse_restitution)
+
+
 @numba.njit(cache=True)
 def impulse_response(vx, vy, spin, rx, ry, ux, uy, kappa, radius, e):
     """The impact in any frame: (vx, vy, spin, bounced) after it, for a centre of mass moving at
@@ -38,7 +58,7 @@ def impulse_response(vx, vy, spin, rx, ry, ux, uy, kappa, radius, e):
         return vx, vy, spin, False
     lever = rx * uy - ry * ux  # the tether's moment arm r x u, m: d R sin(alpha)
     gyration2 = kappa * radius * radius  # I / m
-    dv = (1.0 + e) * v_n / (1.0 + lever * lever / gyration2)
+    dv = impulse_change_row(v_n, lever, gyration2, e)
     return vx - dv * ux, vy - dv * uy, spin - dv * lever / gyration2, True
 
 

@@ -32,19 +32,14 @@ from tether_gym.envs.tether_navigate.config import (
     INERTIA_RATIO,
     MAX_WALL_HITS,
     PATH_TIME,
-    POST_RADIUS,
     PUCK_MASS,
     PUCK_RADIUS,
     TABLE_HEIGHT,
     TABLE_WIDTH,
 )
+from tether_gym.envs.tether_navigate.geometry import stretch_end
 from tether_gym.envs.tether_navigate.spaces import OUT
-from tether_gym.physics.events import (
-    free_flight_row,
-    time_to_taut_row,
-    time_to_wall_row,
-    wall_bounce_row,
-)
+from tether_gym.physics.events import free_flight_row, time_to_taut_row, wall_bounce_row
 from tether_gym.physics.geometry import fold_angle
 from tether_gym.physics.state import PuckState
 
@@ -65,30 +60,6 @@ TARGET_TOLERANCE = 1e-9
 AT_ONCE = 1e-9
 """s: a tether that the free motion pulls taut this soon after the decision (one raised to the
 peg's distance, to rounding) is taut at once, before the wheel, at rest, turns the body."""
-
-
-@numba.njit(cache=True, inline="always")
-def first_post_hit(puck, posts, n_posts, t_end):
-    """When the puck's rim first touches a post within [0, t_end] (inf if never): 0 for a puck
-    that touches one or is inside one at the start, whichever way it moves."""
-    first = math.inf
-    reach = POST_RADIUS + PUCK_RADIUS
-    v2 = puck.vx * puck.vx + puck.vy * puck.vy
-    if v2 == 0.0:
-        return first
-    for j in range(n_posts):
-        px, py = puck.x - posts[j, 0], puck.y - posts[j, 1]
-        c = px * px + py * py - reach * reach
-        if c <= 0.0:  # touching or inside at the start: a hit now
-            return 0.0
-        b = px * puck.vx + py * puck.vy
-        disc = b * b - v2 * c
-        if disc < 0.0:
-            continue
-        t = (-b - math.sqrt(disc)) / v2  # the inward crossing
-        if 0.0 <= t <= t_end:
-            first = min(first, t)
-    return first
 
 
 @numba.njit(cache=True, inline="always")
@@ -178,16 +149,6 @@ def _wheel_target(puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clear
             out = mid
     t, rate = wheel_crossing(puck, ax, ay, length, reachable, elapsed, t_end, wheel_rate, clearance)
     return t, rate, reachable
-
-
-@numba.njit(cache=True, inline="always")
-def stretch_end(puck, s, elapsed):
-    """(t_end, t_wall, wall, t_post): the end of the flight's current straight stretch, at the
-    next wall, the flight horizon or a post, whichever comes first."""
-    t_wall, wall = time_to_wall_row(puck, TABLE_WIDTH, TABLE_HEIGHT, PUCK_RADIUS)
-    t_end = min(t_wall, FLIGHT_HORIZON - elapsed)
-    t_post = first_post_hit(puck, s.posts, s.n_posts, t_end)
-    return min(t_end, t_post), t_wall, wall, t_post
 
 
 @numba.njit(cache=True, inline="always")

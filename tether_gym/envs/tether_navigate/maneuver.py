@@ -22,7 +22,8 @@ from tether_gym.envs.tether_navigate.config import (
     TABLE_HEIGHT,
     TABLE_WIDTH,
 )
-from tether_gym.envs.tether_navigate.flight import coast, first_post_hit, fly, path_point
+from tether_gym.envs.tether_navigate.flight import coast, fly, path_point
+from tether_gym.envs.tether_navigate.geometry import first_post_hit
 from tether_gym.envs.tether_navigate.spaces import OUT
 from tether_gym.physics.geometry import fold_angle
 from tether_gym.physics.hybrid import damping_ratio, hybrid_contact_among_row

@@ -9,14 +9,14 @@ The inverse is the impulse model's, in closed form at each tautening point. The 
 along the change of velocity: a tether from the peg, taut with the centre of mass at distance r
 from it, changes the velocity by -k u, u the unit vector from the peg to the attachment point,
 
-    k = (1 + e) (v . u + spin s) / (1 + s^2 / (I/m)),   s = R sin(alpha) the moment arm,
+    k = (1 + e) (v . u + spin s) / (1 + s^2 / (I/m)),   s = R sin(alpha) the moment arm
 
-and u is the centre's direction from the peg turned back by asin(s / r). So the velocity the
-command asks for, v', fixes u along v - v' (hence s = r sin of the angle between them), then
-k = |v - v'| (hence the brake e). The path off the walls counts too: along that u, the changes
-that point the puck at the aim's image in a wall are tried as well (`_change_towards`). Where s
-or e falls out of range the nearest set-up is clipped into it, with the change along u that
-misses the command least (`_wanted`).
+(`physics.impulse.impulse_change`), and u is the centre's direction from the peg turned back by
+asin(s / r). So the velocity the command asks for, v', fixes u along v - v' (hence s = r sin of the
+angle between them), then k = |v - v'| (hence the brake e). The path off the walls counts too:
+along that u, the changes that point the puck at the aim's image in a wall are tried as well
+(`_change_towards`). Where s or e falls out of range the nearest set-up is clipped into it, with
+the change along u that misses the command least (`_wanted`).
 
 Where the bounce happens is the environment's choice, after the flight's closest approach to the
 aim (so that a flight through the aim reaches it first; anywhere on the flight if no tautening comes
@@ -43,8 +43,7 @@ from tether_gym.envs.fields import Field, Fields
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     COAST_STRETCHES,
-    FLIGHT_HORIZON,
-    INERTIA_RATIO,
+    GYRATION2,
     PATH_TIME,
     PUCK_RADIUS,
     TABLE_HEIGHT,
@@ -52,14 +51,15 @@ from tether_gym.envs.tether_navigate.config import (
     VELOCITY,
 )
 from tether_gym.envs.tether_navigate.controls.setup import ACTION as SETUP_ACTION
-from tether_gym.envs.tether_navigate.flight import (
-    contact_clearance,
+from tether_gym.envs.tether_navigate.flight import contact_clearance, wheel_crossing
+from tether_gym.envs.tether_navigate.geometry import (
     first_post_hit,
-    stretch_end,
-    wheel_crossing,
+    flight_stretches,
+    tautening_window,
 )
 from tether_gym.envs.tether_navigate.spaces import OUT
 from tether_gym.physics.events import free_flight_row, time_to_wall_row, wall_bounce_row
+from tether_gym.physics.impulse import impulse_change_row, impulse_restitution_row
 from tether_gym.physics.state import PuckState
 
 ACTION = Fields(
@@ -73,8 +73,6 @@ AIM_ACTION = Fields(*ACTION.fields[1:])
 ACTION_LOW, ACTION_HIGH = ACTION.low, ACTION.high
 LENGTH_LOW, LENGTH_HIGH = SETUP_ACTION["tether_length"].low, SETUP_ACTION["tether_length"].high
 BRAKE_LOW, BRAKE_HIGH = SETUP_ACTION["restitution"].low, SETUP_ACTION["restitution"].high
-GYRATION2 = INERTIA_RATIO * PUCK_RADIUS**2
-"""I / m, m^2."""
 SEGMENTS = 3
 """Straight stretches of the flight searched for the tautening: up to the second wall bounce."""
 SAMPLES = 10
@@ -131,10 +129,10 @@ def _pick_peg(s, value):
 
 @numba.njit(cache=True)
 def _taut(radius, direction, arm):
-    """(tether length, ux, uy): the tether taut with moment arm `arm` when the centre of mass
-    is `radius` from the peg in `direction`: on the circle of radius
-    sqrt(L^2 + R^2 + 2 L R cos alpha), the tether turned back from the centre's direction by
-    atan2(R sin alpha, L + R cos alpha)."""
+    """(tether length, ux, uy): `geometry.taut_tether` by angles, the tether taut with moment
+    arm `arm` when the centre of mass is `radius` from the peg in `direction`, turned back from
+    that direction by atan2(R sin alpha, L + R cos alpha). The same tether to rounding, kept
+    apart for its bits: the shared form moves this control's outcomes by rounding errors."""
     lateral = math.sqrt(max(ARM * ARM - arm * arm, 0.0))  # R cos(alpha), alpha in [-pi/2, pi/2]
     length = math.sqrt(max(radius * radius - arm * arm, 0.0)) - lateral
     angle = direction - math.atan2(arm, length + lateral)
@@ -262,39 +260,17 @@ def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest, tab
         arm = min(max((ry * cx - rx * cy) / change, -limit), limit)
     length, ux, uy = _taut(radius, math.atan2(ry, rx), arm)
     pull = vx * ux + vy * uy + spin * arm
-    compliance = 1.0 + arm * arm / GYRATION2
-    k_low = max((1.0 + BRAKE_LOW) * pull / compliance, 0.0)
-    k_high = max((1.0 + BRAKE_HIGH) * pull / compliance, 0.0)
+    k_low = max(impulse_change_row(pull, arm, GYRATION2, BRAKE_LOW), 0.0)
+    k_high = max(impulse_change_row(pull, arm, GYRATION2, BRAKE_HIGH), 0.0)
     # a candidate whose speed error alone passes the cutoff scores over the bound (with room
     # for rounding): it need not be walked
     cutoff = bound - ARM_WEIGHT * abs(arm) + BOUND_SLACK * max(1.0, abs(bound))
     k, miss, blocked = _wanted(
         px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, table, cutoff
     )
-    e = k * compliance / pull - 1.0 if pull > 0.0 else BRAKE_HIGH
+    e = impulse_restitution_row(k, pull, arm, GYRATION2) if pull > 0.0 else BRAKE_HIGH
     score = miss + ARM_WEIGHT * abs(arm) + (POST_PENALTY if blocked else 0.0)
     return score, miss, length, arm, e
-
-
-@numba.njit(cache=True)
-def _window(puck, ax, ay, r_low, r_high, t_end):
-    """(t_low, t_high): where on a straight stretch (`puck` at its start, `t_end` long) the
-    centre of mass is between `r_low` and `r_high` from the peg, moving away from it; empty
-    (t_low > t_high) if nowhere."""
-    px, py = puck.x - ax, puck.y - ay
-    v2 = puck.vx * puck.vx + puck.vy * puck.vy
-    if v2 == 0.0:
-        return 1.0, 0.0
-    b = px * puck.vx + py * puck.vy
-    c = px * px + py * py
-    t_low = max(0.0, -b / v2)
-    disc = b * b - v2 * (c - r_low * r_low)
-    if disc > 0.0:
-        t_low = max(t_low, (math.sqrt(disc) - b) / v2)
-    disc = b * b - v2 * (c - r_high * r_high)
-    if disc <= 0.0:
-        return 1.0, 0.0
-    return t_low, min(t_end, (math.sqrt(disc) - b) / v2)
 
 
 @numba.njit(cache=True)
@@ -366,21 +342,11 @@ def _command(action, first):
 @numba.njit(cache=True)
 def _flight(s, p):
     """The flight's first `SEGMENTS` straight stretches (fewer if a post or the horizon ends
-    it), walked once per step: (their start states (k, 6) as `PuckState`'s fields, their
-    start from the decision (k,), their lengths (k,))."""
+    it; `geometry.flight_stretches`), walked once per step: (their start states (k, 6) as
+    `PuckState`'s fields, their start from the decision (k,), their lengths (k,))."""
     starts, elapsed, lengths = np.empty((SEGMENTS, 6)), np.empty(SEGMENTS), np.empty(SEGMENTS)
-    puck = PuckState(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
-    time = 0.0
-    for k in range(SEGMENTS):
-        t_end, t_wall, wall, t_post = stretch_end(puck, s, time)
-        for j in range(6):
-            starts[k, j] = puck[j]
-        elapsed[k], lengths[k] = time, t_end
-        if t_post < math.inf or t_wall > FLIGHT_HORIZON - time:
-            return starts[: k + 1], elapsed[: k + 1], lengths[: k + 1]
-        puck = wall_bounce_row(free_flight_row(puck, t_wall), wall, p.wall_restitution)
-        time += t_wall
-    return starts, elapsed, lengths
+    count, _ = flight_stretches(s, p.wall_restitution, starts, elapsed, lengths)
+    return starts[:count], elapsed[:count], lengths[:count]
 
 
 @numba.njit(cache=True, inline="always")
@@ -426,7 +392,9 @@ def _search(s, p, anchor, flight, gx, gy, fraction, after_stretch, after_t):
         farthest = max(farthest, _norm(puck.x - ax, puck.y - ay))
         # beyond the first stretch the tether must not have gone taut on the earlier ones
         low = r_low if segment == 0 else max(r_low, farthest + 2.0 * ARM)
-        t_low, t_high = _window(puck, ax, ay, low, r_high, t_end)
+        t_low, t_high = tautening_window(
+            puck.x, puck.y, puck.vx, puck.vy, ax, ay, low, r_high, t_end
+        )
         if segment == after_stretch:
             t_low = max(t_low, after_t)
         wheel = (elapsed[segment], t_end, p.wheel_rate, clearance)
