@@ -115,7 +115,7 @@ VECTOR_SKIP = ("final_obs", "_final_obs", "final_info", "_final_info")
 
 
 def rung(env_id: str) -> str:
-    """The ladder rung of an id, "Base" for `TetherNavigate-v1` and its sparse twin."""
+    """The ladder rung of an id, "Base" for `TetherNavigate-v2` and its sparse twin."""
     return next((name for name in RUNGS if f"_{name}" in env_id), "Base")
 
 

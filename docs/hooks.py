@@ -4,7 +4,7 @@ command-line help of the console scripts, the ladder's ids.
 A page (or the README) writes a placeholder, a call of one of `MACROS` with literal arguments:
 
     {{ success_table({"results/ladder/*_setup.json": "python benchmarks/ladder.py"}) }}
-    {{ cli_help("tether-train --env TetherNavigate-v1") }}
+    {{ cli_help("tether-train --env TetherNavigate-v2") }}
 
 MkDocs runs this file as a hook (`hooks:` in mkdocs.yml): `on_page_markdown` replaces every
 placeholder of a page with its Markdown before the page is rendered, so no number on a results
@@ -399,7 +399,7 @@ def cli_help(command: str) -> str:
     """The `--help` text of a console script (or `python -m module`), as a text block.
 
     `command` is the program and any arguments before `--help`, e.g. `"tether-train --env
-    TetherNavigate-v1"`; `"python -m tether_gym.agents.record"` runs that module's `main`.
+    TetherNavigate-v2"`; `"python -m tether_gym.agents.record"` runs that module's `main`.
     """
     words = command.split()
     if words[:2] == ["python", "-m"]:

@@ -89,7 +89,7 @@ def test_help_lists_both_envs_arguments_from_their_docstrings(command, capsys):
         mains[command] = sweep.main
     out = help_text(mains[command], [], capsys)
     assert "TetherBounce-v0 (TetherBounceEnv) takes" in out
-    assert "TetherNavigate-v1 (TetherNavigateEnv) takes" in out
+    assert "TetherNavigate-v2 (TetherNavigateEnv) takes" in out
     for name in (*BOUNCE_ARGUMENTS, *NAVIGATE_ARGUMENTS):
         assert f"| {name}" in out
 
@@ -97,8 +97,8 @@ def test_help_lists_both_envs_arguments_from_their_docstrings(command, capsys):
 @pytest.mark.parametrize("main", [training.main, evaluate.main], ids=["train", "evaluate"])
 def test_help_with_env_shows_that_envs_arguments(main, capsys):
     pytest.importorskip("stable_baselines3")
-    out = help_text(main, ["--env", "TetherNavigate_WallStop-v1"], capsys)
-    assert "TetherNavigate_WallStop-v1 (TetherNavigateEnv) takes" in out
+    out = help_text(main, ["--env", "TetherNavigate_WallStop-v2"], capsys)
+    assert "TetherNavigate_WallStop-v2 (TetherNavigateEnv) takes" in out
     assert "registered with layout=<a text map>, task='stop'" in out
     assert all(f"| {name}" in out for name in NAVIGATE_ARGUMENTS)
     assert "TetherBounce-v0 (TetherBounceEnv)" not in out
@@ -106,9 +106,9 @@ def test_help_with_env_shows_that_envs_arguments(main, capsys):
 
 def test_an_unknown_env_kwargs_key_lists_the_valid_ones(capsys):
     with pytest.raises(SystemExit):
-        evaluate.main(["--env", "TetherNavigate-v1", "--env-kwargs", "n_obstacle:3"])
+        evaluate.main(["--env", "TetherNavigate-v2", "--env-kwargs", "n_obstacle:3"])
     err = capsys.readouterr().err
-    assert "TetherNavigate-v1 has no argument 'n_obstacle'; its arguments: task, " in err
+    assert "TetherNavigate-v2 has no argument 'n_obstacle'; its arguments: task, " in err
     assert "n_obstacles" in err and "layout" in err
     with pytest.raises(ValueError, match="has no argument 'n_anchors'; its arguments: task, dyn"):
         cli.check_env("TetherBounce-v0", {"n_anchors": 3})

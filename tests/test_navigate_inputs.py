@@ -35,7 +35,7 @@ CLEAR = {"start": (0.3, 0.5), "goal": (1.5, 0.5), "anchors": [(1.0, 0.8)]}
 
 
 def navigate(**kwargs):
-    return gym.make("TetherNavigate-v1", **kwargs)
+    return gym.make("TetherNavigate-v2", **kwargs)
 
 
 def refused(env, match: str, seed: int = 0, **options):
@@ -59,7 +59,7 @@ def test_a_layout_without_posts_works():
     np.testing.assert_allclose(obs["desired_goal"], [5 / 3, 5 / 6])
     _, _, _, _, info = env.step(env.action_space.sample())
     assert not info["hit_post"]
-    vector = gym.make_vec("TetherNavigate-v1", num_envs=3, vectorization_mode="vector_entry_point",
+    vector = gym.make_vec("TetherNavigate-v2", num_envs=3, vectorization_mode="vector_entry_point",
                           layout=NO_POSTS)  # fmt: skip
     obs, _ = vector.reset(seed=0)
     assert vector.observation_space.contains(obs)
@@ -77,7 +77,7 @@ def test_a_layout_with_a_count_of_pegs_or_posts_is_refused(name, value):
     with pytest.raises(ValueError, match=rf"{name}={value} given with a layout"):
         navigate(layout=NO_POSTS, **{name: value})
     with pytest.raises(ValueError, match=rf"{name}={value} given with a layout"):
-        gym.make_vec("TetherNavigate-v1", num_envs=2, vectorization_mode="vector_entry_point",
+        gym.make_vec("TetherNavigate-v2", num_envs=2, vectorization_mode="vector_entry_point",
                      layout=NO_POSTS, **{name: value})  # fmt: skip
 
 
@@ -85,8 +85,8 @@ def test_a_layout_with_a_count_of_pegs_or_posts_is_refused(name, value):
 def test_the_wall_rung_refuses_a_count_of_pegs_or_posts(name):
     """The Wall ids are registered with a layout: n_obstacles=2 is not silently ignored."""
     with pytest.raises(ValueError, match=rf"{name}=2 given with a layout"):
-        gym.make("TetherNavigate_WallReach-v1", **{name: 2})
-    gym.make("TetherNavigate_WallReach-v1").reset(seed=0)
+        gym.make("TetherNavigate_WallReach-v2", **{name: 2})
+    gym.make("TetherNavigate_WallReach-v2").reset(seed=0)
 
 
 def test_without_a_layout_the_counts_default_to_6_pegs_and_no_post():
@@ -142,7 +142,7 @@ def test_a_layout_breaking_the_tables_clearances_is_refused(layout, match):
 
 
 def test_the_ladders_wall_layout_meets_the_clearances():
-    for env_id in ("TetherNavigate_WallReach-v1", "TetherNavigate_WallStopSparse-v1"):
+    for env_id in ("TetherNavigate_WallReach-v2", "TetherNavigate_WallStopSparse-v2"):
         env = gym.make(env_id)
         assert env.observation_space.contains(env.reset(seed=0)[0])
 
@@ -209,7 +209,7 @@ def test_actions_that_are_not_real_numbers_are_refused(action):
 
 
 def test_the_vector_envs_refuse_them_naming_the_batch_shape():
-    envs = gym.make_vec("TetherNavigate-v1", num_envs=2, vectorization_mode="vector_entry_point")
+    envs = gym.make_vec("TetherNavigate-v2", num_envs=2, vectorization_mode="vector_entry_point")
     envs.reset(seed=0)
     with pytest.raises(ValueError, match=r"action must be a real .* shape \(2, 4\), got dtype"):
         envs.step(np.zeros((2, 4), dtype=complex))
@@ -343,7 +343,7 @@ def test_options_that_clash_with_a_drawn_item_ask_for_it_too():
 
 
 def test_every_copy_of_the_vector_env_is_checked():
-    envs = gym.make_vec("TetherNavigate-v1", num_envs=8, vectorization_mode="vector_entry_point")
+    envs = gym.make_vec("TetherNavigate-v2", num_envs=8, vectorization_mode="vector_entry_point")
     envs.reset(seed=0)
     states = envs.unwrapped.state
     start = (states["x"][5], states["y"][5])

@@ -40,13 +40,13 @@ def test_ppo_trains_on_navigate_with_env_kwargs_and_evaluates_against_the_planne
     tmp_path, capsys
 ):
     tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY]
-    argv = ["--env", "TetherNavigate-v1", "--env-kwargs", "n_obstacles:3", "task:stop",
+    argv = ["--env", "TetherNavigate-v2", "--env-kwargs", "n_obstacles:3", "task:stop",
             "--timesteps", "1024", "--eval-freq", "512", "--runs-dir", str(tmp_path),
             *OPTIONS, "--hyperparams", *tiny]  # fmt: skip
     assert train.main(argv) == 0
-    folder = tmp_path / "ppo_TetherNavigate-v1_stop_hybrid_nobstacles3_seed0"
+    folder = tmp_path / "ppo_TetherNavigate-v2_stop_hybrid_nobstacles3_seed0"
     config = yaml.safe_load((folder / "config.yaml").read_text())
-    assert config["env_id"] == "TetherNavigate-v1"
+    assert config["env_id"] == "TetherNavigate-v2"
     assert config["env_kwargs"] == {"n_obstacles": 3, "task": "stop"}
     assert config["hyperparams"]["policy"] == "MultiInputPolicy"
     for which in ("best", "last"):
@@ -59,16 +59,16 @@ def test_ppo_trains_on_navigate_with_env_kwargs_and_evaluates_against_the_planne
         assert f"| {name} |" in table
     assert "maneuvers to goal" in table
     saved = json.loads((folder / "results.json").read_text())
-    assert (saved["env_id"], saved["env_kwargs"]) == ("TetherNavigate-v1", config["env_kwargs"])
+    assert (saved["env_id"], saved["env_kwargs"]) == ("TetherNavigate-v2", config["env_kwargs"])
     assert [r["name"] for r in saved["results"]] == ["PPO (best)", "PPO (last)", *BASELINES]
     agent = load_agent(folder / "last" / "model.zip")  # tether-evaluate's loader
-    (result,) = evaluate({"ppo": agent}, config["env_kwargs"], 10, env_id="TetherNavigate-v1")
+    (result,) = evaluate({"ppo": agent}, config["env_kwargs"], 10, env_id="TetherNavigate-v2")
     assert isinstance(result, NavigationResult) and result.episodes == 10
 
 
 def test_sac_with_her_trains_on_the_sparse_env_and_resumes(tmp_path):
     tiny = ["learning_starts:128", "batch_size:64", "buffer_size:4096", TINY_POLICY]
-    argv = ["--algo", "sac", "--env", "TetherNavigateSparse-v1", "--timesteps", "512",
+    argv = ["--algo", "sac", "--env", "TetherNavigateSparse-v2", "--timesteps", "512",
             "--eval-freq", "256", "--name", "her", "--runs-dir", str(tmp_path), *OPTIONS,
             "--save-replay-buffer", "--hyperparams", *tiny]  # fmt: skip
     assert train.main(argv) == 0
@@ -94,8 +94,8 @@ def test_sac_with_her_trains_on_the_sparse_env_and_resumes(tmp_path):
 
 
 def test_the_default_hyperparameters_have_navigate_entries():
-    ppo = train.load_hyperparams(train.default_conf("ppo"), env_id="TetherNavigate-v1")
-    sac = train.load_hyperparams(train.default_conf("sac"), env_id="TetherNavigateSparse-v1")
+    ppo = train.load_hyperparams(train.default_conf("ppo"), env_id="TetherNavigate-v2")
+    sac = train.load_hyperparams(train.default_conf("sac"), env_id="TetherNavigateSparse-v2")
     assert ppo["policy"] == sac["policy"] == "MultiInputPolicy"
     assert train.algo_kwargs(sac)["replay_buffer_class"] is PathHerReplayBuffer
     assert train.algo_kwargs(ppo)["policy_kwargs"]["features_extractor_class"] is NavigateExtractor
@@ -104,11 +104,11 @@ def test_the_default_hyperparameters_have_navigate_entries():
 
 
 def test_default_names_use_the_navigate_envs_defaults():
-    name = train.default_name("TetherNavigate-v1", {"n_obstacles": 3}, 1)
-    assert name == "ppo_TetherNavigate-v1_reach_hybrid_nobstacles3_seed1"
+    name = train.default_name("TetherNavigate-v2", {"n_obstacles": 3}, 1)
+    assert name == "ppo_TetherNavigate-v2_reach_hybrid_nobstacles3_seed1"
 
 
-EXTRACTOR = NavigateExtractor(gym.make("TetherNavigate-v1").observation_space)
+EXTRACTOR = NavigateExtractor(gym.make("TetherNavigate-v2").observation_space)
 
 
 def features(obs) -> np.ndarray:
@@ -118,7 +118,7 @@ def features(obs) -> np.ndarray:
 
 def test_a_pegs_bearing_feature_is_the_action_that_hooks_it():
     """The extractor's bearing of peg j (over pi), played as action 0, hooks peg j."""
-    env = gym.make("TetherNavigate-v1", n_anchors=8, dynamics="impulse")
+    env = gym.make("TetherNavigate-v2", n_anchors=8, dynamics="impulse")
     size = env.observation_space["observation"].shape[0]
     bearings = slice(size + 11 + 4 + 3, size + 11 + 4 * (1 + MAX_ANCHORS), 4)
     hooked = 0
@@ -135,7 +135,7 @@ def test_a_pegs_bearing_feature_is_the_action_that_hooks_it():
 def test_the_goal_feature_follows_a_relabeled_desired_goal():
     """The extractor's goal relative to the puck is desired - achieved: a relabeled goal moves
     it, and the rest of the features (the observation holds no goal) stay."""
-    env = gym.make("TetherNavigate-v1")
+    env = gym.make("TetherNavigate-v2")
     obs, _ = env.reset(seed=0)
     relabeled = {**obs, "desired_goal": obs["desired_goal"] + np.array([0.3, -0.2])}
     before, after = features(obs)[0], features(relabeled)[0]
@@ -157,7 +157,7 @@ def test_the_summary_averages_the_runs_over_seeds(tmp_path, capsys):
         folder = tmp_path / f"seed{seed}"
         folder.mkdir()
         run = {"timesteps": 1000, "train_seconds": 60.0 + seed, "results": results,
-               "env_id": "TetherNavigate-v1", "env_kwargs": {"task": "stop"}}  # fmt: skip
+               "env_id": "TetherNavigate-v2", "env_kwargs": {"task": "stop"}}  # fmt: skip
         (folder / summary.RESULTS).write_text(json.dumps(run))
         folders.append(str(folder))
     assert summary.main(folders) == 0
@@ -209,7 +209,7 @@ def test_combine_wraps_the_bearing_and_clips_the_rest():
 def test_a_planner_inside_an_agent_plans_for_the_ladder_id_s_task_and_table():
     """A ladder id fixes the task and the table: the planner behind a residual policy, the
     proposer and the agent a run's config rebuilds all plan for them, as the env plays."""
-    env_id = "TetherNavigate_WallStop-v1"
+    env_id = "TetherNavigate_WallStop-v2"
     config = {"env_id": env_id, "env_kwargs": {"dynamics": "impulse"},
               "hyperparams": {"proposals": "greedy"}}  # fmt: skip
     planners = [
@@ -225,10 +225,10 @@ def test_a_zero_residual_plays_the_planner_through_the_vec_env_and_the_agent():
     kwargs = {"n_obstacles": 3, "dynamics": "impulse", "max_maneuvers": 2, "task": "stop"}
     planner = residual.make_planner("greedy", kwargs)
     env = residual.ResidualVecEnv(
-        make_sb3_vec_env(4, seed=7, env_id="TetherNavigate-v1", **kwargs), planner, 0.3
+        make_sb3_vec_env(4, seed=7, env_id="TetherNavigate-v2", **kwargs), planner, 0.3
     )
     native = gym.make_vec(
-        "TetherNavigate-v1", num_envs=4, vectorization_mode="vector_entry_point", **kwargs
+        "TetherNavigate-v2", num_envs=4, vectorization_mode="vector_entry_point", **kwargs
     )
     obs = env.reset()
     ref, _ = native.reset(seed=7)
@@ -265,7 +265,7 @@ def test_a_zero_residual_plays_the_planner_through_the_vec_env_and_the_agent():
 def test_a_run_with_a_planner_names_it_and_loads_with_it(tmp_path, overrides, name, loaded):
     tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY, *overrides]
     run = ["--timesteps", "512", "--eval-freq", "0", "--runs-dir", str(tmp_path), *OPTIONS]
-    argv = ["--env", "TetherNavigate-v1", "--name", "run", *run, "--hyperparams", *tiny]
+    argv = ["--env", "TetherNavigate-v2", "--name", "run", *run, "--hyperparams", *tiny]
     assert train.main(argv) == 0
     table = (tmp_path / "run" / "results.md").read_text()
     assert f"| {name} (last) |" in table
@@ -283,10 +283,10 @@ def test_demonstrations_hold_the_planners_actions_and_discounted_returns():
     kwargs = {"n_obstacles": 2, "dynamics": "impulse"}
     planner = residual.make_planner("greedy", kwargs)
     obs, actions, returns = pretrain.demonstrations(
-        planner, "TetherNavigate-v1", kwargs, n_envs=3, decisions=30, gamma=0.9
+        planner, "TetherNavigate-v2", kwargs, n_envs=3, decisions=30, gamma=0.9
     )
     assert obs["observation"].shape == (30, 56) and actions.shape == (30, 4)
-    env = gym.make("TetherNavigate-v1", **kwargs)  # copy 0 alone, seeded as the vector env
+    env = gym.make("TetherNavigate-v2", **kwargs)  # copy 0 alone, seeded as the vector env
     first, _ = env.reset(seed=pretrain.PRETRAIN_SEED)
     np.testing.assert_array_equal(obs["observation"][0], first["observation"])
     np.testing.assert_array_equal(actions[0], planner.predict(first)[0])
@@ -322,7 +322,7 @@ def test_a_ppo_run_cloned_from_the_planner_names_it(tmp_path, capsys):
     tiny = ["n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY,
             "pretrain:{planner: greedy, decisions: 256, epochs: 2}"]  # fmt: skip
     run = ["--timesteps", "512", "--eval-freq", "0", "--runs-dir", str(tmp_path), *OPTIONS]
-    argv = ["--env", "TetherNavigate-v1", "--name", "bc", *run, "--hyperparams", *tiny]
+    argv = ["--env", "TetherNavigate-v2", "--name", "bc", *run, "--hyperparams", *tiny]
     assert train.main(argv) == 0
     assert "[pretrain] cloned in" in capsys.readouterr().out
     assert "| PPO from greedy demos (last) |" in (tmp_path / "bc" / "results.md").read_text()
@@ -348,7 +348,7 @@ def aim_model(algo: str, env, **kwargs):
 def test_an_untrained_aim_policy_aims_at_the_goal_it_is_given(algo, control):
     """AimPolicy's starting point: the deterministic action's aim is the desired goal, also a
     relabeled one (the goal reaches the action through desired_goal)."""
-    env = gym.make("TetherNavigate_PostsReach-v1", control=control)
+    env = gym.make("TetherNavigate_PostsReach-v2", control=control)
     model = aim_model(algo, env, features_extractor_class=NavigateExtractor, net_arch=[32],
                       control=control)  # fmt: skip
     misses = []
@@ -366,7 +366,7 @@ def test_an_untrained_aim_policy_aims_at_the_goal_it_is_given(algo, control):
 def test_an_untrained_aim_policy_commands_its_start_speed(algo, speed):
     """`start_speed`: the deterministic action's speed (0 for a dead stop, the direct shot's
     on "stop"); its aim stays the goal."""
-    env = gym.make("TetherNavigate_PostsStop-v1", control="aim")
+    env = gym.make("TetherNavigate_PostsStop-v2", control="aim")
     model = aim_model(algo, env, features_extractor_class=NavigateExtractor, net_arch=[32],
                       start_speed=speed)  # fmt: skip
     obs, _ = env.reset(seed=1)
@@ -379,7 +379,7 @@ def test_an_untrained_aim_policy_commands_its_start_speed(algo, speed):
 def test_sac_s_aim_policy_explores_about_the_goal_at_its_start_spread():
     """AimSACPolicy: the untrained actor's noise before the tanh has the standard deviation
     exp(start_log_std), about the goal's aim."""
-    env = gym.make("TetherNavigate_PostsReach-v1", control="aim")
+    env = gym.make("TetherNavigate_PostsReach-v2", control="aim")
     model = aim_model("sac", env, features_extractor_class=NavigateExtractor, net_arch=[32],
                       start_log_std=-2.0)  # fmt: skip
     obs, _ = env.reset(seed=2)
@@ -391,7 +391,7 @@ def test_sac_s_aim_policy_explores_about_the_goal_at_its_start_spread():
 
 @pytest.mark.parametrize("algo", sorted(AIM_POLICIES))
 def test_an_aim_policy_round_trips_through_a_saved_model(tmp_path, algo):
-    env = gym.make("TetherNavigate_PostsReach-v1", control="velocity")
+    env = gym.make("TetherNavigate_PostsReach-v2", control="velocity")
     algorithm, policy = AIM_POLICIES[algo]
     kwargs = dict(features_extractor_class=NavigateExtractor, net_arch=[16], control="velocity",
                   start_speed=0.3)  # fmt: skip
@@ -416,14 +416,14 @@ def test_an_aim_policy_round_trips_through_a_saved_model(tmp_path, algo):
 )  # fmt: skip
 @pytest.mark.parametrize("algo", sorted(AIM_POLICIES))
 def test_an_aim_policy_refuses_what_it_cannot_aim(algo, control, kwargs, message):
-    env = gym.make("TetherNavigate_PostsReach-v1", control=control)
+    env = gym.make("TetherNavigate_PostsReach-v2", control=control)
     policy_kwargs = {"features_extractor_class": NavigateExtractor, "control": control, **kwargs}
     with pytest.raises(ValueError, match=re.escape(message)):
         aim_model(algo, env, **policy_kwargs)
 
 
 def test_sac_s_aim_policy_refuses_state_dependent_noise():
-    env = gym.make("TetherNavigate_PostsReach-v1", control="aim")
+    env = gym.make("TetherNavigate_PostsReach-v2", control="aim")
     with pytest.raises(ValueError, match="SAC without use_sde"):
         SAC(AimSACPolicy, env, use_sde=True, device="cpu",
             policy_kwargs={"features_extractor_class": NavigateExtractor})  # fmt: skip
@@ -431,10 +431,10 @@ def test_sac_s_aim_policy_refuses_state_dependent_noise():
 
 @pytest.mark.parametrize(
     ("argv", "hyperparams", "message"),
-    [(["--env", "TetherNavigate-v1"], [], "TetherNavigate with control one of ('aim', 'velocity')"),
-     (["--env", "TetherNavigate-v1", "--env-kwargs", "control:aim"], ["normalize:true"],
+    [(["--env", "TetherNavigate-v2"], [], "TetherNavigate with control one of ('aim', 'velocity')"),
+     (["--env", "TetherNavigate-v2", "--env-kwargs", "control:aim"], ["normalize:true"],
       "not with normalize"),
-     (["--env", "TetherNavigateSparse-v1", "--algo", "sac"], [],
+     (["--env", "TetherNavigateSparse-v2", "--algo", "sac"], [],
       "TetherNavigate with control one of ('aim', 'velocity')")],
 )  # fmt: skip
 def test_tether_train_checks_an_aim_policy_s_env(tmp_path, capsys, argv, hyperparams, message):
@@ -447,7 +447,7 @@ def test_tether_train_checks_an_aim_policy_s_env(tmp_path, capsys, argv, hyperpa
 def test_tether_train_gives_an_aim_policy_the_env_s_control_mode(tmp_path):
     tiny = ["policy:AimPolicy", "n_steps:64", "batch_size:256", "n_epochs:1", TINY_POLICY]
     run = ["--timesteps", "512", "--eval-freq", "0", "--runs-dir", str(tmp_path), *OPTIONS]
-    argv = ["--env", "TetherNavigate_PostsReach-v1", "--env-kwargs", "control:velocity",
+    argv = ["--env", "TetherNavigate_PostsReach-v2", "--env-kwargs", "control:velocity",
             "--name", "run", *run, "--hyperparams", *tiny]  # fmt: skip
     assert train.main(argv) == 0
     model = load_agent(tmp_path / "run" / "last" / "model.zip").model

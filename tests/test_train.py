@@ -236,8 +236,8 @@ def test_default_names_differ_by_config_and_seed():
     assert train.default_name("TetherBounce-v0", {}, 0) == "ppo_mixed_hybrid_seed0"
     low = train.default_name("TetherBounce-v0", {"rho": [5.0, 100.0], "task": "heading"}, 1)
     assert low == "ppo_heading_hybrid_rho5-100_seed1"
-    navigate = train.default_name("TetherNavigate-v1", {}, 2)
-    assert navigate == "ppo_TetherNavigate-v1_reach_hybrid_seed2"
+    navigate = train.default_name("TetherNavigate-v2", {}, 2)
+    assert navigate == "ppo_TetherNavigate-v2_reach_hybrid_seed2"
     assert train.default_name("TetherBounce-v0", {}, 0, "sac") == "sac_mixed_hybrid_seed0"
 
 

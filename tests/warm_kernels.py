@@ -14,7 +14,7 @@ import gymnasium as gym
 import tether_gym  # noqa: F401  (registers the envs)
 from tether_gym.agents.evaluate import make_agent
 
-NAVIGATE = "TetherNavigate_PostsReach-v1"
+NAVIGATE = "TetherNavigate_PostsReach-v2"
 
 
 def single() -> None:

@@ -1,8 +1,8 @@
 """tether_gym: a Gymnasium workbench for bouncing a tethered planar puck.
 
 Importing the package registers `TetherBounce-v0` (one bounce per episode),
-`TetherNavigate-v1` / `TetherNavigateSparse-v1` (maneuvering to a goal) and the navigation
-ladder's `TetherNavigate_{Open,Posts,Wall}{Reach,Stop}[Sparse]-v1`
+`TetherNavigate-v2` / `TetherNavigateSparse-v2` (maneuvering to a goal) and the navigation
+ladder's `TetherNavigate_{Open,Posts,Wall}{Reach,Stop}[Sparse]-v2`
 (`tether_gym.ladder`), each with a native vector env. It also drops numba's cached kernels
 if the sources they were built from changed (`tether_gym.kernel_cache`).
 """
@@ -21,8 +21,8 @@ register(
     vector_entry_point="tether_gym.envs:TetherBounceVectorEnv",
 )
 NAVIGATE_IDS = {
-    "TetherNavigate-v1": {"reward_type": "dense"},
-    "TetherNavigateSparse-v1": {"reward_type": "sparse"},
+    f"TetherNavigate-v{ladder.VERSION}": {"reward_type": "dense"},
+    f"TetherNavigateSparse-v{ladder.VERSION}": {"reward_type": "sparse"},
     **ladder.ids(),
 }
 for env_id, kwargs in NAVIGATE_IDS.items():

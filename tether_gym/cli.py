@@ -26,7 +26,7 @@ from gymnasium.envs.registration import load_env_creator
 from tether_gym.envs import EnvConfig  # the one place the CLIs learn the env's arguments
 
 DEFAULT_ENV_ID = "TetherBounce-v0"
-HELP_ENV_IDS = (DEFAULT_ENV_ID, "TetherNavigate-v1")
+HELP_ENV_IDS = (DEFAULT_ENV_ID, "TetherNavigate-v2")
 """The envs whose arguments `--help` lists when no `--env` is given."""
 ENV_DEFAULTS: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(EnvConfig)}
 """TetherBounce-v0's arguments (`EnvConfig`'s fields) and their defaults."""

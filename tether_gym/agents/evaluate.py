@@ -1,7 +1,7 @@
 """Evaluate agents on the same fixed, seeded episodes and tabulate the results.
 
     tether-evaluate --agents oracle shooting random --episodes 1000 --rho 5 100
-    tether-evaluate --env TetherNavigate-v1 --agents greedy lookahead random --episodes 1000
+    tether-evaluate --env TetherNavigate-v2 --agents greedy lookahead random --episodes 1000
 
 Every agent sees the same episodes: the native vector env (`BATCH` copies) with copy i seeded
 BATCH * seed + i, so the first k episodes of an evaluation do not depend on its length, and

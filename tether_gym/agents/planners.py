@@ -1,4 +1,4 @@
-"""Model-based planners for TetherNavigate-v1: the analytic yardstick of the navigation tasks.
+"""Model-based planners for TetherNavigate-v2: the analytic yardstick of the navigation tasks.
 
 Both plan with the env's own kernel built with `dynamics="impulse"`: its flight is exact
 (straight lines, wall reflections, the reaction wheel's plan and the first tautening of the

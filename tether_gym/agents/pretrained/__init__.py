@@ -2,7 +2,7 @@
 
     tether-evaluate --agents pretrained oracle
     tether-evaluate --agents pretrained-low-stiffness shooting --rho 5 100
-    tether-evaluate --env TetherNavigate_PostsReach-v1 --agents pretrained greedy lookahead
+    tether-evaluate --env TetherNavigate_PostsReach-v2 --agents pretrained greedy lookahead
 
 Each agent is two package files here: `<name>.pt`, the policy alone as stable-baselines3's
 `BasePolicy.save` writes it (weights and constructor arguments: no optimizer state, no replay

@@ -1,4 +1,4 @@
-"""TetherNavigate-v1: maneuver a puck to a goal through a sequence of tether bounces."""
+"""TetherNavigate-v2: maneuver a puck to a goal through a sequence of tether bounces."""
 
 from __future__ import annotations
 
@@ -255,8 +255,8 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
 
     ## Difficulty Ladder
 
-    Registered ids `TetherNavigate_{rung}{task}-v1` (dense) and
-    `TetherNavigate_{rung}{task}Sparse-v1`, task `Reach` or `Stop` (`tether_gym.ladder`):
+    Registered ids `TetherNavigate_{rung}{task}-v2` (dense) and
+    `TetherNavigate_{rung}{task}Sparse-v2`, task `Reach` or `Stop` (`tether_gym.ladder`):
 
     | Rung    | Table                                                    | Arguments         |
     |---------|----------------------------------------------------------|-------------------|
@@ -268,6 +268,11 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
 
     ## Version History
 
+    * v2: contacts see the table: a wall bounces the puck during a hybrid contact as in
+      flight and a post ends the episode (v1's contact ignored both, so the puck could end
+      off the table or pass through a post), and a flight or tautening that starts touching
+      a post is a post hit; `info["path"]` draws the contact's arc, with `taut_position` and
+      `release_position`; reset options, layouts and actions are checked (see Physics).
     * v1: `observation` no longer holds the goal relative to the puck (it holds the puck's
       position): hindsight relabeling leaves it valid; at rest is an absolute speed
       (0.02 m/s), not 2% of an unobserved start speed; `control="velocity"` and `"aim"`,

@@ -5,8 +5,7 @@ peg's tether can go taut on a stretch (`tautening_window`) and the taut tether
 (`physics.impulse.impulse_change`).
 
 The env's flight (`flight`), its velocity control (`controls.velocity`) and the compiled
-planners (`agents.planner_kernels`) call these; the velocity control solves the taut tether by
-angles (`controls.velocity._taut`: the same tether, other last bits). The numpy planner
+planners (`agents.planner_kernels`) call these. The numpy planner
 (`agents.planners`), the reference the tests hold the compiled one to, has its own vectorised
 twins (`Flight`, `_entering`, `_taut_tether`).
 """

@@ -124,7 +124,7 @@ def _check_finite(bad: int, actions: np.ndarray) -> None:
 
 
 class NavigateKernel(Kernel):
-    """The kernel of TetherNavigate-v1 for one `NavigateConfig`."""
+    """The kernel of TetherNavigate-v2 for one `NavigateConfig`."""
 
     observation, outcome, goal_keys = OBSERVATION, OUTCOME, GOAL_KEYS
 

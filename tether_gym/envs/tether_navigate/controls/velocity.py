@@ -55,6 +55,7 @@ from tether_gym.envs.tether_navigate.flight import contact_clearance, wheel_cros
 from tether_gym.envs.tether_navigate.geometry import (
     first_post_hit,
     flight_stretches,
+    taut_tether,
     tautening_window,
 )
 from tether_gym.envs.tether_navigate.spaces import OUT
@@ -125,18 +126,6 @@ def _pick_peg(s, value):
         if nearer == rank:
             return j
     return 0
-
-
-@numba.njit(cache=True)
-def _taut(radius, direction, arm):
-    """(tether length, ux, uy): `geometry.taut_tether` by angles, the tether taut with moment
-    arm `arm` when the centre of mass is `radius` from the peg in `direction`, turned back from
-    that direction by atan2(R sin alpha, L + R cos alpha). The same tether to rounding, kept
-    apart for its bits: the shared form moves this control's outcomes by rounding errors."""
-    lateral = math.sqrt(max(ARM * ARM - arm * arm, 0.0))  # R cos(alpha), alpha in [-pi/2, pi/2]
-    length = math.sqrt(max(radius * radius - arm * arm, 0.0)) - lateral
-    angle = direction - math.atan2(arm, length + lateral)
-    return length, math.cos(angle), math.sin(angle)
 
 
 @numba.njit(cache=True)
@@ -258,7 +247,8 @@ def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest, tab
     if change > 0.0 and rx * cx + ry * cy > 0.0:
         limit = _longest_arm(radius, longest)
         arm = min(max((ry * cx - rx * cy) / change, -limit), limit)
-    length, ux, uy = _taut(radius, math.atan2(ry, rx), arm)
+    lateral = math.sqrt(max(ARM * ARM - arm * arm, 0.0))  # R cos(alpha), alpha in [-pi/2, pi/2]
+    length, ux, uy = taut_tether(rx, ry, radius, arm, lateral)
     pull = vx * ux + vy * uy + spin * arm
     k_low = max(impulse_change_row(pull, arm, GYRATION2, BRAKE_LOW), 0.0)
     k_high = max(impulse_change_row(pull, arm, GYRATION2, BRAKE_HIGH), 0.0)
