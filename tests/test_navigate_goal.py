@@ -159,7 +159,9 @@ def test_at_rest_is_an_absolute_speed():
     assert info["command_met"] and info["at_rest"] and terminated and not info["is_success"]
 
 
-@pytest.mark.parametrize("old", ["TetherNavigate-v0", "TetherNavigate-v1", "TetherNavigate_PostsReach-v1"])
+@pytest.mark.parametrize(
+    "old", ["TetherNavigate-v0", "TetherNavigate-v1", "TetherNavigate_PostsReach-v1"]
+)
 def test_older_versions_are_refused_with_the_new_id(old):
     new = old[: -len("v1")] + "v2"
     with pytest.raises(gym.error.DeprecatedEnv, match=new):
