@@ -195,7 +195,7 @@ def site(tmp_path_factory) -> Path:
 
 def test_site_builds_with_the_results_and_the_specs(site):
     results = (site / "results" / "index.html").read_text()
-    data = json.loads((ROOT / "results/ladder/TetherNavigate_OpenReach-v1_setup.json").read_text())
+    data = json.loads((ROOT / "results/ladder/TetherNavigate_OpenReach-v2_setup.json").read_text())
     greedy = next(r for r in data["results"] if r["name"] == "greedy")
     assert f"{100 * greedy['success_rate']:.1f}%" in results
     bounce = (site / "envs" / "tether-bounce" / "index.html").read_text()
