@@ -1,6 +1,6 @@
-"""The package's layers import downward only: physics, tasks, envs, the CLIs' shared helpers,
-agents, training. Playing an agent never needs training's code (torch, stable-baselines3's
-algorithms), and training builds on the agents, not the other way round."""
+"""The package's layers import downward only: physics, tasks, envs, the env families, the
+CLIs' shared helpers, agents, training. Playing an agent never needs training's code (torch,
+stable-baselines3's algorithms), and training builds on the agents, not the other way round."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "tether_gym"
-LAYERS = ("physics", "tasks", "envs", "cli", "agents", "training")
+LAYERS = ("physics", "tasks", "envs", "families", "cli", "agents", "training")
 """Lowest first: a module may import its own layer and those before it."""
 
 

@@ -11,8 +11,10 @@ pytest.importorskip("stable_baselines3")
 import torch
 
 from tether_gym.agents import pretrained
-from tether_gym.agents.evaluate import main, make_agent, navigates, wilson_interval
+from tether_gym.agents.evaluate import main, make_agent, wilson_interval
 from tether_gym.agents.planned import ProposalAgent
+from tether_gym.agents.pretrained import exporter
+from tether_gym.families import family
 from tether_gym.training import train
 
 TOLERANCE = 5
@@ -29,7 +31,7 @@ def test_a_shipped_agent_reaches_its_cards_success_on_its_first_held_out_episode
     facts = pretrained.card(name)
     held = facts["held_out"]
     first = pretrained.replayed_episodes(held)
-    result = pretrained.held_out(pretrained.load(name), facts["env_kwargs"], first, facts["env_id"])
+    result = exporter.held_out(pretrained.load(name), facts["env_kwargs"], first, facts["env_id"])
     assert abs(int(result.success.sum()) - held["policy"][f"successes_first_{first}"]) <= TOLERANCE
 
 
@@ -37,7 +39,7 @@ def test_a_shipped_agent_reaches_its_cards_success_on_its_first_held_out_episode
 def test_a_cards_success_and_interval_agree_with_its_counts(name):
     facts = pretrained.card(name)
     held = facts["held_out"]
-    for agent in ("policy", *pretrained.YARDSTICKS[navigates(facts["env_id"])]):
+    for agent in ("policy", *family(facts["env_id"]).baselines):
         r = held[agent]
         assert r["success_rate"] == pytest.approx(r["successes"] / held["episodes"], abs=1e-4)
         interval = wilson_interval(r["successes"], held["episodes"])
@@ -96,7 +98,7 @@ def test_unknown_names_and_unsupported_runs_are_refused(tmp_path):
     with pytest.raises(ValueError, match="pretrained agent must be one of"):
         pretrained.card("pretrained-juggling")
     with pytest.raises(ValueError, match=r"has no best/model\.zip"):
-        pretrained.export(tmp_path, "pretrained", "none", folder=tmp_path)
+        exporter.export(tmp_path, "pretrained", "none", folder=tmp_path)
 
 
 def test_export_writes_a_policy_that_acts_as_the_trained_model(tmp_path):
@@ -108,7 +110,7 @@ def test_export_writes_a_policy_that_acts_as_the_trained_model(tmp_path):
                        "--no-progress-bar", "--hyperparams", *params]) == 0  # fmt: skip
     run_dir, folder = tmp_path / "tiny", tmp_path / "exported"
     folder.mkdir()
-    pretrained.export(run_dir, "pretrained", "tether-train ...", folder=folder, episodes=100)
+    exporter.export(run_dir, "pretrained", "tether-train ...", folder=folder, episodes=100)
     agent = pretrained.load("pretrained", folder)
     model = train.PPO.load(run_dir / "best" / "model.zip", device="cpu")
     obs = np.random.default_rng(0).uniform(-1, 1, (64, 10)).astype(np.float32)

@@ -24,10 +24,11 @@ import gymnasium as gym
 from gymnasium.envs.registration import load_env_creator
 
 from tether_gym.envs import EnvConfig  # the one place the CLIs learn the env's arguments
+from tether_gym.families import FAMILIES
 
 DEFAULT_ENV_ID = "TetherBounce-v0"
-HELP_ENV_IDS = (DEFAULT_ENV_ID, "TetherNavigate-v2")
-"""The envs whose arguments `--help` lists when no `--env` is given."""
+HELP_ENV_IDS = tuple(env_family.env_id for env_family in FAMILIES)
+"""The envs whose arguments `--help` lists when no `--env` is given: each family's main id."""
 ENV_DEFAULTS: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(EnvConfig)}
 """TetherBounce-v0's arguments (`EnvConfig`'s fields) and their defaults."""
 TRAIN_EXTRA = ("stable_baselines3", "torch", "tensorboard", "yaml", "rich")

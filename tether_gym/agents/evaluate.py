@@ -6,9 +6,10 @@
 Every agent sees the same episodes: the native vector env (`BATCH` copies) with copy i seeded
 BATCH * seed + i, so the first k episodes of an evaluation do not depend on its length, and
 two seeds share no episodes (Gymnasium's seed + i would share all but one copy's).
-TetherBounce-v0's episodes are one bounce each (heading and deadspin metrics, `EvalResult`);
+The env's family (`tether_gym.families`) names the runner and the result type: TetherBounce's
+episodes are one bounce each (`run_bounce`: heading and deadspin metrics, `EvalResult`);
 TetherNavigate's last several maneuvers, copy i playing its first episodes in turn
-(navigation metrics, `NavigationResult`).
+(`run_navigation`: navigation metrics, `NavigationResult`).
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ import argparse
 import csv
 import json
 import math
-import pickle
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,12 +27,13 @@ import gymnasium as gym
 import numpy as np
 from scipy.stats import binomtest
 
+from tether_gym.agents import pretrained
 from tether_gym.agents.aim_search import AimSearch
 from tether_gym.agents.direct import DirectShot
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
-from tether_gym.agents.planned import BASE_KEY, PROPOSALS_KEY, with_planner
 from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner
 from tether_gym.agents.random_agent import RandomAgent
+from tether_gym.agents.saved import load_agent
 from tether_gym.cli import (
     DEFAULT_ENV_ID,
     add_env_arguments,
@@ -41,6 +42,7 @@ from tether_gym.cli import (
     require_extra,
 )
 from tether_gym.envs.tether_bounce import decode_observation
+from tether_gym.families import FAMILIES, check_agent, family, load
 from tether_gym.tasks.bounce import DEADSPIN
 
 BATCH = 100
@@ -53,10 +55,6 @@ NAVIGATION_FIELDS = (
     "name", "episodes", "success_rate", "success_ci", "maneuvers_mean", "final_distance_mean",
     "path_length_mean", "reward_mean", "episodes_per_second",
 )  # fmt: skip
-NAVIGATION_ENTRY_POINT = "tether_gym.envs.tether_navigate:TetherNavigateEnv"
-INFERENCE_ONLY = {"replay_buffer_class": None, "replay_buffer_kwargs": {}, "buffer_size": 1}
-"""Saved settings `load_agent` replaces: playing needs no replay buffer (a hindsight one would
-need the training env)."""
 
 
 class _Summary:
@@ -93,6 +91,51 @@ class EvalResult(_Summary):
     success: np.ndarray = field(repr=False)
     reward: np.ndarray = field(repr=False)
 
+    @classmethod
+    def from_run(cls, name: str, episodes: int, run: dict[str, np.ndarray]) -> EvalResult:
+        """The result of `run_bounce`'s per-episode arrays."""
+        context = decode_observation(run["obs"])
+        task = context["task"]
+        success = run["is_success"].astype(bool)
+        error = np.abs(run["heading_error"])
+        aimed = np.degrees(error[task != DEADSPIN])
+        return cls(
+            name=name,
+            episodes=episodes,
+            success_rate=float(success.mean()),
+            success_ci=wilson_interval(int(success.sum()), episodes),
+            heading_error_mean_deg=_mean(aimed),
+            heading_error_p95_deg=float(np.percentile(aimed, 95)) if aimed.size else math.nan,
+            deadspin_residual_mean=_mean(run["residual_speed"][task == DEADSPIN]),
+            reward_mean=float(run["reward"].mean()),
+            episodes_per_second=episodes / run["elapsed"],
+            task=task,
+            target_heading=context["target_heading"],
+            rho=context["rho"],
+            heading_error=error,
+            residual_speed=run["residual_speed"],
+            success=success,
+            reward=run["reward"],
+        )
+
+    @staticmethod
+    def table(results: list[EvalResult]) -> str:
+        """The results as one Markdown table."""
+        lines = [
+            "| agent | episodes | success (95% CI) | heading error mean (deg) | heading error p95 "
+            "(deg) | deadspin residual | reward | episodes/s |",
+            "|---|---:|---|---:|---:|---:|---:|---:|",
+        ]
+        for r in results:
+            low, high = r.success_ci
+            lines.append(
+                f"| {r.name} | {r.episodes} | {100 * r.success_rate:.1f}% "
+                f"[{100 * low:.1f}, {100 * high:.1f}] | {r.heading_error_mean_deg:.3g} | "
+                f"{r.heading_error_p95_deg:.3g} | {r.deadspin_residual_mean:.3g} | "
+                f"{r.reward_mean:.3f} | {r.episodes_per_second:,.0f} |"
+            )
+        return "\n".join(lines)
+
 
 @dataclass
 class NavigationResult(_Summary):
@@ -121,6 +164,49 @@ class NavigationResult(_Summary):
     path_length: np.ndarray = field(repr=False)
     reward: np.ndarray = field(repr=False)
 
+    @classmethod
+    def from_run(cls, name: str, episodes: int, run: dict[str, np.ndarray]) -> NavigationResult:
+        """The result of `run_navigation`'s per-episode arrays."""
+        success = run["success"].astype(bool)
+        return cls(
+            name=name,
+            episodes=episodes,
+            success_rate=float(success.mean()),
+            success_ci=wilson_interval(int(success.sum()), episodes),
+            maneuvers_mean=_mean(run["maneuvers"][success]),
+            final_distance_mean=float(run["final_distance"].mean()),
+            path_length_mean=float(run["path_length"].mean()),
+            reward_mean=float(run["reward"].mean()),
+            episodes_per_second=episodes / run["elapsed"],
+            start=run["start"],
+            goal=run["goal"],
+            success=success,
+            maneuvers=run["maneuvers"],
+            final_distance=run["final_distance"],
+            path_length=run["path_length"],
+            reward=run["reward"],
+        )
+
+    @staticmethod
+    def table(results: list[NavigationResult]) -> str:
+        """The results as one Markdown table."""
+        lines = [
+            "| agent | episodes | success (95% CI) | maneuvers to goal | final distance (m) | "
+            "path length (m) | reward | episodes/s |",
+            "|---|---:|---|---:|---:|---:|---:|---:|",
+        ]
+        for r in results:
+            low, high = r.success_ci
+            # "-": no success to count the maneuvers of
+            to_goal = "-" if math.isnan(r.maneuvers_mean) else f"{r.maneuvers_mean:.2f}"
+            lines.append(
+                f"| {r.name} | {r.episodes} | {100 * r.success_rate:.1f}% "
+                f"[{100 * low:.1f}, {100 * high:.1f}] | {to_goal} | "
+                f"{r.final_distance_mean:.3f} | {r.path_length_mean:.2f} | {r.reward_mean:.3f} | "
+                f"{r.episodes_per_second:,.1f} |"
+            )
+        return "\n".join(lines)
+
 
 def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
     """The 95% Wilson score interval of a success rate (sound near 0 and 1, unlike Wald's)."""
@@ -137,10 +223,10 @@ def _mean(values: np.ndarray) -> float:
     return float(values.mean()) if values.size else math.nan
 
 
-def _run(
+def run_bounce(
     agent, env_id: str, env_kwargs: dict, episodes: int, seed: int, bar
 ) -> dict[str, np.ndarray]:
-    """Per-episode observations and outcomes of one agent, and its wall time."""
+    """Per-episode observations and outcomes of one agent on a bounce env, and its wall time."""
     env = gym.make_vec(
         env_id,
         num_envs=min(episodes, BATCH),
@@ -170,7 +256,7 @@ def _run(
     return out
 
 
-def _run_navigation(
+def run_navigation(
     agent, env_id: str, env_kwargs: dict, episodes: int, seed: int, bar
 ) -> dict[str, np.ndarray]:
     """Per-episode outcomes of one agent on a navigation env, and its wall time. Copy i plays
@@ -220,59 +306,6 @@ def _run_navigation(
     return out
 
 
-def _bounce_result(name: str, episodes: int, run: dict[str, np.ndarray]) -> EvalResult:
-    context = decode_observation(run["obs"])
-    task = context["task"]
-    success = run["is_success"].astype(bool)
-    error = np.abs(run["heading_error"])
-    aimed = np.degrees(error[task != DEADSPIN])
-    return EvalResult(
-        name=name,
-        episodes=episodes,
-        success_rate=float(success.mean()),
-        success_ci=wilson_interval(int(success.sum()), episodes),
-        heading_error_mean_deg=_mean(aimed),
-        heading_error_p95_deg=float(np.percentile(aimed, 95)) if aimed.size else math.nan,
-        deadspin_residual_mean=_mean(run["residual_speed"][task == DEADSPIN]),
-        reward_mean=float(run["reward"].mean()),
-        episodes_per_second=episodes / run["elapsed"],
-        task=task,
-        target_heading=context["target_heading"],
-        rho=context["rho"],
-        heading_error=error,
-        residual_speed=run["residual_speed"],
-        success=success,
-        reward=run["reward"],
-    )
-
-
-def _navigation_result(name: str, episodes: int, run: dict[str, np.ndarray]) -> NavigationResult:
-    success = run["success"].astype(bool)
-    return NavigationResult(
-        name=name,
-        episodes=episodes,
-        success_rate=float(success.mean()),
-        success_ci=wilson_interval(int(success.sum()), episodes),
-        maneuvers_mean=_mean(run["maneuvers"][success]),
-        final_distance_mean=float(run["final_distance"].mean()),
-        path_length_mean=float(run["path_length"].mean()),
-        reward_mean=float(run["reward"].mean()),
-        episodes_per_second=episodes / run["elapsed"],
-        start=run["start"],
-        goal=run["goal"],
-        success=success,
-        maneuvers=run["maneuvers"],
-        final_distance=run["final_distance"],
-        path_length=run["path_length"],
-        reward=run["reward"],
-    )
-
-
-def navigates(env_id: str) -> bool:
-    """Whether `env_id` is a TetherNavigate env (navigation metrics and agents)."""
-    return gym.spec(env_id).entry_point == NAVIGATION_ENTRY_POINT
-
-
 def evaluate(
     agents: dict[str, object],
     env_kwargs: dict,
@@ -281,13 +314,13 @@ def evaluate(
     progress: bool = False,
     env_id: str = DEFAULT_ENV_ID,
 ) -> list[EvalResult] | list[NavigationResult]:
-    """Run every agent on the same `episodes` seeded episodes of `env_id(**env_kwargs)`:
-    `EvalResult`s for TetherBounce-v0, `NavigationResult`s for TetherNavigate."""
+    """Run every agent on the same `episodes` seeded episodes of `env_id(**env_kwargs)` with
+    the runner of the env's family: its result type's (`EvalResult` on TetherBounce,
+    `NavigationResult` on TetherNavigate)."""
     if not isinstance(episodes, (int, np.integer)) or episodes < 1:
         raise ValueError(f"episodes must be an integer in [1, inf), got {episodes!r}")
-    run, result = (
-        (_run_navigation, _navigation_result) if navigates(env_id) else (_run, _bounce_result)
-    )
+    env_family = family(env_id)
+    run, result = load(env_family.runner), load(env_family.result)
     results = []
     for name, agent in agents.items():
         bar = None
@@ -298,46 +331,13 @@ def evaluate(
         outcomes = run(agent, env_id, env_kwargs, episodes, seed, bar)
         if bar is not None:
             bar.close()
-        results.append(result(name, episodes, outcomes))
+        results.append(result.from_run(name, episodes, outcomes))
     return results
 
 
 def format_table(results: list[EvalResult] | list[NavigationResult]) -> str:
-    """The results as one Markdown table."""
-    if results and isinstance(results[0], NavigationResult):
-        return _navigation_table(results)
-    lines = [
-        "| agent | episodes | success (95% CI) | heading error mean (deg) | heading error p95 "
-        "(deg) | deadspin residual | reward | episodes/s |",
-        "|---|---:|---|---:|---:|---:|---:|---:|",
-    ]
-    for r in results:
-        low, high = r.success_ci
-        lines.append(
-            f"| {r.name} | {r.episodes} | {100 * r.success_rate:.1f}% "
-            f"[{100 * low:.1f}, {100 * high:.1f}] | {r.heading_error_mean_deg:.3g} | "
-            f"{r.heading_error_p95_deg:.3g} | {r.deadspin_residual_mean:.3g} | "
-            f"{r.reward_mean:.3f} | {r.episodes_per_second:,.0f} |"
-        )
-    return "\n".join(lines)
-
-
-def _navigation_table(results: list[NavigationResult]) -> str:
-    lines = [
-        "| agent | episodes | success (95% CI) | maneuvers to goal | final distance (m) | "
-        "path length (m) | reward | episodes/s |",
-        "|---|---:|---|---:|---:|---:|---:|---:|",
-    ]
-    for r in results:
-        low, high = r.success_ci
-        to_goal = "-" if math.isnan(r.maneuvers_mean) else f"{r.maneuvers_mean:.2f}"  # no success
-        lines.append(
-            f"| {r.name} | {r.episodes} | {100 * r.success_rate:.1f}% "
-            f"[{100 * low:.1f}, {100 * high:.1f}] | {to_goal} | "
-            f"{r.final_distance_mean:.3f} | {r.path_length_mean:.2f} | {r.reward_mean:.3f} | "
-            f"{r.episodes_per_second:,.1f} |"
-        )
-    return "\n".join(lines)
+    """The results as one Markdown table: their type's (`EvalResult`'s if there are none)."""
+    return (type(results[0]) if results else EvalResult).table(results)
 
 
 def paired(success: np.ndarray, reference: np.ndarray) -> tuple[int, int, float]:
@@ -375,78 +375,6 @@ def paired_table(results: list[EvalResult] | list[NavigationResult], reference: 
     return "\n".join(lines)
 
 
-class SB3Agent:
-    """A saved stable-baselines3 model, with its VecNormalize statistics if saved beside it."""
-
-    def __init__(self, model, normalizer=None):
-        self.model, self.normalizer = model, normalizer
-
-    def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
-        if self.normalizer is not None:  # VecNormalize takes arrays and dicts of arrays
-            obs = self.normalizer.normalize_obs(
-                {key: np.asarray(value) for key, value in obs.items()}
-                if isinstance(obs, dict)
-                else np.asarray(obs, dtype=np.float32)
-            )
-        return self.model.predict(obs, state, episode_start, deterministic)
-
-
-def read_config(path: Path) -> dict:
-    """A training run's saved config (`config.yaml`): ValueError naming the file if it cannot
-    be read."""
-    import yaml
-
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as error:
-        raise ValueError(f"cannot read {str(path)!r}: {error}") from None
-    if not isinstance(data, dict):
-        raise ValueError(f"{str(path)!r} does not hold a config mapping")
-    return data
-
-
-def load_agent(path: str | Path):
-    """A saved SB3 model (zip: PPO or SAC, whichever loads it) as an agent; `vecnormalize.pkl`
-    beside it is applied, and a policy that plays with a planner (a residual policy or one over
-    a planner's proposals; a training run's `config.yaml` beside it names the planner) plays
-    with it.
-
-    Raises:
-        ValueError: naming the path, if it is missing or not a loadable SB3 model.
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"model path {str(path)!r} does not exist or is not a file")
-    from stable_baselines3 import PPO, SAC
-
-    errors = []
-    for algorithm in (PPO, SAC):
-        try:
-            model = algorithm.load(path, device="cpu", custom_objects=INFERENCE_ONLY)
-            break
-        except Exception as error:  # SB3 refuses a zip saved by another algorithm
-            errors.append(f"{algorithm.__name__}: {error}")
-    else:
-        raise ValueError(
-            f"model path {str(path)!r} is not a loadable SB3 PPO or SAC model: {errors}"
-        )
-    stats = path.parent / "vecnormalize.pkl"
-    normalizer = None
-    if stats.is_file():
-        try:
-            with stats.open("rb") as handle:
-                normalizer = pickle.load(handle)  # what VecNormalize.load does, without a venv
-        except Exception as error:
-            raise ValueError(f"cannot read VecNormalize stats {str(stats)!r}: {error}") from error
-        normalizer.training = False
-    agent = SB3Agent(model, normalizer)
-    config = path.parent / "config.yaml"
-    planned = {BASE_KEY, PROPOSALS_KEY} & set(getattr(model.observation_space, "spaces", {}))
-    if planned and config.is_file():
-        return with_planner(agent, read_config(config))
-    return agent
-
-
 def action_size(env_id: str, env_kwargs: dict) -> int:
     """The length of the env's (Box) action: TetherNavigate's depends on its control mode."""
     env = gym.make(env_id, **env_kwargs)
@@ -457,13 +385,7 @@ def action_size(env_id: str, env_kwargs: dict) -> int:
 
 def agent_choices(env_id: str) -> tuple[str, ...]:
     """The agent names `make_agent` takes on `env_id` (besides a saved model's path)."""
-    from tether_gym.agents import pretrained  # which imports this module
-
-    navigation = pretrained.NAVIGATION_AGENTS.values()
-    if navigates(env_id):
-        return ("greedy", "lookahead", "pretrained", *navigation, "aim-search", "direct", "random")
-    return ("oracle", "shooting", *(name for name in pretrained.AGENTS if name not in navigation),
-            "random")  # fmt: skip
+    return family(env_id).agents
 
 
 def looks_like_path(spec: str) -> bool:
@@ -476,13 +398,11 @@ def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT
     """ "oracle", "shooting" (TetherBounce-v0), "greedy", "lookahead", "aim-search", "direct"
     (TetherNavigate, the last two in aim control), a pretrained agent (`pretrained.AGENTS`: on
     TetherNavigate "pretrained" is the one of the env's task, with its planner), "random" or
-    the path of a saved SB3 model zip. ValueError for an unknown name, listing the env's."""
-    from tether_gym.agents import pretrained  # which imports this module
-
-    navigation = navigates(env_id)
+    the path of a saved SB3 model zip. ValueError for an unknown name, listing the env's, and
+    for an agent of another env family (`families.check_agent`)."""
     navigators = {"greedy": GreedyPlanner, "lookahead": LookaheadPlanner, "aim-search": AimSearch,
                   "direct": DirectShot}  # fmt: skip
-    known = {"oracle", "shooting", *navigators, "random", *pretrained.AGENTS}
+    known = {name for env_family in FAMILIES for name in env_family.agents}
     if spec not in known and not looks_like_path(spec):
         raise ValueError(
             f"unknown agent {spec!r}: {env_id} takes {', '.join(agent_choices(env_id))}, "
@@ -490,15 +410,12 @@ def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT
         )
     if spec in pretrained.AGENTS:
         return pretrained.load(pretrained.for_env(spec, env_id, env_kwargs))
-    navigating = spec in navigators
-    if (navigating or spec in ("oracle", "shooting")) and navigating != navigation:
-        solves = "TetherNavigate" if navigating else DEFAULT_ENV_ID
-        raise ValueError(f"the agent {spec!r} solves {solves} only, not {env_id}")
+    check_agent(spec, env_id)
     if spec == "oracle":
         return ImpulseOracle()
     if spec == "shooting":
         return ShootingOracle(env_kwargs)
-    if navigating:
+    if spec in navigators:
         return navigators[spec](env_kwargs, env_id)
     if spec == "random":
         return RandomAgent(seed, action_size(env_id, env_kwargs))
@@ -612,12 +529,10 @@ def main(argv: list[str] | None = None) -> None:
             parser.error(f"{path} exists; pass --overwrite to replace it")
     try:
         env_id, env_kwargs = env_from_args(args)  # validated before any work
-        navigation = navigates(env_id)
-        if navigation and args.plot is not None:
+        env_family = family(env_id)
+        if args.plot is not None and not env_family.plots:
             raise ValueError("--plot draws TetherBounce-v0's heading errors only")
-        specs = args.agents or (
-            ["greedy", "lookahead", "random"] if navigation else ["oracle", "shooting", "random"]
-        )
+        specs = args.agents or [*env_family.baselines.values(), "random"]
         names = agent_names(specs)
         paired = args.paired and dict(zip(specs, names, strict=True)).get(args.paired, args.paired)
         if paired and paired not in names:

@@ -88,6 +88,7 @@ from ray.tune.search.repeater import TRIAL_INDEX
 from ray.tune.search.sample import Categorical, Domain
 
 from tether_gym.cli import DEFAULT_ENV_ID, env_epilog
+from tether_gym.families import Family, family
 from tether_gym.training.cluster import ClusterError, ray_log_to, start_ray
 from tether_gym.training.summary import t_interval
 from tether_gym.training.train import (
@@ -98,7 +99,6 @@ from tether_gym.training.train import (
     load_hyperparams,
     make_config,
     train,
-    yardstick_name,
 )
 
 BASE_KEYS = (
@@ -449,7 +449,7 @@ def run_trial(params: dict[str, Any], base: dict[str, Any], seeds: list[int], ru
     final = {
         "timesteps": summary["timesteps"],
         "test_success": results[f"{label(config)} (best)"]["success_rate"],
-        "test_oracle_success": results[yardstick_name(config["env_id"])]["success_rate"],
+        "test_oracle_success": results[family(config["env_id"]).yardstick]["success_rate"],
         "train_seconds": summary["train_seconds"],
         "numba_threads": numba.get_num_threads(),
         "torch_threads": torch.get_num_threads(),
@@ -611,9 +611,9 @@ def format_summary(table: pd.DataFrame, yardstick: str = "impulse oracle") -> st
     return "\n".join(lines)
 
 
-def plot_success(groups: list[list[Trial]], path: Path, yardstick: str = "impulse oracle") -> None:
+def plot_success(groups: list[list[Trial]], path: Path, env_family: Family) -> None:
     """success.png: each configuration's periodic success rate against timesteps, the mean
-    over seeds and its 95% t band; the `yardstick`'s on the same episodes dashed."""
+    over seeds and its 95% t band; the env family's yardstick's on the same episodes dashed."""
     figure = Figure(figsize=(7, 4.5), layout="constrained")
     FigureCanvasAgg(figure)
     axes = figure.add_subplot()
@@ -626,13 +626,9 @@ def plot_success(groups: list[list[Trial]], path: Path, yardstick: str = "impuls
         (line,) = axes.plot(mean.index, mean, label=describe(members[0].params))
         axes.fill_between(mean.index, band[:, 0], band[:, 1], alpha=0.2, color=line.get_color())
     trials = [trial for members in groups for trial in members]
-    key = (
-        "oracle_success_rate"
-        if "oracle_success_rate" in trials[0].history
-        else "planner_success_rate"
-    )
+    key = env_family.yardstick_column
     oracle = 100 * pd.concat([trial.history[key] for trial in trials]).mean()
-    axes.axhline(oracle, color="0.4", linestyle="--", label=yardstick)
+    axes.axhline(oracle, color="0.4", linestyle="--", label=env_family.yardstick)
     axes.set(xlabel="timesteps", ylabel="success (%)", ylim=(-2, 102))
     axes.set_title("Periodic evaluations: mean and 95% interval over seeds")
     axes.legend(fontsize="small")
@@ -713,10 +709,10 @@ def write_results(results: tune.ResultGrid, sweep: Sweep, out: Path) -> Outcome:
     groups = group(trials)
     summary = summarize(groups).sort_values("success_mean", ascending=False, ignore_index=True)
     summary.round(SUMMARY_DECIMALS).to_csv(out / "summary.csv", index=False)
-    yardstick = yardstick_name(sweep.base["env_id"])
-    table = format_summary(summary, yardstick)
+    env_family = family(sweep.base["env_id"])
+    table = format_summary(summary, env_family.yardstick)
     (out / "summary.md").write_text(table + "\n")
-    plot_success(groups, out / "success.png", yardstick)
+    plot_success(groups, out / "success.png", env_family)
     return Outcome(summary, table, trials, failed, unfinished)
 
 

@@ -54,12 +54,9 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 from tether_gym.agents.evaluate import (
     EvalResult,
     NavigationResult,
-    SB3Agent,
-    action_size,
     evaluate,
     format_table,
-    navigates,
-    read_config,
+    make_agent,
 )
 from tether_gym.agents.networks import (
     AIMED_CONTROLS,
@@ -68,11 +65,9 @@ from tether_gym.agents.networks import (
     NavigateExtractor,
     ProposalPolicy,
 )
-from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 from tether_gym.agents.planned import check_scale, make_planner, make_proposer, with_planner
 from tether_gym.agents.planned import settings as proposal_settings
-from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner
-from tether_gym.agents.random_agent import RandomAgent
+from tether_gym.agents.saved import SB3Agent, read_config
 from tether_gym.cli import (
     DEFAULT_ENV_ID,
     add_env_arguments,
@@ -82,6 +77,7 @@ from tether_gym.cli import (
     env_from_args,
     given_env_options,
 )
+from tether_gym.families import family
 from tether_gym.training.her import PathHerReplayBuffer
 from tether_gym.training.pretrain import check_pretrain, clone_planner
 from tether_gym.training.proposals import ProposalVecEnv
@@ -256,13 +252,14 @@ def check_config(config: dict[str, Any]) -> None:
     planned = [key for key in ("residual", "proposals") if params.get(key) is not None]
     if planned and control != "setup":
         raise ValueError(f"{planned[0]}: the planners act in control='setup', not {control}")
+    planners = family(config["env_id"]).planners
     if params.get("residual") is not None:
-        if not navigates(config["env_id"]):
+        if not planners:
             raise ValueError(f"residual: the planners solve TetherNavigate, not {config['env_id']}")
         make_planner(params["residual"], config["env_kwargs"], config["env_id"])
         check_scale(params.get("residual_scale", 1.0))
     if params.get("proposals") is not None:
-        if config["algo"] != "ppo" or not navigates(config["env_id"]):
+        if config["algo"] != "ppo" or not planners:
             raise ValueError("proposals: PPO on TetherNavigate only (the action is discrete)")
         if params.get("residual") is not None or params.get("pretrain") is not None:
             raise ValueError("proposals: not with residual or pretrain")
@@ -273,7 +270,7 @@ def check_config(config: dict[str, Any]) -> None:
     elif params.get("policy") == "ProposalPolicy":
         raise ValueError("policy ProposalPolicy scores a planner's proposals: give `proposals`")
     if params.get("policy") == "AimPolicy":
-        if not navigates(config["env_id"]) or control not in AIMED_CONTROLS:
+        if control not in AIMED_CONTROLS:
             raise ValueError(
                 f"policy AimPolicy: TetherNavigate with control one of {AIMED_CONTROLS} "
                 f"(--env-kwargs control:aim), got {config['env_id']} with control {control!r}"
@@ -281,7 +278,7 @@ def check_config(config: dict[str, Any]) -> None:
         if params.get("normalize"):
             raise ValueError("policy AimPolicy: not with normalize (it reads the goal in metres)")
     if params.get("pretrain") is not None:
-        if config["algo"] != "ppo" or not navigates(config["env_id"]) or params.get("normalize"):
+        if config["algo"] != "ppo" or not planners or params.get("normalize"):
             raise ValueError("pretrain: PPO on TetherNavigate without normalize only")
         check_pretrain(params["pretrain"], config["env_kwargs"])
         residual = params.get("residual")
@@ -409,32 +406,23 @@ def as_agent(model: BaseAlgorithm, config: dict[str, Any]):
     return with_planner(SB3Agent(model, model.get_vec_normalize_env()), config)
 
 
-def yardstick_name(env_id: str) -> str:
-    """The name of the `yardstick` of an env's runs in tables and plots."""
-    return "greedy planner" if navigates(env_id) else "impulse oracle"
-
-
 def yardstick(config: dict[str, Any]) -> tuple[str, object]:
-    """The baseline the periodic evaluations compare with: TetherBounce's impulse oracle, or
-    TetherNavigate's greedy planner (`navigates`)."""
-    name = yardstick_name(config["env_id"])
-    if navigates(config["env_id"]):
-        return name, GreedyPlanner(config["env_kwargs"], config["env_id"])
-    return name, ImpulseOracle()
+    """The baseline the periodic evaluations compare with, as (label, agent): the env
+    family's `yardstick` (TetherBounce's impulse oracle, TetherNavigate's greedy planner)."""
+    env_id, env_family = config["env_id"], family(config["env_id"])
+    name = env_family.yardstick
+    return name, make_agent(env_family.baselines[name], config["env_kwargs"], env_id=env_id)
 
 
 def baselines(config: dict[str, Any]) -> dict[str, object]:
-    """The agents of the final table besides the policy: the oracles (TetherBounce) or the
-    planners (TetherNavigate), and random."""
-    env_kwargs = config["env_kwargs"]
-    if navigates(config["env_id"]):
-        agents = {"greedy planner": GreedyPlanner(env_kwargs, config["env_id"])}
-        agents["lookahead planner"] = LookaheadPlanner(env_kwargs, config["env_id"])
-    else:
-        agents = {"impulse oracle": ImpulseOracle()}
-        agents["shooting oracle"] = ShootingOracle(env_kwargs)
-    size = action_size(config["env_id"], env_kwargs)
-    return {**agents, "random": RandomAgent(config["seed"], size)}
+    """The agents of the final table besides the policy: the env family's `baselines` (the
+    oracles or the planners), and random."""
+    env_id, env_kwargs = config["env_id"], config["env_kwargs"]
+    agents = {
+        label: make_agent(name, env_kwargs, env_id=env_id)
+        for label, name in family(env_id).baselines.items()
+    }
+    return {**agents, "random": make_agent("random", env_kwargs, config["seed"], env_id)}
 
 
 def append_row(path: Path, numbers: dict[str, float]) -> None:
@@ -453,9 +441,10 @@ class OracleEvalCallback(BaseCallback):
 
     Logs both success rates to TensorBoard, prints a line, saves the last model and the best
     one, and hands the numbers to `report` (after saving: a sweep reports `last/` as the
-    trial's checkpoint). The numbers are the success rates (the yardstick's as
-    `oracle_success_rate` or `planner_success_rate`), the return, and the heading error
-    (TetherBounce) or the final distance and maneuvers to the goal (TetherNavigate).
+    trial's checkpoint). The numbers are the success rates (the yardstick's named by the
+    family's `yardstick_column`: `oracle_success_rate` or `planner_success_rate`), the family's
+    `metrics` (the heading error, or the final distance and maneuvers to the goal) and the
+    return.
     """
 
     def __init__(
@@ -473,6 +462,7 @@ class OracleEvalCallback(BaseCallback):
         self.freq = config["eval_freq"] or 2 * config["timesteps"]  # 0: never
         self.next_eval = self.last_eval = 0
         self.yardstick, self.baseline = yardstick(config)
+        self.family = family(self.env_id)
         self.oracle_rate = float("nan")
 
     def _evaluate(self, name: str, agent: object) -> EvalResult | NavigationResult:
@@ -495,13 +485,8 @@ class OracleEvalCallback(BaseCallback):
         self.last_eval = self.num_timesteps
         policy = self._evaluate(self.label, as_agent(self.model, self.checkpoints.config))
         numbers = {"timesteps": self.num_timesteps, "success_rate": policy.success_rate}
-        if isinstance(policy, NavigationResult):
-            numbers["planner_success_rate"] = self.oracle_rate
-            numbers["final_distance_mean"] = policy.final_distance_mean
-            numbers["maneuvers_mean"] = policy.maneuvers_mean
-        else:
-            numbers["oracle_success_rate"] = self.oracle_rate
-            numbers["heading_error_mean_deg"] = policy.heading_error_mean_deg
+        numbers[self.family.yardstick_column] = self.oracle_rate
+        numbers.update({name: getattr(policy, name) for name in self.family.metrics})
         numbers["reward_mean"] = policy.reward_mean
         for key, value in numbers.items():
             if key != "timesteps":

@@ -1,0 +1,138 @@
+"""The env families: what evaluation, training and the pretrained catalog ask of each env.
+
+An env id belongs to the family of the entry point it is registered with (`family`), so the
+ladder's ids and a new id of an existing env need no entry here; a new env is one `Family`
+in `FAMILIES`. The evaluation code a family runs is named by "module:name" paths (`load`),
+as Gymnasium names an entry point: this module imports no floor of the package, so every
+floor may import it (`tests/test_layers.py`, `tests/test_families.py`).
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+
+from tether_gym.ladder import VERSION
+
+
+@dataclass(frozen=True, eq=False)
+class Family:
+    """One env family: the ids registered with its entry point."""
+
+    name: str
+    """Its name in messages, e.g. "TetherNavigate"."""
+    env_id: str
+    """Its main id, whose arguments `--help` lists when no `--env` is given."""
+    entry_point: str
+    """The Gymnasium entry point its ids are registered with."""
+    runner: str
+    """The "module:name" path of the function that plays one agent on its seeded episodes
+    (`evaluate.evaluate`)."""
+    result: str
+    """The "module:name" path of its evaluation result type: `from_run` builds one from the
+    runner's arrays, `table` tabulates a list of them."""
+    plots: bool
+    """Whether `tether-evaluate --plot` draws its results (the heading errors)."""
+    agents: tuple[str, ...]
+    """The agent names `tether-evaluate --agents` takes on it (besides a saved model), in the
+    order its help lists them."""
+    baselines: Mapping[str, str]
+    """Label -> agent name of the agents a policy is measured against: with a random agent,
+    `tether-evaluate`'s default agents and a training run's final table; a pretrained card's
+    yardsticks."""
+    yardstick: str
+    """The label (a key of `baselines`) of the agent a training run's periodic evaluations
+    compare with."""
+    yardstick_column: str
+    """The yardstick's success rate in a run's evaluations.csv and a sweep's reports."""
+    metrics: tuple[str, ...]
+    """The result fields a periodic evaluation records besides success and return."""
+    planners: bool
+    """Whether the compiled planners (`agents.planners`) play it: its baselines depend on them,
+    and a policy may build on them (a zoo entry's residual, proposals, pretrain)."""
+    pretrained_by_task: Mapping[str, str]
+    """The env's task -> the pretrained agent that "pretrained" means on it (empty: the agent
+    named "pretrained" itself)."""
+    card_episodes: int
+    """The held-out episodes behind a pretrained card's success rate."""
+    card_test_episodes: int
+    """The first of them whose successes the card records for tests/test_pretrained.py."""
+
+
+BOUNCE = Family(
+    name="TetherBounce",
+    env_id="TetherBounce-v0",
+    entry_point="tether_gym.envs:TetherBounceEnv",
+    runner="tether_gym.agents.evaluate:run_bounce",
+    result="tether_gym.agents.evaluate:EvalResult",
+    plots=True,
+    agents=("oracle", "shooting", "pretrained", "pretrained-low-stiffness", "random"),
+    baselines={"impulse oracle": "oracle", "shooting oracle": "shooting"},
+    yardstick="impulse oracle",
+    yardstick_column="oracle_success_rate",
+    metrics=("heading_error_mean_deg",),
+    planners=False,
+    pretrained_by_task={},
+    card_episodes=10_000,
+    card_test_episodes=1000,
+)
+NAVIGATE = Family(
+    name="TetherNavigate",
+    env_id=f"TetherNavigate-v{VERSION}",
+    entry_point="tether_gym.envs.tether_navigate:TetherNavigateEnv",
+    runner="tether_gym.agents.evaluate:run_navigation",
+    result="tether_gym.agents.evaluate:NavigationResult",
+    plots=False,
+    agents=(
+        "greedy",
+        "lookahead",
+        "pretrained",
+        "pretrained-reach",
+        "pretrained-stop",
+        "aim-search",
+        "direct",
+        "random",
+    ),
+    baselines={"greedy planner": "greedy", "lookahead planner": "lookahead"},
+    yardstick="greedy planner",
+    yardstick_column="planner_success_rate",
+    metrics=("final_distance_mean", "maneuvers_mean"),
+    planners=True,
+    pretrained_by_task={"reach": "pretrained-reach", "stop": "pretrained-stop"},
+    card_episodes=1000,  # a navigation agent's decisions cost a planner's
+    card_test_episodes=200,
+)
+FAMILIES = (BOUNCE, NAVIGATE)
+
+
+def family(env_id: str) -> Family:
+    """The family of the registered `env_id`, by its entry point; ValueError naming the id
+    and the families for an id that is not registered or belongs to none."""
+    known = ", ".join(f"{f.name} ({f.entry_point})" for f in FAMILIES)
+    try:
+        entry_point = gym.spec(env_id).entry_point
+    except gym.error.Error as error:
+        raise ValueError(
+            f"unknown env id {env_id!r} ({error}); the env families: {known}"
+        ) from None
+    for candidate in FAMILIES:
+        if candidate.entry_point == entry_point:
+            return candidate
+    raise ValueError(f"{env_id!r} ({entry_point}) is in no env family; the families: {known}")
+
+
+def check_agent(agent: str, env_id: str) -> None:
+    """ValueError if the agent named `agent` plays the families of other envs only."""
+    owners = [f.name for f in FAMILIES if agent in f.agents]
+    if owners and agent not in family(env_id).agents:
+        raise ValueError(f"the agent {agent!r} solves {' and '.join(owners)} only, not {env_id}")
+
+
+def load(path: str) -> Any:
+    """The object a "module:name" path names, its module imported on first use."""
+    module, _, name = path.partition(":")
+    return getattr(importlib.import_module(module), name)
