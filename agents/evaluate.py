@@ -1,6 +1,6 @@
 """Shim: `python -m agents.evaluate ...` from a clone's root is `tether-evaluate ...`."""
 
-from tether_gym.agents.evaluate import main
+from tether_gym.evaluation.cli import main
 
 if __name__ == "__main__":
     main()

@@ -29,8 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
+from tether_gym.evaluation.statistics import t_interval
 from tether_gym.families import family
-from tether_gym.training.summary import RESULTS, t_interval
+from tether_gym.training.summary import RESULTS
 from tether_gym.training.train import EVALUATIONS, TEST_SEED, baselines
 
 ONE_CORE = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
@@ -77,8 +78,8 @@ def replayed_rates(run_dirs: list[Path]) -> list[dict[str, float]]:
     planners (a run's own table shows the planners of its day): the planners (deterministic,
     the same for every seed: played once) and, for a policy with a planner inside, its best
     and last models."""
-    from tether_gym.agents.evaluate import evaluate
     from tether_gym.agents.saved import load_agent, read_config
+    from tether_gym.evaluation.runner import evaluate
 
     def play(agents: dict, config: dict) -> dict[str, float]:
         results = evaluate(agents, config["env_kwargs"], config["eval_episodes"], TEST_SEED,
@@ -133,8 +134,10 @@ def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
 def paired_against(args: argparse.Namespace, run_dirs: list[Path], env_kwargs: dict) -> dict:
     """Each seed's best model against the agent `args.paired` on the same test episodes: its
     success, the episodes it wins and loses, and the exact McNemar p-value."""
-    from tether_gym.agents.evaluate import evaluate, make_agent, paired
+    from tether_gym.agents.registry import make_agent
     from tether_gym.agents.saved import load_agent
+    from tether_gym.evaluation.runner import evaluate
+    from tether_gym.evaluation.statistics import paired
 
     def play(agent):
         (result,) = evaluate({"agent": agent}, env_kwargs, args.eval_episodes, TEST_SEED,

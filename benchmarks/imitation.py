@@ -43,7 +43,7 @@ from tether_gym.agents.direct import aim_actions
 from tether_gym.agents.networks import NavigateExtractor
 from tether_gym.envs.tether_navigate.config import PATH_POINTS
 from tether_gym.envs.tether_navigate.spaces import GOAL_KEYS, OBSERVATION, OUT, observe_all
-from tether_gym.training.summary import t_interval
+from tether_gym.evaluation.statistics import t_interval
 
 BATCH = 5000
 """States scored per call of the kernel."""

@@ -16,7 +16,7 @@ import json
 from pathlib import Path
 
 from tether_gym import ladder
-from tether_gym.agents.evaluate import main as evaluate_main
+from tether_gym.evaluation.cli import main as evaluate_main
 from tether_gym.training.train import TEST_SEED
 
 CONTROLS = ("setup", "velocity", "aim")

@@ -42,13 +42,13 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 
 import tether_gym  # noqa: E402, F401  (registers the ids)
-from tether_gym.agents.evaluate import evaluate  # noqa: E402
 from tether_gym.agents.planners import (  # noqa: E402
     IMPLEMENTATIONS,
     GreedyPlanner,
     LookaheadPlanner,
 )
 from tether_gym.envs.tether_navigate.spaces import observe_all  # noqa: E402
+from tether_gym.evaluation.runner import evaluate  # noqa: E402
 from tether_gym.training.train import TEST_SEED  # noqa: E402
 
 TASKS = {"reach": "TetherNavigate_PostsReach-v2", "stop": "TetherNavigate_PostsStop-v2"}

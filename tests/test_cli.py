@@ -8,8 +8,8 @@ import importlib.util
 import pytest
 
 from tether_gym import cli, training
-from tether_gym.agents import evaluate
 from tether_gym.envs import EnvConfig
+from tether_gym.evaluation import cli as evaluate
 
 NAVIGATE_ARGUMENTS = ("`n_obstacles`", "`n_anchors`", "`layout`", "`control`", "`max_maneuvers`")
 BOUNCE_ARGUMENTS = ("`inertia_ratio`", "`restitution`", "`spin_disturbance`")

@@ -15,20 +15,15 @@ import pytest
 import tether_gym  # noqa: F401
 from tether_gym.agents.aim_search import AimSearch
 from tether_gym.agents.direct import DirectShot
-from tether_gym.agents.evaluate import (
-    agent_names,
-    evaluate,
-    format_table,
-    load_agent,
-    main,
-    make_agent,
-    paired,
-    paired_table,
-    wilson_interval,
-)
 from tether_gym.agents.oracle import ImpulseOracle
 from tether_gym.agents.random_agent import RandomAgent
+from tether_gym.agents.registry import make_agent
+from tether_gym.agents.saved import load_agent
 from tether_gym.envs.tether_navigate.controls.velocity import AIM_ACTION
+from tether_gym.evaluation.cli import agent_names, main
+from tether_gym.evaluation.reports import format_table, paired_table
+from tether_gym.evaluation.runner import evaluate
+from tether_gym.evaluation.statistics import paired, wilson_interval
 
 
 def test_two_agents_see_identical_episodes():
@@ -132,9 +127,12 @@ def test_load_agent_runs_a_saved_model_with_its_normalizer(tmp_path):
     assert result.episodes == 20
 
 
-@pytest.mark.parametrize("module", ["tether_gym.agents.evaluate", "agents.evaluate"])
+@pytest.mark.parametrize(
+    "module", ["tether_gym.evaluation.cli", "tether_gym.agents.evaluate", "agents.evaluate"]
+)
 def test_cli_help_documents_every_option(module):
-    """`python -m agents.evaluate`, the repository's shim, is the same command."""
+    """`python -m tether_gym.agents.evaluate` (the deprecated alias) and `python -m
+    agents.evaluate` (the repository's shim) are the same command."""
     root = Path(__file__).resolve().parents[1]
     command = [sys.executable, "-m", module, "--help"]
     out = subprocess.run(command, capture_output=True, text=True, cwd=root).stdout

@@ -18,11 +18,13 @@ import torch
 from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.torch_layers import CombinedExtractor
 
-from tether_gym.agents.evaluate import NavigationResult, evaluate, load_agent
 from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtractor, ProposalPolicy
+from tether_gym.agents.saved import load_agent
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS
 from tether_gym.envs.tether_navigate.controls import ACTIONS
 from tether_gym.envs.tether_navigate.spaces import decode_observation
+from tether_gym.evaluation.results import NavigationResult
+from tether_gym.evaluation.runner import evaluate
 from tether_gym.training import pretrain, proposals, residual, summary, train
 from tether_gym.training.her import PathHerReplayBuffer
 from tether_gym.training.sb3 import make_sb3_vec_env

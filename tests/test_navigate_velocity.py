@@ -352,8 +352,8 @@ def test_coasting_ends_the_maneuver_at_its_closest_approach_to_the_aim():
 def test_coasting_needs_an_aim_and_the_planners_still_play_set_ups():
     with pytest.raises(ValueError, match="coast=True needs control"):
         gym.make("TetherNavigate-v2", coast=True)
-    from tether_gym.agents.evaluate import evaluate
     from tether_gym.agents.planners import GreedyPlanner
+    from tether_gym.evaluation.runner import evaluate
 
     kwargs = {"control": "aim", "coast": True}
     planner = GreedyPlanner(kwargs, "TetherNavigate_OpenReach-v2")

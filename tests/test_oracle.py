@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
-from tether_gym.agents.evaluate import evaluate
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 from tether_gym.envs.tether_bounce import decode_observation
 from tether_gym.envs.tether_bounce.kernel import PUCK_RADIUS
+from tether_gym.evaluation.runner import evaluate
 from tether_gym.physics import setup_for_velocity
 
 RANDOMIZED = dict(inertia_ratio=(0.2, 2.0), restitution=(0.2, 1.0), spin_disturbance=30.0)

@@ -10,16 +10,19 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
-from tether_gym.agents.evaluate import evaluate, format_table, main, make_agent
 from tether_gym.agents.planners import (
     IMPLEMENTATIONS,
     GreedyPlanner,
     LookaheadPlanner,
     observed_states,
 )
+from tether_gym.agents.registry import make_agent
 from tether_gym.envs.tether_navigate.config import PUCK_RADIUS
 from tether_gym.envs.tether_navigate.controls.setup import ACTION
 from tether_gym.envs.tether_navigate.spaces import decode_observation
+from tether_gym.evaluation.cli import main
+from tether_gym.evaluation.reports import format_table
+from tether_gym.evaluation.runner import evaluate
 
 
 def bank_shot(start, velocity, t, goal, length) -> dict:

@@ -11,9 +11,11 @@ pytest.importorskip("stable_baselines3")
 import torch
 
 from tether_gym.agents import pretrained
-from tether_gym.agents.evaluate import main, make_agent, wilson_interval
 from tether_gym.agents.planned import ProposalAgent
-from tether_gym.agents.pretrained import exporter
+from tether_gym.agents.registry import make_agent
+from tether_gym.evaluation import export as exporter
+from tether_gym.evaluation.cli import main
+from tether_gym.evaluation.statistics import wilson_interval
 from tether_gym.families import family
 from tether_gym.training import train
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from tether_gym.agents.evaluate import load_agent
+from tether_gym.agents.saved import load_agent
 
 pytest.importorskip("stable_baselines3")
 

@@ -22,6 +22,7 @@ PACKAGED = [
     "tether_gym/agents/oracle.py",
     "tether_gym/agents/random_agent.py",
     "tether_gym/agents/evaluate.py",
+    "tether_gym/evaluation/cli.py",
     "tether_gym/training/train.py",
     "tether_gym/training/sb3.py",
     "tether_gym/training/hyperparams/ppo.yml",
@@ -44,7 +45,7 @@ PACKAGED = [
 ]
 SCRIPTS = {
     "tether-train": "tether_gym.training:main",
-    "tether-evaluate": "tether_gym.agents.evaluate:main",
+    "tether-evaluate": "tether_gym.evaluation.cli:main",
     "tether-figures": "tether_gym.figures:main",
     "tether-sweep": "tether_gym.training:sweep_main",
 }

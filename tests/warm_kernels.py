@@ -12,7 +12,7 @@ import sys
 import gymnasium as gym
 
 import tether_gym  # noqa: F401  (registers the envs)
-from tether_gym.agents.evaluate import make_agent
+from tether_gym.agents.registry import make_agent
 
 NAVIGATE = "TetherNavigate_PostsReach-v2"
 

@@ -31,7 +31,7 @@ class Family:
     """The Gymnasium entry point its ids are registered with."""
     runner: str
     """The "module:name" path of the function that plays one agent on its seeded episodes
-    (`evaluate.evaluate`)."""
+    (`evaluation.runner.evaluate`)."""
     result: str
     """The "module:name" path of its evaluation result type: `from_run` builds one from the
     runner's arrays, `table` tabulates a list of them."""
@@ -67,8 +67,8 @@ BOUNCE = Family(
     name="TetherBounce",
     env_id="TetherBounce-v0",
     entry_point="tether_gym.envs:TetherBounceEnv",
-    runner="tether_gym.agents.evaluate:run_bounce",
-    result="tether_gym.agents.evaluate:EvalResult",
+    runner="tether_gym.evaluation.runner:run_bounce",
+    result="tether_gym.evaluation.results:EvalResult",
     plots=True,
     agents=("oracle", "shooting", "pretrained", "pretrained-low-stiffness", "random"),
     baselines={"impulse oracle": "oracle", "shooting oracle": "shooting"},
@@ -84,8 +84,8 @@ NAVIGATE = Family(
     name="TetherNavigate",
     env_id=f"TetherNavigate-v{VERSION}",
     entry_point="tether_gym.envs.tether_navigate:TetherNavigateEnv",
-    runner="tether_gym.agents.evaluate:run_navigation",
-    result="tether_gym.agents.evaluate:NavigationResult",
+    runner="tether_gym.evaluation.runner:run_navigation",
+    result="tether_gym.evaluation.results:NavigationResult",
     plots=False,
     agents=(
         "greedy",

@@ -9,7 +9,7 @@ An env whose step lasts a physical time (TetherBounce-v0's bounce, TetherNavigat
 maneuver) draws each step as many frames: its `"rgb_array_list"` render mode returns them (see
 `tether_gym.envs.drawing`). The GIF is those frames, downscaled to `--size` pixels across and
 played at `--fps` (the env draws at that rate too); existing files are kept unless
-`--overwrite`. The agent is any that `agents.evaluate.make_agent` builds, by name or as the
+`--overwrite`. The agent is any that `agents.registry.make_agent` builds, by name or as the
 path of a saved SB3 model zip.
 """
 
@@ -21,7 +21,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
-from tether_gym.agents.evaluate import make_agent
+from tether_gym.agents.registry import make_agent
 from tether_gym.cli import add_env_arguments, env_from_args
 
 GIF_COLOURS = 128
@@ -92,7 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Write an animated GIF of an agent's episodes.",
     )
     add = parser.add_argument
-    add("--agent", default="oracle", help="an agent that tether_gym.agents.evaluate.make_agent "
+    add("--agent", default="oracle", help="an agent that tether_gym.agents.registry.make_agent "
         "knows (oracle and shooting: TetherBounce-v0's oracles; random) or a saved SB3 model "
         "zip (default oracle)")  # fmt: skip
     add("--episodes", type=int, default=3, help="episodes (default 3)")

@@ -17,21 +17,11 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import scipy.stats
+
+from tether_gym.evaluation.statistics import t_interval
 
 RESULTS = "results.json"
 """A run's final evaluation in its folder: `timesteps`, `train_seconds`, `results`."""
-
-
-def t_interval(values: np.ndarray) -> tuple[float, float]:
-    """The 95% Student t interval of the mean success rate over seeds, within [0, 1]; NaN for
-    one seed."""
-    if len(values) < 2:
-        return math.nan, math.nan
-    if np.ptp(values) == 0:  # scipy warns about the zero spread
-        return float(values[0]), float(values[0])
-    interval = scipy.stats.ttest_1samp(values, 0.0).confidence_interval(0.95)
-    return max(float(interval.low), 0.0), min(float(interval.high), 1.0)
 
 
 def load_runs(run_dirs: list[Path]) -> list[dict]:

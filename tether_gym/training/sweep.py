@@ -88,9 +88,9 @@ from ray.tune.search.repeater import TRIAL_INDEX
 from ray.tune.search.sample import Categorical, Domain
 
 from tether_gym.cli import DEFAULT_ENV_ID, env_epilog
+from tether_gym.evaluation.statistics import t_interval
 from tether_gym.families import Family, family
 from tether_gym.training.cluster import ClusterError, ray_log_to, start_ray
-from tether_gym.training.summary import t_interval
 from tether_gym.training.train import (
     ALGOS,
     check_config,

@@ -51,13 +51,6 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.utils import LinearSchedule
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
-from tether_gym.agents.evaluate import (
-    EvalResult,
-    NavigationResult,
-    evaluate,
-    format_table,
-    make_agent,
-)
 from tether_gym.agents.networks import (
     AIMED_CONTROLS,
     AimPolicy,
@@ -67,6 +60,7 @@ from tether_gym.agents.networks import (
 )
 from tether_gym.agents.planned import check_scale, make_planner, make_proposer, with_planner
 from tether_gym.agents.planned import settings as proposal_settings
+from tether_gym.agents.registry import make_agent
 from tether_gym.agents.saved import SB3Agent, read_config
 from tether_gym.cli import (
     DEFAULT_ENV_ID,
@@ -77,6 +71,9 @@ from tether_gym.cli import (
     env_from_args,
     given_env_options,
 )
+from tether_gym.evaluation.reports import format_table
+from tether_gym.evaluation.results import EvalResult, NavigationResult
+from tether_gym.evaluation.runner import evaluate
 from tether_gym.families import family
 from tether_gym.training.her import PathHerReplayBuffer
 from tether_gym.training.pretrain import check_pretrain, clone_planner

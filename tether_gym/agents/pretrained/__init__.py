@@ -16,7 +16,7 @@ The card's success is measured on held-out episodes (`HELD_OUT_SEED`), apart fro
 episodes that picked the best model of a run (`train.EVAL_SEED`) and from those that picked
 the best seed of a sweep (`train.TEST_SEED`). `python -m tether_gym.agents.pretrained RUN_DIR
 NAME --command ...` turns a run's `best/` model into these two files (for maintainers:
-`exporter`, which plays the agents; this catalog only loads them).
+`tether_gym.evaluation.export`, which plays the agents; this catalog only loads them).
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
     python -m tether_gym.agents.pretrained RUN_DIR NAME --command "..."
 
 The card's success and its baselines' are measured here, on the held-out episodes
-(`HELD_OUT_SEED`) of the run's env, by `tether_gym.agents.evaluate`; the catalog
+(`HELD_OUT_SEED`) of the run's env, by `tether_gym.evaluation.runner`; the catalog
 (`tether_gym.agents.pretrained`) only loads the agents, so that the evaluation may load them
 without importing itself. For maintainers.
 """
@@ -15,7 +15,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from tether_gym.agents.evaluate import evaluate, make_agent
 from tether_gym.agents.planned import with_planner
 from tether_gym.agents.pretrained import (
     AGENTS,
@@ -26,8 +25,10 @@ from tether_gym.agents.pretrained import (
     load_policy,
     replayed_episodes,
 )
+from tether_gym.agents.registry import make_agent
 from tether_gym.agents.saved import SB3Agent, read_config
 from tether_gym.cli import DEFAULT_ENV_ID
+from tether_gym.evaluation.runner import evaluate
 from tether_gym.families import family
 
 

@@ -1,0 +1,179 @@
+"""An evaluation's results, one type per env family: the summary an agent's table row shows
+and the per-episode arrays behind it (`EvalResult` on TetherBounce, `NavigationResult` on
+TetherNavigate), each built from its runner's arrays (`from_run`) and tabulated (`table`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from tether_gym.envs.tether_bounce import decode_observation
+from tether_gym.evaluation.statistics import wilson_interval
+from tether_gym.tasks.bounce import DEADSPIN
+
+SUMMARY_FIELDS = (
+    "name", "episodes", "success_rate", "success_ci", "heading_error_mean_deg",
+    "heading_error_p95_deg", "deadspin_residual_mean", "reward_mean", "episodes_per_second",
+)  # fmt: skip
+NAVIGATION_FIELDS = (
+    "name", "episodes", "success_rate", "success_ci", "maneuvers_mean", "final_distance_mean",
+    "path_length_mean", "reward_mean", "episodes_per_second",
+)  # fmt: skip
+
+
+class _Summary:
+    summary_fields: ClassVar[tuple[str, ...]]
+
+    def summary(self) -> dict:
+        """The summary fields (NaN as None, so that the JSON is standard)."""
+        values = {name: getattr(self, name) for name in self.summary_fields}
+        return {k: None if isinstance(v, float) and math.isnan(v) else v for k, v in values.items()}
+
+
+@dataclass
+class EvalResult(_Summary):
+    """One agent's evaluation: the summary and the per-episode arrays behind it."""
+
+    summary_fields: ClassVar[tuple[str, ...]] = SUMMARY_FIELDS
+    name: str
+    episodes: int
+    success_rate: float
+    success_ci: tuple[float, float]
+    heading_error_mean_deg: float
+    """Over the heading and velocity episodes (NaN if none)."""
+    heading_error_p95_deg: float
+    deadspin_residual_mean: float
+    """Mean |v'| / launch speed over the deadspin episodes (NaN if none)."""
+    reward_mean: float
+    episodes_per_second: float
+    task: np.ndarray = field(repr=False)
+    target_heading: np.ndarray = field(repr=False)
+    rho: np.ndarray = field(repr=False)
+    heading_error: np.ndarray = field(repr=False)
+    """|heading error|, rad (0 for deadspin episodes)."""
+    residual_speed: np.ndarray = field(repr=False)
+    success: np.ndarray = field(repr=False)
+    reward: np.ndarray = field(repr=False)
+
+    @classmethod
+    def from_run(cls, name: str, episodes: int, run: dict[str, np.ndarray]) -> EvalResult:
+        """The result of `run_bounce`'s per-episode arrays."""
+        context = decode_observation(run["obs"])
+        task = context["task"]
+        success = run["is_success"].astype(bool)
+        error = np.abs(run["heading_error"])
+        aimed = np.degrees(error[task != DEADSPIN])
+        return cls(
+            name=name,
+            episodes=episodes,
+            success_rate=float(success.mean()),
+            success_ci=wilson_interval(int(success.sum()), episodes),
+            heading_error_mean_deg=_mean(aimed),
+            heading_error_p95_deg=float(np.percentile(aimed, 95)) if aimed.size else math.nan,
+            deadspin_residual_mean=_mean(run["residual_speed"][task == DEADSPIN]),
+            reward_mean=float(run["reward"].mean()),
+            episodes_per_second=episodes / run["elapsed"],
+            task=task,
+            target_heading=context["target_heading"],
+            rho=context["rho"],
+            heading_error=error,
+            residual_speed=run["residual_speed"],
+            success=success,
+            reward=run["reward"],
+        )
+
+    @staticmethod
+    def table(results: list[EvalResult]) -> str:
+        """The results as one Markdown table."""
+        lines = [
+            "| agent | episodes | success (95% CI) | heading error mean (deg) | heading error p95 "
+            "(deg) | deadspin residual | reward | episodes/s |",
+            "|---|---:|---|---:|---:|---:|---:|---:|",
+        ]
+        for r in results:
+            low, high = r.success_ci
+            lines.append(
+                f"| {r.name} | {r.episodes} | {100 * r.success_rate:.1f}% "
+                f"[{100 * low:.1f}, {100 * high:.1f}] | {r.heading_error_mean_deg:.3g} | "
+                f"{r.heading_error_p95_deg:.3g} | {r.deadspin_residual_mean:.3g} | "
+                f"{r.reward_mean:.3f} | {r.episodes_per_second:,.0f} |"
+            )
+        return "\n".join(lines)
+
+
+@dataclass
+class NavigationResult(_Summary):
+    """One agent's evaluation on TetherNavigate: the summary and the per-episode arrays."""
+
+    summary_fields: ClassVar[tuple[str, ...]] = NAVIGATION_FIELDS
+    name: str
+    episodes: int
+    success_rate: float
+    success_ci: tuple[float, float]
+    maneuvers_mean: float
+    """Maneuvers to the goal, over the successes (NaN if none)."""
+    final_distance_mean: float
+    """m, from the puck's last position to the goal's centre."""
+    path_length_mean: float
+    """m, the puck's path over the episode."""
+    reward_mean: float
+    """The episode's return."""
+    episodes_per_second: float
+    start: np.ndarray = field(repr=False)
+    """(episodes, 2) m: where each episode started."""
+    goal: np.ndarray = field(repr=False)
+    success: np.ndarray = field(repr=False)
+    maneuvers: np.ndarray = field(repr=False)
+    final_distance: np.ndarray = field(repr=False)
+    path_length: np.ndarray = field(repr=False)
+    reward: np.ndarray = field(repr=False)
+
+    @classmethod
+    def from_run(cls, name: str, episodes: int, run: dict[str, np.ndarray]) -> NavigationResult:
+        """The result of `run_navigation`'s per-episode arrays."""
+        success = run["success"].astype(bool)
+        return cls(
+            name=name,
+            episodes=episodes,
+            success_rate=float(success.mean()),
+            success_ci=wilson_interval(int(success.sum()), episodes),
+            maneuvers_mean=_mean(run["maneuvers"][success]),
+            final_distance_mean=float(run["final_distance"].mean()),
+            path_length_mean=float(run["path_length"].mean()),
+            reward_mean=float(run["reward"].mean()),
+            episodes_per_second=episodes / run["elapsed"],
+            start=run["start"],
+            goal=run["goal"],
+            success=success,
+            maneuvers=run["maneuvers"],
+            final_distance=run["final_distance"],
+            path_length=run["path_length"],
+            reward=run["reward"],
+        )
+
+    @staticmethod
+    def table(results: list[NavigationResult]) -> str:
+        """The results as one Markdown table."""
+        lines = [
+            "| agent | episodes | success (95% CI) | maneuvers to goal | final distance (m) | "
+            "path length (m) | reward | episodes/s |",
+            "|---|---:|---|---:|---:|---:|---:|---:|",
+        ]
+        for r in results:
+            low, high = r.success_ci
+            # "-": no success to count the maneuvers of
+            to_goal = "-" if math.isnan(r.maneuvers_mean) else f"{r.maneuvers_mean:.2f}"
+            lines.append(
+                f"| {r.name} | {r.episodes} | {100 * r.success_rate:.1f}% "
+                f"[{100 * low:.1f}, {100 * high:.1f}] | {to_goal} | "
+                f"{r.final_distance_mean:.3f} | {r.path_length_mean:.2f} | {r.reward_mean:.3f} | "
+                f"{r.episodes_per_second:,.1f} |"
+            )
+        return "\n".join(lines)
+
+
+def _mean(values: np.ndarray) -> float:
+    return float(values.mean()) if values.size else math.nan
