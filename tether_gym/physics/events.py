@@ -190,7 +190,8 @@ def time_to_wall_row(state, width, height, radius):
         t_y, wall_y = max((radius - state.y) / state.vy, 0.0), BOTTOM
     elif state.vy > 0.0:
         t_y, wall_y = max((height - radius - state.y) / state.vy, 0.0), TOP
-    return (t_x, wall_x) if t_x <= t_y else (t_y, wall_y)
+    t, wall = (t_x, wall_x) if t_x <= t_y else (t_y, wall_y)
+    return (t, wall) if t < INF else (INF, NO_WALL)  # so slow that the time overflows: never
 
 
 @numba.njit(cache=True)
