@@ -31,8 +31,11 @@ import numpy as np
 
 from tether_gym.evaluation.statistics import t_interval
 from tether_gym.families import family
+from tether_gym.seeds import TEST_SEED
+from tether_gym.training.config import RunConfig
+from tether_gym.training.folders import EVALUATIONS
 from tether_gym.training.summary import RESULTS
-from tether_gym.training.train import EVALUATIONS, TEST_SEED, baselines
+from tether_gym.training.yardsticks import baselines
 
 ONE_CORE = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
@@ -87,7 +90,8 @@ def replayed_rates(run_dirs: list[Path]) -> list[dict[str, float]]:
         return {result.name: result.success_rate for result in results}
 
     configs = [read_config(run_dir / "config.yaml") for run_dir in run_dirs]
-    planners = {name: agent for name, agent in baselines(configs[0]).items() if name != "random"}
+    agents = baselines(RunConfig.from_dict(configs[0]))
+    planners = {name: agent for name, agent in agents.items() if name != "random"}
     planner_rates = play(planners, configs[0])
     rates = []
     for run_dir, config in zip(run_dirs, configs, strict=True):

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from tether_gym import ladder
 from tether_gym.evaluation.cli import main as evaluate_main
-from tether_gym.training.train import TEST_SEED
+from tether_gym.seeds import TEST_SEED
 
 CONTROLS = ("setup", "velocity", "aim")
 

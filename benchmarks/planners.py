@@ -49,7 +49,7 @@ from tether_gym.agents.planners import (  # noqa: E402
 )
 from tether_gym.envs.tether_navigate.spaces import observe_all  # noqa: E402
 from tether_gym.evaluation.runner import evaluate  # noqa: E402
-from tether_gym.training.train import TEST_SEED  # noqa: E402
+from tether_gym.seeds import TEST_SEED  # noqa: E402
 
 TASKS = {"reach": "TetherNavigate_PostsReach-v2", "stop": "TetherNavigate_PostsStop-v2"}
 PLANNERS = {"greedy": GreedyPlanner, "lookahead": LookaheadPlanner}

@@ -21,8 +21,9 @@ import time
 import numpy as np
 from stable_baselines3 import PPO
 
+from tether_gym.training.experiment import use_one_thread
 from tether_gym.training.sb3 import make_sb3_vec_env
-from tether_gym.training.train import DEFAULT_CONF, algo_kwargs, load_hyperparams, use_one_thread
+from tether_gym.training.zoo import DEFAULT_CONF, algo_kwargs, load_hyperparams
 
 
 def env_steps_per_second(n_envs: int, steps: int) -> float:

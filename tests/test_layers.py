@@ -1,7 +1,7 @@
-"""The package's layers import downward only: physics, tasks, envs, the env families, the
-CLIs' shared helpers, agents, evaluation, training. Playing an agent never needs training's code
-(torch, stable-baselines3's algorithms), and training builds on the agents and their
-evaluation, not the other way round."""
+"""The package's layers import downward only: the seeds, physics, tasks, envs, the env
+families, the CLIs' shared helpers, agents, evaluation, training. Playing an agent never needs
+training's code (torch, stable-baselines3's algorithms), and training builds on the agents and
+their evaluation, not the other way round."""
 
 from __future__ import annotations
 
@@ -11,7 +11,9 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "tether_gym"
-LAYERS = ("physics", "tasks", "envs", "families", "cli", "agents", "evaluation", "training")
+LAYERS = (
+    "seeds", "physics", "tasks", "envs", "families", "cli", "agents", "evaluation", "training",
+)  # fmt: skip
 """Lowest first: a module may import its own layer and those before it."""
 OLD_NAMES = {
     "tether_gym.agents.evaluate": "the deprecated alias of tether_gym.evaluation",

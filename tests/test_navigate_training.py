@@ -25,7 +25,17 @@ from tether_gym.envs.tether_navigate.controls import ACTIONS
 from tether_gym.envs.tether_navigate.spaces import decode_observation
 from tether_gym.evaluation.results import NavigationResult
 from tether_gym.evaluation.runner import evaluate
-from tether_gym.training import pretrain, proposals, residual, summary, train
+from tether_gym.training import (
+    experiment,
+    folders,
+    pretrain,
+    proposals,
+    residual,
+    summary,
+    train,
+    zoo,
+)
+from tether_gym.training.config import RunConfig
 from tether_gym.training.her import PathHerReplayBuffer
 from tether_gym.training.sb3 import make_sb3_vec_env
 
@@ -82,10 +92,11 @@ def test_sac_with_her_trains_on_the_sparse_env_and_resumes(tmp_path):
         assert f"| {name} |" in (folder / "results.md").read_text()
     summary = train.train({**config, "timesteps": 768}, folder, resume=True)
     assert summary["timesteps"] == saved_timesteps(folder / "last") == 768
-    curve = (folder / train.EVALUATIONS).read_text().splitlines()  # the resumed run appends
+    curve = (folder / folders.EVALUATIONS).read_text().splitlines()  # the resumed run appends
     assert curve[0].startswith("timesteps,success_rate,planner_success_rate")
     assert [int(row.split(",")[0]) for row in curve[1:]] == [256, 512, 768]
-    model = train.load_model(folder / "last", config, train.make_venv(config))
+    run = RunConfig.from_dict(config)
+    model = experiment.load_model(folder / "last", run, experiment.make_venv(run))
     model.load_replay_buffer(folder / "last" / "replay_buffer.pkl", truncate_last_traj=False)
     assert isinstance(model.replay_buffer, PathHerReplayBuffer)
     agent = load_agent(folder / "last" / "model.zip")  # without the env HER's buffer needs
@@ -96,13 +107,13 @@ def test_sac_with_her_trains_on_the_sparse_env_and_resumes(tmp_path):
 
 
 def test_the_default_hyperparameters_have_navigate_entries():
-    ppo = train.load_hyperparams(train.default_conf("ppo"), env_id="TetherNavigate-v2")
-    sac = train.load_hyperparams(train.default_conf("sac"), env_id="TetherNavigateSparse-v2")
+    ppo = zoo.load_hyperparams(zoo.default_conf("ppo"), env_id="TetherNavigate-v2")
+    sac = zoo.load_hyperparams(zoo.default_conf("sac"), env_id="TetherNavigateSparse-v2")
     assert ppo["policy"] == sac["policy"] == "MultiInputPolicy"
-    assert train.algo_kwargs(sac)["replay_buffer_class"] is PathHerReplayBuffer
-    assert train.algo_kwargs(ppo)["policy_kwargs"]["features_extractor_class"] is NavigateExtractor
+    assert zoo.algo_kwargs(sac)["replay_buffer_class"] is PathHerReplayBuffer
+    assert zoo.algo_kwargs(ppo)["policy_kwargs"]["features_extractor_class"] is NavigateExtractor
     with pytest.raises(ValueError, match="replay_buffer_class must be one of"):
-        train.algo_kwargs({"replay_buffer_class": "DictReplayBuffer"})
+        zoo.algo_kwargs({"replay_buffer_class": "DictReplayBuffer"})
 
 
 def test_default_names_use_the_navigate_envs_defaults():

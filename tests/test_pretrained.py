@@ -9,6 +9,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import torch
+from stable_baselines3 import PPO
 
 from tether_gym.agents import pretrained
 from tether_gym.agents.planned import ProposalAgent
@@ -17,7 +18,7 @@ from tether_gym.evaluation import export as exporter
 from tether_gym.evaluation.cli import main
 from tether_gym.evaluation.statistics import wilson_interval
 from tether_gym.families import family
-from tether_gym.training import train
+from tether_gym.training import train, zoo
 
 TOLERANCE = 5
 """Episodes of the card's first ones whose outcome may differ: the held-out episodes are
@@ -53,7 +54,7 @@ def test_the_default_agent_was_trained_with_the_packaged_defaults():
     default needs a new agent), on the default env."""
     facts = pretrained.card("pretrained")
     assert facts["env_kwargs"] == {} and facts["env_id"] == "TetherBounce-v0"
-    assert facts["hyperparams"] == train.load_hyperparams(train.default_conf(facts["algo"]))
+    assert facts["hyperparams"] == zoo.load_hyperparams(zoo.default_conf(facts["algo"]))
 
 
 @pytest.mark.parametrize("name", sorted(pretrained.AGENTS))
@@ -114,7 +115,7 @@ def test_export_writes_a_policy_that_acts_as_the_trained_model(tmp_path):
     folder.mkdir()
     exporter.export(run_dir, "pretrained", "tether-train ...", folder=folder, episodes=100)
     agent = pretrained.load("pretrained", folder)
-    model = train.PPO.load(run_dir / "best" / "model.zip", device="cpu")
+    model = PPO.load(run_dir / "best" / "model.zip", device="cpu")
     obs = np.random.default_rng(0).uniform(-1, 1, (64, 10)).astype(np.float32)
     np.testing.assert_array_equal(agent.predict(obs)[0], model.predict(obs, deterministic=True)[0])
     facts = pretrained.card("pretrained", folder)

@@ -13,7 +13,7 @@ from tether_gym.agents.saved import load_agent
 
 pytest.importorskip("stable_baselines3")
 
-from tether_gym.training import train
+from tether_gym.training import callbacks, experiment, train, zoo
 
 # 8 envs x 64 steps: 512 timesteps per rollout, one small epoch, a tiny network.
 FAST_PARAMS = [
@@ -59,7 +59,7 @@ def test_interruption_leaves_a_checkpoint_that_resume_continues(tmp_path, monkey
     def interrupt(self):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(train.OracleEvalCallback, "run_eval", interrupt)
+    monkeypatch.setattr(callbacks.YardstickEvalCallback, "run_eval", interrupt)
     normalized = ["--timesteps", "2048", "--eval-freq", "1024", "--hyperparams", "normalize:true"]
     assert run(tmp_path, *normalized) == 130
     folder = tmp_path / "smoke"
@@ -83,7 +83,7 @@ def test_interruption_before_the_first_checkpoint_leaves_a_reusable_folder(
     def interrupt(*args):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(train, "make_model", interrupt)
+    monkeypatch.setattr(experiment, "make_model", interrupt)
     short = ["--timesteps", "512", "--eval-freq", "0"]
     assert run(tmp_path, *short) == 130
     assert "holds no model; the same command starts the run again" in capsys.readouterr().err
@@ -96,7 +96,7 @@ def test_interruption_before_the_first_checkpoint_leaves_a_reusable_folder(
 def test_train_runs_a_config_as_the_cli_does(tmp_path):
     """The seam for sweeps: `make_config` + `train()` give the CLI's run folder, periodic
     evaluations (handed to `report`), summary and resume."""
-    params = train.load_hyperparams(train.DEFAULT_CONF, train.parse_overrides(FAST_PARAMS))
+    params = zoo.load_hyperparams(zoo.DEFAULT_CONF, zoo.parse_overrides(FAST_PARAMS))
     config = train.make_config(
         "TetherBounce-v0", {"rho": [20.0, 200.0]}, params,
         n_envs=8, timesteps=1024, eval_episodes=40, eval_freq=512,
@@ -106,15 +106,15 @@ def test_train_runs_a_config_as_the_cli_does(tmp_path):
     summary = train.train(config, folder, report=reports.append)
     assert [r["timesteps"] for r in reports] == [512, 1024]
     assert summary["best_eval_success_rate"] == max(r["success_rate"] for r in reports)
-    assert yaml.safe_load((folder / "config.yaml").read_text()) == config
+    assert yaml.safe_load((folder / "config.yaml").read_text()) == config.as_dict()
     assert {"best", "last", "tb", "config.yaml", "results.md"} <= {p.name for p in folder.iterdir()}
     names = [r["name"] for r in summary["results"]]
     assert names == ["PPO (best)", "PPO (last)", "impulse oracle", "shooting oracle", "random"]
     assert summary["table"] == (folder / "results.md").read_text().strip()
-    summary = train.train({**config, "timesteps": 1536}, folder, resume=True)
+    summary = train.train(config.replace(timesteps=1536), folder, resume=True)
     assert summary["timesteps"] == saved_timesteps(folder / "last") == 1536
     with pytest.raises(ValueError, match="has 1536 timesteps"):
-        train.train({**config, "timesteps": 1536}, folder, resume=True)
+        train.train(config.as_dict() | {"timesteps": 1536}, folder, resume=True)
 
 
 SAC_TINY = [
@@ -246,7 +246,7 @@ def test_rl_zoo_trains_from_the_hyperparameter_file(tmp_path):
     pytest.importorskip("rl_zoo3")
     command = [
         sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", "TetherBounce-v0",
-        "--gym-packages", "tether_gym", "--conf-file", str(train.DEFAULT_CONF), "-n", "1024",
+        "--gym-packages", "tether_gym", "--conf-file", str(zoo.DEFAULT_CONF), "-n", "1024",
         "-f", str(tmp_path), "--seed", "0", "-params", "n_envs:4", "n_steps:128", "n_epochs:1",
     ]  # fmt: skip
     done = subprocess.run(command, capture_output=True, text=True, timeout=300)
@@ -260,5 +260,5 @@ def test_the_clone_keeps_python_train_py_and_hyperparams():
     command = [sys.executable, "train.py", "--help"]
     done = subprocess.run(command, cwd=root, capture_output=True, text=True, timeout=120)
     assert done.stdout.startswith("usage: tether-train")
-    packaged = Path(str(train.DEFAULT_CONF))
+    packaged = Path(str(zoo.DEFAULT_CONF))
     assert (root / "hyperparams" / "ppo.yml").resolve() == packaged.resolve()

@@ -18,7 +18,6 @@ from typing import Any
 from tether_gym.agents.planned import with_planner
 from tether_gym.agents.pretrained import (
     AGENTS,
-    HELD_OUT_SEED,
     POLICIES,
     TEST_EPISODES,
     agent_file,
@@ -30,6 +29,7 @@ from tether_gym.agents.saved import SB3Agent, read_config
 from tether_gym.cli import DEFAULT_ENV_ID
 from tether_gym.evaluation.runner import evaluate
 from tether_gym.families import family
+from tether_gym.seeds import HELD_OUT_SEED
 
 
 def held_out(agent: object, env_kwargs: dict, episodes: int, env_id: str = DEFAULT_ENV_ID):

@@ -16,8 +16,9 @@ import numpy as np
 from tether_gym.cli import DEFAULT_ENV_ID
 from tether_gym.evaluation.results import EvalResult, NavigationResult
 from tether_gym.families import family, load
+from tether_gym.seeds import EVALUATION_BATCH
 
-BATCH = 100
+BATCH = EVALUATION_BATCH
 """Episodes per vector-env step (the progress bar's granularity)."""
 
 

@@ -24,9 +24,8 @@ from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
 from tether_gym.agents.aim_search import AimSearch
 from tether_gym.agents.planned import BASE_KEY, PLANNERS
+from tether_gym.seeds import PRETRAIN_SEED
 
-PRETRAIN_SEED = 3_000_000
-"""Seed of the demonstration episodes (apart from training's seed + i and the evaluations')."""
 DEFAULTS = {"decisions": 50_000, "epochs": 20, "batch_size": 512, "learning_rate": 1e-3}
 """`pretrain` entries besides `planner`: maneuvers demonstrated, passes over them, the fit's
 minibatch and Adam step size."""

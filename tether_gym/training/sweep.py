@@ -91,15 +91,10 @@ from tether_gym.cli import DEFAULT_ENV_ID, env_epilog
 from tether_gym.evaluation.statistics import t_interval
 from tether_gym.families import Family, family
 from tether_gym.training.cluster import ClusterError, ray_log_to, start_ray
-from tether_gym.training.train import (
-    ALGOS,
-    check_config,
-    default_conf,
-    label,
-    load_hyperparams,
-    make_config,
-    train,
-)
+from tether_gym.training.config import RunConfig, make_config
+from tether_gym.training.experiment import check_config, train
+from tether_gym.training.variants import label
+from tether_gym.training.zoo import ALGOS, default_conf, load_hyperparams
 
 BASE_KEYS = (
     "algo", "env_id", "env_kwargs", "conf_file", "hyperparams",
@@ -281,7 +276,7 @@ def parse_base(base: dict[str, Any], folder: Path, seed: int) -> dict[str, Any]:
     options = {"n_envs": 1, "timesteps": 1, "eval_episodes": 1, "eval_freq": 1}
     given = {k: _integer(f"base.{k}", base[k], least) for k, least in options.items() if k in base}
     env_kwargs = _mapping("base.env_kwargs", base.get("env_kwargs"))
-    config = make_config(env_id, env_kwargs, params, seed=seed, algo=algo, **given)
+    config = make_config(env_id, env_kwargs, params, seed=seed, algo=algo, **given).as_dict()
     try:
         check_config(config)
     except ValueError as error:
@@ -448,7 +443,7 @@ def run_trial(params: dict[str, Any], base: dict[str, Any], seeds: list[int], ru
     results = {result["name"]: result for result in summary["results"]}
     final = {
         "timesteps": summary["timesteps"],
-        "test_success": results[f"{label(config)} (best)"]["success_rate"],
+        "test_success": results[f"{label(RunConfig.from_dict(config))} (best)"]["success_rate"],
         "test_oracle_success": results[family(config["env_id"]).yardstick]["success_rate"],
         "train_seconds": summary["train_seconds"],
         "numba_threads": numba.get_num_threads(),

@@ -12,9 +12,9 @@ machine-readable facts, read by `card`) and the text. `AGENTS` maps the names th
 the env's task (`for_env`). A navigation agent picks among the greedy planner's proposals: its
 planner is part of it, rebuilt from the card's settings when it loads, and its card says so.
 
-The card's success is measured on held-out episodes (`HELD_OUT_SEED`), apart from the
-episodes that picked the best model of a run (`train.EVAL_SEED`) and from those that picked
-the best seed of a sweep (`train.TEST_SEED`). `python -m tether_gym.agents.pretrained RUN_DIR
+The card's success is measured on held-out episodes (`tether_gym.seeds.HELD_OUT_SEED`), apart
+from the episodes that picked the best model of a run (`EVAL_SEED`) and from those that picked
+the best seed of a sweep (`TEST_SEED`). `python -m tether_gym.agents.pretrained RUN_DIR
 NAME --command ...` turns a run's `best/` model into these two files (for maintainers:
 `tether_gym.evaluation.export`, which plays the agents; this catalog only loads them).
 """
@@ -39,8 +39,6 @@ AGENTS = {
     "pretrained-stop": "navigate-stop",
 }
 """`tether-evaluate --agents` name -> file stem in this package."""
-HELD_OUT_SEED = 3_000_000
-"""Seed of the card's episodes (`evaluate`'s seed): not used in training or in picking."""
 TEST_EPISODES = 1000
 """How many first held-out episodes a card's `successes_first_*` counts cover when the card
 does not say (`test_episodes`): TetherBounce's cards, its family's `card_test_episodes`."""

@@ -1,0 +1,95 @@
+"""A training run's config: what `tether_gym.training.experiment.train` reads, saved as the run
+folder's `config.yaml` (`RunConfig.as_dict`) and read back from it (`RunConfig.from_dict`),
+folders written before a field existed included."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+CHECKPOINT_KEYS = ("num_timesteps", "train_seconds", "eval_success_rate")
+"""What a checkpoint's `config.yaml` adds to the run's (`tether_gym.training.folders`)."""
+OLD_DEFAULTS = {"algo": "ppo", "save_replay_buffer": True}
+"""Values of fields that older run folders do not record: they were PPO runs, and kept the
+replay buffer."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunConfig:
+    """One training run (the YAML on disk has these keys, in this order), checked by
+    `tether_gym.training.experiment.check_config`."""
+
+    algo: str = "ppo"
+    """The algorithm, a name of `ALGOS`."""
+    env_id: str
+    """The env's registered id."""
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    """The env's arguments, as given (the env's defaults fill the rest)."""
+    seed: int = 0
+    """Seed of the model and of the training envs (copy i: seed + i)."""
+    n_envs: int = 8
+    """Parallel training envs."""
+    timesteps: int = 1_000_000
+    """Total timesteps of training (a resumed run's too)."""
+    eval_episodes: int = 1000
+    """Episodes of each periodic evaluation and of the final table."""
+    eval_freq: int = 250_000
+    """Timesteps between periodic evaluations (0: none)."""
+    save_replay_buffer: bool = False
+    """Whether an off-policy algorithm's replay buffer is saved in `last/`."""
+    hyperparams: dict[str, Any] = field(default_factory=dict)
+    """The zoo entry: the algorithm's arguments and the zoo's and our keys (`ZOO_KEYS`)."""
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> RunConfig:
+        """The config a `config.yaml` holds (a checkpoint's extra keys ignored); ValueError
+        naming an unknown key."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(data) - names - set(CHECKPOINT_KEYS)
+        if unknown:
+            raise ValueError(f"unknown run config keys {sorted(unknown)}; known: {sorted(names)}")
+        if "env_id" not in data:
+            raise ValueError("a run config needs env_id")
+        return cls(**{**OLD_DEFAULTS, **{k: v for k, v in data.items() if k in names}})
+
+    @classmethod
+    def of(cls, config: RunConfig | Mapping[str, Any]) -> RunConfig:
+        """`config` as a RunConfig (a mapping is read by `from_dict`)."""
+        return config if isinstance(config, RunConfig) else cls.from_dict(config)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The plain data of `config.yaml`."""
+        return dataclasses.asdict(self)
+
+    def replace(self, **changes: Any) -> RunConfig:
+        return dataclasses.replace(self, **changes)
+
+
+def make_config(
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    hyperparams: dict[str, Any],
+    seed: int = 0,
+    n_envs: int | None = None,
+    timesteps: float | None = None,
+    eval_episodes: int = 1000,
+    eval_freq: float = 250_000,
+    algo: str = "ppo",
+    save_replay_buffer: bool = False,
+) -> RunConfig:
+    """A run's config from its zoo entry `hyperparams` for `algo`: `n_envs` and `timesteps`
+    default to the entry's `n_envs` and `n_timesteps`. Not checked (`check_config`)."""
+    return RunConfig(
+        algo=algo,
+        env_id=env_id,
+        env_kwargs=env_kwargs,
+        seed=seed,
+        n_envs=int(hyperparams.get("n_envs", 8) if n_envs is None else n_envs),
+        timesteps=int(hyperparams.get("n_timesteps", 1e6) if timesteps is None else timesteps),
+        eval_episodes=eval_episodes,
+        eval_freq=int(eval_freq),
+        save_replay_buffer=save_replay_buffer,
+        hyperparams=hyperparams,
+    )

@@ -1,0 +1,120 @@
+"""Hyperparameter files in rl-baselines3-zoo's format: a mapping per env id, `lin_<x>` for a
+linear schedule, `policy_kwargs` and `replay_buffer_kwargs` as Python expressions, the zoo's
+own keys (`n_timesteps`, `n_envs`, `policy`, `normalize`) beside the algorithm's arguments, and
+ours (`PLANNED_KEYS`: the planner-backed variants of `tether_gym.training.variants`)."""
+
+from __future__ import annotations
+
+from importlib.resources import files
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import torch
+import yaml
+from stable_baselines3 import PPO, SAC, HerReplayBuffer
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.utils import LinearSchedule
+
+from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtractor, ProposalPolicy
+from tether_gym.cli import DEFAULT_ENV_ID
+from tether_gym.training.her import PathHerReplayBuffer
+
+if TYPE_CHECKING:
+    from importlib.resources.abc import Traversable
+
+ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
+"""`--algo` names and their SB3 classes; each has its zoo file `hyperparams/<name>.yml`."""
+PLANNED_KEYS = (
+    "residual", "residual_scale", "pretrain", "proposals", "proposals_k", "proposals_depth",
+)  # fmt: skip
+"""Our keys of a zoo entry, read by the planner-backed variants (`residual`, `residual_scale`:
+a residual policy on a TetherNavigate planner; `pretrain`: PPO cloned from a planner first;
+`proposals`, `proposals_k`, `proposals_depth`: PPO picking among a planner's proposals)."""
+ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", *PLANNED_KEYS)
+"""Keys of a zoo entry that are not arguments of the algorithm."""
+REPLAY_BUFFERS = {"HerReplayBuffer": HerReplayBuffer, "PathHerReplayBuffer": PathHerReplayBuffer}
+"""`replay_buffer_class` names a zoo entry may give (hindsight relabeling for goal envs)."""
+EXPRESSION_NAMES = {"dict": dict, "nn": torch.nn, "NavigateExtractor": NavigateExtractor}
+"""What a zoo expression (`policy_kwargs`, `replay_buffer_kwargs`) may name."""
+POLICIES = {
+    "AimPolicy": {"ppo": AimPolicy, "sac": AimSACPolicy},
+    "ProposalPolicy": {"ppo": ProposalPolicy},
+}
+"""Policy names of ours a zoo entry's `policy` may give, besides SB3's ("MlpPolicy", ...), with
+their class for each algorithm that takes them (SB3 too resolves a name by algorithm)."""
+
+
+def default_conf(algo: str) -> Traversable:
+    """The packaged hyperparameter file of `algo` (a `Path` in an installed or editable package)."""
+    return files("tether_gym.training") / "hyperparams" / f"{algo}.yml"
+
+
+DEFAULT_CONF = default_conf("ppo")
+"""The packaged PPO hyperparameters, those of `make train`."""
+
+
+def parse_overrides(items: list[str]) -> dict[str, Any]:
+    """`--hyperparams key:value ...` as a mapping (values are YAML scalars); ValueError if
+    malformed."""
+    overrides = {}
+    for item in items:
+        key, sep, value = item.partition(":")
+        if not sep or not key:
+            raise ValueError(f"--hyperparams takes key:value pairs, got {item!r}")
+        overrides[key] = yaml.safe_load(value)
+    return overrides
+
+
+def load_hyperparams(
+    path: Path | Traversable,
+    overrides: dict[str, Any] | None = None,
+    env_id: str = DEFAULT_ENV_ID,
+) -> dict[str, Any]:
+    """The zoo entry for `env_id` in `path`, with `overrides` applied.
+
+    Raises ValueError for an unreadable file or a missing entry; the values themselves are
+    checked by `RunConfig.check`.
+    """
+    try:
+        conf = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as error:
+        raise ValueError(f"cannot parse the hyperparameter file {str(path)!r}: {error}") from None
+    if not isinstance(conf, dict) or not isinstance(conf.get(env_id), dict):
+        raise ValueError(f"hyperparameter file {str(path)!r} has no mapping for {env_id!r}")
+    return {**conf[env_id], **(overrides or {})}
+
+
+def schedule(value: Any) -> Any:
+    """The zoo's `lin_<x>`: linear decay from x to 0 over training; a number stays constant."""
+    if isinstance(value, str) and value.startswith("lin_"):
+        return LinearSchedule(float(value[4:]), 0.0, 1.0)
+    return float(value)
+
+
+def expression(text: str) -> Any:
+    """The zoo's convention for dict values: a Python expression, e.g. "dict(net_arch=[64])",
+    over `EXPRESSION_NAMES`."""
+    return eval(text, {"__builtins__": {}, **EXPRESSION_NAMES})
+
+
+def algo_kwargs(params: dict[str, Any]) -> dict[str, Any]:
+    """The algorithm's keyword arguments in a zoo entry (schedules, policy_kwargs and
+    replay_buffer_kwargs evaluated, replay_buffer_class by name)."""
+    kwargs = {k: v for k, v in params.items() if k not in ZOO_KEYS}
+    try:
+        for key in ("learning_rate", "clip_range", "clip_range_vf"):
+            if kwargs.get(key) is not None:
+                kwargs[key] = schedule(kwargs[key])
+        for key in ("policy_kwargs", "replay_buffer_kwargs"):
+            if isinstance(kwargs.get(key), str):
+                kwargs[key] = expression(kwargs[key])
+        buffer = kwargs.get("replay_buffer_class")
+        if isinstance(buffer, str):
+            if buffer not in REPLAY_BUFFERS:
+                raise ValueError(f"replay_buffer_class must be one of {sorted(REPLAY_BUFFERS)}")
+            kwargs["replay_buffer_class"] = REPLAY_BUFFERS[buffer]
+        if isinstance(params.get("normalize"), str):
+            expression(params["normalize"])
+    except Exception as error:
+        raise ValueError(f"bad hyperparameter value: {error}") from None
+    return kwargs
