@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import importlib.util
 
 import pytest
 
-from tether_gym import cli, training
+from tether_gym import arguments, training
 from tether_gym.envs import EnvConfig
 from tether_gym.evaluation import cli as evaluate
 
@@ -39,17 +40,17 @@ def test_both_commands_have_a_flag_per_envconfig_field():
      ("heading", "heading"), ("'mixed'", "mixed"), ("lin_1e-3", "lin_1e-3")],
 )  # fmt: skip
 def test_values_are_python_literals_or_plain_words(text, value):
-    assert cli.parse_value(text) == value
+    assert arguments.parse_value(text) == value
 
 
 def test_env_from_args_merges_flags_and_env_kwargs_as_yaml_stores_them():
     args = evaluate.build_parser().parse_args(
         ["--rho", "5", "100", "--task", "heading", "--env-kwargs", "inertia_ratio:(0.3, 2)"]
     )
-    env_id, kwargs = cli.env_from_args(args)
+    env_id, kwargs = arguments.env_from_args(args)
     assert env_id == "TetherBounce-v0"
     assert kwargs == {"inertia_ratio": [0.3, 2], "task": "heading", "rho": [5, 100]}
-    assert cli.given_env_options(args) == ["--env-kwargs", "--task", "--rho"]
+    assert arguments.given_env_options(args) == ["--env-kwargs", "--task", "--rho"]
 
 
 def hide(monkeypatch, *names: str) -> None:
@@ -111,7 +112,7 @@ def test_an_unknown_env_kwargs_key_lists_the_valid_ones(capsys):
     assert "TetherNavigate-v2 has no argument 'n_obstacle'; its arguments: task, " in err
     assert "n_obstacles" in err and "layout" in err
     with pytest.raises(ValueError, match="has no argument 'n_anchors'; its arguments: task, dyn"):
-        cli.check_env("TetherBounce-v0", {"n_anchors": 3})
+        arguments.check_env("TetherBounce-v0", {"n_anchors": 3})
 
 
 def test_the_progress_flag_has_one_name_across_the_commands():
@@ -122,3 +123,32 @@ def test_the_progress_flag_has_one_name_across_the_commands():
     for parser in (evaluate.build_parser(), train.build_parser()):
         assert parser.parse_args(["--no-progress-bar"]).no_progress_bar
     assert evaluate.build_parser().parse_args(["--no-progress"]).no_progress_bar
+
+
+def test_the_dispatcher_runs_each_console_script(capsys):
+    """`tether COMMAND ...` is the console script of that name: each target imports, and the
+    rest of the command line reaches it."""
+    from tether_gym import cli
+
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(["--help"])
+    assert exit_.value.code == 0
+    listing = capsys.readouterr().out
+    for name, command in cli.COMMANDS.items():
+        assert f"  {name} " in listing
+        module, _, function = command.target.partition(":")
+        assert callable(getattr(importlib.import_module(module), function))
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(["evaluate", "--help"])
+    assert exit_.value.code == 0
+    assert "--agents" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        cli.main(["tune"])
+    assert "invalid choice: 'tune'" in capsys.readouterr().err
+
+
+def test_the_dispatchers_old_names_warn_and_still_work():
+    from tether_gym import cli
+
+    with pytest.warns(DeprecationWarning, match="tether_gym.arguments.check_env"):
+        assert cli.check_env is arguments.check_env

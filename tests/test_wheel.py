@@ -19,6 +19,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGED = [
     "tether_gym/cli.py",
+    "tether_gym/arguments.py",
     "tether_gym/agents/oracle.py",
     "tether_gym/agents/random_agent.py",
     "tether_gym/agents/evaluate.py",

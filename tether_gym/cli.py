@@ -1,210 +1,87 @@
-"""What the console scripts share: the env's arguments from one declaration, the extra check.
+"""`tether COMMAND ...`: one entry to every command of the package.
 
-`tether-train` and `tether-evaluate` take `--env ID` and rl-zoo style `--env-kwargs key:value
-...`, plus one named flag per field of TetherBounce-v0's `EnvConfig` (`--task`, `--rho`, ...),
-generated here so that the flags cannot drift from the env. Values are Python literals
-(`rho:(5, 100)`, `stiffness:3000`), a plain word is a string (`task:heading`). The env validates
-them itself: `check_env` builds it once, so a bad value fails with the env's own error before
-any work, and an unknown key lists the env's arguments. `--help` shows the Arguments table of
-the env's docstring (`env_help`): the one chosen with `--env`, else both envs'.
+    tether train --env TetherNavigate_PostsReach-v2     # = tether-train ...
+    tether evaluate --agents pretrained oracle          # = tether-evaluate ...
+    python -m tether_gym sweep sweeps/seeds.yml         # the same dispatcher
+
+Each command is the console script of the same name (`tether-train`, ...), given the rest of
+the command line; `COMMANDS` names where each lives, imported only when it runs, so that
+`tether --help` and a command without the training extra start fast.
 """
 
 from __future__ import annotations
 
 import argparse
-import ast
-import dataclasses
-import importlib.util
-import inspect
-import typing
+import importlib
+import sys
+import warnings
 from collections.abc import Sequence
-from typing import Any
-
-import gymnasium as gym
-from gymnasium.envs.registration import load_env_creator
-
-from tether_gym.envs import EnvConfig  # the one place the CLIs learn the env's arguments
-from tether_gym.families import FAMILIES
-
-DEFAULT_ENV_ID = "TetherBounce-v0"
-HELP_ENV_IDS = tuple(env_family.env_id for env_family in FAMILIES)
-"""The envs whose arguments `--help` lists when no `--env` is given: each family's main id."""
-ENV_DEFAULTS: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(EnvConfig)}
-"""TetherBounce-v0's arguments (`EnvConfig`'s fields) and their defaults."""
-TRAIN_EXTRA = ("stable_baselines3", "torch", "tensorboard", "yaml", "rich")
-"""Import names of the optional extra "train" (pyproject.toml)."""
-SWEEP_EXTRA = (*TRAIN_EXTRA, "ray", "optuna", "pandas")
-"""Import names of the optional extra "sweep", which includes "train"."""
+from typing import Any, NamedTuple
 
 
-def require_extra(
-    feature: str, modules: tuple[str, ...] = TRAIN_EXTRA, extra: str = "train"
-) -> None:
-    """ModuleNotFoundError with the install command if a module of the optional `extra` is
-    missing: checked before importing any of them, so the message is the first thing a user
-    sees instead of a traceback from deep inside an import."""
-    missing = [name for name in modules if importlib.util.find_spec(name) is None]
-    if missing:
-        raise ModuleNotFoundError(
-            f'{feature} needs the optional extra "{extra}" ({", ".join(missing)} not '
-            f'installed): pip install "tether-gym[{extra}]"',
-            name=missing[0],
-        )
+class Command(NamedTuple):
+    target: str
+    """"module:function" taking the rest of the command line and returning an exit status."""
+    summary: str
 
 
-def parse_value(text: str) -> Any:
-    """A command-line value: a Python literal, else the text itself (a plain word)."""
-    try:
-        return ast.literal_eval(text)
-    except (ValueError, SyntaxError):
-        return text
+COMMANDS = {
+    "train": Command(
+        "tether_gym.training:main", "train PPO or SAC and compare it with its yardstick"
+    ),
+    "evaluate": Command(
+        "tether_gym.evaluation.cli:main", "play agents on the same seeded episodes"
+    ),
+    "sweep": Command(
+        "tether_gym.training:sweep_main", "run training over a grid or search (Ray Tune)"
+    ),
+    "record": Command("tether_gym.agents.record:main", "record an agent's episodes as a GIF"),
+    "figures": Command("tether_gym.figures:main", "draw the paper's figures"),
+    "export": Command(
+        "tether_gym.evaluation.export:main", "turn a run's best model into a pretrained agent"
+    ),
+}
+"""The subcommands, in the order `--help` lists them."""
+MOVED_TO_ARGUMENTS = (
+    "DEFAULT_ENV_ID", "HELP_ENV_IDS", "ENV_DEFAULTS", "TRAIN_EXTRA", "SWEEP_EXTRA",
+    "require_extra", "parse_value", "env_arguments", "env_help", "chosen_env", "env_epilog",
+    "add_env_arguments", "given_env_options", "env_from_args", "check_env",
+)  # fmt: skip
+"""The env-argument helpers this module held before it became the dispatcher."""
 
 
-def _flag(name: str) -> str:
-    return "--" + name.replace("_", "-")
-
-
-def _takes_range(hint) -> bool:
-    """Whether an `EnvConfig` field's type admits a (low, high) tuple."""
-    options = typing.get_args(hint) if typing.get_origin(hint) is not tuple else (hint,)
-    return any(typing.get_origin(option) is tuple for option in options)
-
-
-def env_arguments(env_id: str) -> dict[str, Any]:
-    """The keyword arguments of a registered env and their defaults: its constructor's, then
-    those its registration sets (a ladder id's `layout`, ...). ValueError for an unknown id."""
-    try:
-        spec = gym.spec(env_id)
-    except gym.error.Error as error:
-        raise ValueError(f"--env: {error}") from None
-    creator = load_env_creator(spec.entry_point) if isinstance(spec.entry_point, str) else None
-    parameters = inspect.signature(creator).parameters.values() if creator else ()
-    variadic = (inspect.Parameter.VAR_POSITIONAL, inspect.Parameter.VAR_KEYWORD)
-    defaults = {p.name: p.default for p in parameters if p.kind not in variadic}
-    return {**defaults, **spec.kwargs}
-
-
-def env_help(env_id: str) -> str:
-    """The Arguments section of the env's docstring (its table of keyword arguments), and the
-    arguments its registration sets."""
-    spec = gym.spec(env_id)
-    creator = load_env_creator(spec.entry_point)
-    doc = inspect.getdoc(creator) or ""
-    start = doc.find("## Arguments")
-    if start < 0:
-        section = ", ".join(env_arguments(env_id))
-    else:
-        end = doc.find("\n## ", start + 1)
-        section = doc[start + len("## Arguments") : end if end >= 0 else None].strip("\n")
-    text = f"{env_id} ({creator.__name__}) takes, as --env-kwargs KEY:VALUE:\n{section}"
-    if spec.kwargs:
-        shown = ", ".join(
-            f"{key}=<a text map>"
-            if isinstance(value, str) and "\n" in value
-            else f"{key}={value!r}"
-            for key, value in spec.kwargs.items()
-        )
-        text += f"\n\n{env_id} is registered with {shown}."
-    return text
-
-
-def chosen_env(argv: Sequence[str] | None) -> str | None:
-    """The `--env` given in `argv` (None if none or unknown): picks the arguments `--help`
-    shows."""
-    probe = argparse.ArgumentParser(add_help=False)
-    probe.add_argument("--env")
-    known, _ = probe.parse_known_args(argv)
-    if known.env is None:
-        return None
-    try:
-        gym.spec(known.env)
-    except gym.error.Error:
-        return None
-    return known.env
-
-
-def env_epilog(env_id: str | None = None) -> str:
-    """`--help`'s closing text: the arguments of `env_id`, else of both envs (`HELP_ENV_IDS`)."""
-    ids = HELP_ENV_IDS if env_id is None else (env_id,)
-    hint = (
-        ""
-        if env_id
-        else "\n\n(--env ID --help shows one env's; the ladder ids are TetherNavigate's)"
+def __getattr__(name: str) -> Any:
+    """The names of `MOVED_TO_ARGUMENTS`, with a DeprecationWarning naming their module."""
+    if name not in MOVED_TO_ARGUMENTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    warnings.warn(
+        f"tether_gym.cli.{name} is deprecated: use tether_gym.arguments.{name}",
+        DeprecationWarning,
+        stacklevel=2,
     )
-    return "Env arguments\n\n" + "\n\n".join(env_help(i) for i in ids) + hint
+    return getattr(importlib.import_module("tether_gym.arguments"), name)
 
 
-def add_env_arguments(parser: argparse.ArgumentParser, env_id: str | None = None) -> None:
-    """`--env`, `--env-kwargs` and one flag per `EnvConfig` field, all defaulting to None
-    (not given: the env's own default); the arguments of `env_id` (else of both envs) close
-    `--help` (the parser needs a `RawDescriptionHelpFormatter` to keep their table)."""
-    parser.epilog = env_epilog(env_id)
-    group = parser.add_argument_group(
-        "environment",
-        "--env-kwargs and the named flags (the fields of TetherBounce-v0's EnvConfig; --task, "
-        "--dynamics, --rho and --stiffness are TetherNavigate's arguments too) set the env's "
-        "keyword arguments, listed at the end; values are Python literals or plain words, "
-        "validated by the env itself before any work.",
+def build_parser() -> argparse.ArgumentParser:
+    listing = "\n".join(f"  {name:<10}{command.summary}" for name, command in COMMANDS.items())
+    parser = argparse.ArgumentParser(
+        prog="tether",
+        description="One entry to every command of tether_gym.",
+        epilog=f"commands:\n{listing}\n\n`tether COMMAND --help` shows a command's options.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    group.add_argument("--env", metavar="ID", help=f"registered env id (default {DEFAULT_ENV_ID})")
-    group.add_argument(
-        "--env-kwargs",
-        nargs="+",
-        action="extend",
-        default=[],
-        metavar="KEY:VALUE",
-        help="env keyword arguments, e.g. task:heading rho:(5,100)",
-    )
-    hints = typing.get_type_hints(EnvConfig)
-    for name, default in ENV_DEFAULTS.items():
-        if _takes_range(hints[name]):
-            nargs, metavar = "+", ("LOW", "HIGH")
-            text = f"one value, or LOW HIGH drawn per episode (default {default})"
-        else:
-            nargs, metavar, text = None, "VALUE", f"default {default!r}"
-        group.add_argument(_flag(name), nargs=nargs, type=parse_value, metavar=metavar, help=text)
+    parser.add_argument("command", choices=COMMANDS, metavar="COMMAND", help="see below")
+    parser.add_argument("args", nargs=argparse.REMAINDER, help="the command's arguments")
+    return parser
 
 
-def given_env_options(args: argparse.Namespace) -> list[str]:
-    """The env flags given on the command line (for a resumed run, which keeps its env)."""
-    names = ["env", "env_kwargs", *ENV_DEFAULTS]
-    return [_flag(name) for name in names if getattr(args, name) not in (None, [])]
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the subcommand; returns its exit status."""
+    args = build_parser().parse_args(argv)
+    module, _, function = COMMANDS[args.command].target.partition(":")
+    status = getattr(importlib.import_module(module), function)(args.args)
+    return 0 if status is None else int(status)
 
 
-def env_from_args(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
-    """The env id and the keyword arguments given, validated by the env (ValueError).
-
-    Several values of a flag make a list, and a tuple becomes a list: as YAML stores them.
-    """
-    kwargs: dict[str, Any] = {}
-    for item in args.env_kwargs:
-        key, sep, text = item.partition(":")
-        if not sep or not key.isidentifier():
-            raise ValueError(f"--env-kwargs takes key:value pairs, got {item!r}")
-        kwargs[key] = parse_value(text)
-    for name in ENV_DEFAULTS:
-        value = getattr(args, name)
-        if value is None:
-            continue
-        if name in kwargs:
-            raise ValueError(f"{name} is given twice: as {_flag(name)} and in --env-kwargs")
-        kwargs[name] = value[0] if isinstance(value, list) and len(value) == 1 else value
-    kwargs = {k: list(v) if isinstance(v, tuple) else v for k, v in kwargs.items()}
-    env_id = args.env or DEFAULT_ENV_ID
-    check_env(env_id, kwargs)
-    return env_id, kwargs
-
-
-def check_env(env_id: str, env_kwargs: dict[str, Any]) -> None:
-    """Build the env once: its own error for a bad argument, as a ValueError (an unknown id,
-    and an unknown keyword with the env's valid ones)."""
-    valid = env_arguments(env_id)
-    unknown = [key for key in env_kwargs if key not in valid]
-    if unknown:
-        raise ValueError(
-            f"{env_id} has no argument {unknown[0]!r}; its arguments: {', '.join(valid)}"
-        )
-    try:
-        gym.make(env_id, **env_kwargs).close()
-    except (TypeError, gym.error.Error) as error:
-        raise ValueError(f"{env_id}: {error}") from None
+if __name__ == "__main__":
+    sys.exit(main())

@@ -22,7 +22,7 @@ import gymnasium as gym
 import numpy as np
 
 from tether_gym.agents.registry import make_agent
-from tether_gym.cli import add_env_arguments, env_from_args
+from tether_gym.arguments import add_env_arguments, env_from_args
 
 GIF_COLOURS = 128
 """The GIF's one palette: the drawing's few colours and their anti-aliased blends."""

@@ -15,7 +15,7 @@ from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner
 from tether_gym.agents.random_agent import RandomAgent
 from tether_gym.agents.saved import load_agent
-from tether_gym.cli import DEFAULT_ENV_ID, require_extra
+from tether_gym.arguments import DEFAULT_ENV_ID, require_extra
 from tether_gym.families import FAMILIES, check_agent, family
 
 

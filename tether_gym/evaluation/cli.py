@@ -14,7 +14,7 @@ import json
 from pathlib import Path
 
 from tether_gym.agents.registry import make_agent
-from tether_gym.cli import add_env_arguments, chosen_env, env_from_args
+from tether_gym.arguments import add_env_arguments, chosen_env, env_from_args
 from tether_gym.evaluation.reports import format_table, paired_table, plot
 from tether_gym.evaluation.runner import evaluate
 from tether_gym.families import family

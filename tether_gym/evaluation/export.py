@@ -26,7 +26,7 @@ from tether_gym.agents.pretrained import (
 )
 from tether_gym.agents.registry import make_agent
 from tether_gym.agents.saved import SB3Agent, read_config
-from tether_gym.cli import DEFAULT_ENV_ID
+from tether_gym.arguments import DEFAULT_ENV_ID
 from tether_gym.evaluation.runner import evaluate
 from tether_gym.families import family
 from tether_gym.seeds import HELD_OUT_SEED

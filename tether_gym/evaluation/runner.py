@@ -13,7 +13,7 @@ import time
 import gymnasium as gym
 import numpy as np
 
-from tether_gym.cli import DEFAULT_ENV_ID
+from tether_gym.arguments import DEFAULT_ENV_ID
 from tether_gym.evaluation.results import EvalResult, NavigationResult
 from tether_gym.families import family, load
 from tether_gym.seeds import EVALUATION_BATCH

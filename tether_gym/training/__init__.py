@@ -1,19 +1,23 @@
 """Training (stable-baselines3) and sweeps (Ray Tune) on the tether envs: the optional extras
-"train" and "sweep". It builds on `tether_gym.agents` (evaluation, planners, playing a saved
-policy), which never imports it.
+"train" and "sweep". It builds on `tether_gym.agents` and `tether_gym.evaluation`, which never
+import it.
 
-`tether_gym.training.train` holds the `tether-train` command and `train(config, run_dir)`, the
-run behind it; `tether_gym.training.sweep` the `tether-sweep` command, which runs `train` as Ray
-Tune trials (`tether_gym.training.cluster` starts or joins Ray); `tether_gym.training.sb3` the
-SB3 `VecEnv` adapter over the native vector env; `residual`, `proposals` and `pretrain` the
-planner-backed policies' training; `hyperparams/<algo>.yml` the default hyperparameters
-(package data, rl-baselines3-zoo's format).
+- `train`: the `tether-train` command line; `experiment`: the run in named phases (`train`);
+- `config`: the typed run config (`RunConfig`, the run folder's config.yaml); `zoo`: the
+  hyperparameter files in rl-baselines3-zoo's format (`hyperparams/<algo>.yml`, package data);
+- `variants`: the planner-backed variants (residual, proposals, pretrain, aim policy), whose
+  training envs are `residual`, `proposals` and `pretrain`;
+- `folders`: run folders and checkpoints; `callbacks`: the periodic evaluation against the
+  yardstick (`yardsticks`); `sb3`: the SB3 `VecEnv` adapter over the native vector env; `her`:
+  hindsight relabeling over the path of a maneuver;
+- `sweep`: the `tether-sweep` command (`cluster` starts or joins Ray); `summary`: results over
+  seeds.
 """
 
 import sys
 from collections.abc import Callable
 
-from tether_gym.cli import SWEEP_EXTRA, TRAIN_EXTRA, require_extra
+from tether_gym.arguments import SWEEP_EXTRA, TRAIN_EXTRA, require_extra
 
 INTERRUPTED = 130
 """Exit status after Ctrl-C (128 + SIGINT), as a shell reports it."""

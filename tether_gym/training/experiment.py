@@ -21,7 +21,7 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from tether_gym.agents.saved import read_config
-from tether_gym.cli import check_env
+from tether_gym.arguments import check_env
 from tether_gym.evaluation.reports import format_table
 from tether_gym.evaluation.results import EvalResult, NavigationResult
 from tether_gym.evaluation.runner import evaluate

@@ -87,7 +87,7 @@ from ray.tune.search.optuna import OptunaSearch
 from ray.tune.search.repeater import TRIAL_INDEX
 from ray.tune.search.sample import Categorical, Domain
 
-from tether_gym.cli import DEFAULT_ENV_ID, env_epilog
+from tether_gym.arguments import DEFAULT_ENV_ID, env_epilog
 from tether_gym.evaluation.statistics import t_interval
 from tether_gym.families import Family, family
 from tether_gym.training.cluster import ClusterError, ray_log_to, start_ray

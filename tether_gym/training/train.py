@@ -38,7 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from tether_gym.agents.saved import read_config
-from tether_gym.cli import (
+from tether_gym.arguments import (
     DEFAULT_ENV_ID,
     add_env_arguments,
     chosen_env,

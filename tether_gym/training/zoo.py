@@ -16,7 +16,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.utils import LinearSchedule
 
 from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtractor, ProposalPolicy
-from tether_gym.cli import DEFAULT_ENV_ID
+from tether_gym.arguments import DEFAULT_ENV_ID
 from tether_gym.training.her import PathHerReplayBuffer
 
 if TYPE_CHECKING:

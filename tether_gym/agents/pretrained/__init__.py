@@ -29,7 +29,7 @@ import gymnasium as gym
 
 from tether_gym.agents.planned import with_planner
 from tether_gym.agents.saved import SB3Agent
-from tether_gym.cli import require_extra
+from tether_gym.arguments import require_extra
 from tether_gym.families import check_agent, family
 
 AGENTS = {

@@ -1,0 +1,7 @@
+"""`python -m tether_gym COMMAND ...`: the `tether` dispatcher."""
+
+import sys
+
+from tether_gym.cli import main
+
+sys.exit(main())
