@@ -5,8 +5,9 @@ TetherNavigate), each built from its runner's arrays (`from_run`) and tabulated 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -24,8 +25,26 @@ NAVIGATION_FIELDS = (
 )  # fmt: skip
 
 
+def _cell(attribute: str, spec: str) -> Callable[[Any], str]:
+    return lambda result: format(getattr(result, attribute), spec)
+
+
 class _Summary:
     summary_fields: ClassVar[tuple[str, ...]]
+    columns: ClassVar[tuple[tuple[str, Callable[[Any], str]], ...]]
+    """The table's columns after the agent, its episodes and its success: (header, cell)."""
+
+    @classmethod
+    def table(cls, results: list) -> str:
+        """The results as one Markdown table."""
+        headers = ["agent", "episodes", "success (95% CI)", *(h for h, _ in cls.columns)]
+        lines = [f"| {' | '.join(headers)} |", "|---|---:|---|" + "---:|" * len(cls.columns)]
+        for r in results:
+            low, high = r.success_ci
+            success = f"{100 * r.success_rate:.1f}% [{100 * low:.1f}, {100 * high:.1f}]"
+            cells = [r.name, str(r.episodes), success, *(cell(r) for _, cell in cls.columns)]
+            lines.append(f"| {' | '.join(cells)} |")
+        return "\n".join(lines)
 
     def summary(self) -> dict:
         """The summary fields (NaN as None, so that the JSON is standard)."""
@@ -38,6 +57,13 @@ class EvalResult(_Summary):
     """One agent's evaluation: the summary and the per-episode arrays behind it."""
 
     summary_fields: ClassVar[tuple[str, ...]] = SUMMARY_FIELDS
+    columns = (
+        ("heading error mean (deg)", _cell("heading_error_mean_deg", ".3g")),
+        ("heading error p95 (deg)", _cell("heading_error_p95_deg", ".3g")),
+        ("deadspin residual", _cell("deadspin_residual_mean", ".3g")),
+        ("reward", _cell("reward_mean", ".3f")),
+        ("episodes/s", _cell("episodes_per_second", ",.0f")),
+    )
     name: str
     episodes: int
     success_rate: float
@@ -85,30 +111,23 @@ class EvalResult(_Summary):
             reward=run["reward"],
         )
 
-    @staticmethod
-    def table(results: list[EvalResult]) -> str:
-        """The results as one Markdown table."""
-        lines = [
-            "| agent | episodes | success (95% CI) | heading error mean (deg) | heading error p95 "
-            "(deg) | deadspin residual | reward | episodes/s |",
-            "|---|---:|---|---:|---:|---:|---:|---:|",
-        ]
-        for r in results:
-            low, high = r.success_ci
-            lines.append(
-                f"| {r.name} | {r.episodes} | {100 * r.success_rate:.1f}% "
-                f"[{100 * low:.1f}, {100 * high:.1f}] | {r.heading_error_mean_deg:.3g} | "
-                f"{r.heading_error_p95_deg:.3g} | {r.deadspin_residual_mean:.3g} | "
-                f"{r.reward_mean:.3f} | {r.episodes_per_second:,.0f} |"
-            )
-        return "\n".join(lines)
-
 
 @dataclass
 class NavigationResult(_Summary):
     """One agent's evaluation on TetherNavigate: the summary and the per-episode arrays."""
 
     summary_fields: ClassVar[tuple[str, ...]] = NAVIGATION_FIELDS
+    columns = (
+        # "-": no success to count the maneuvers of
+        (
+            "maneuvers to goal",
+            lambda r: "-" if math.isnan(r.maneuvers_mean) else f"{r.maneuvers_mean:.2f}",
+        ),
+        ("final distance (m)", _cell("final_distance_mean", ".3f")),
+        ("path length (m)", _cell("path_length_mean", ".2f")),
+        ("reward", _cell("reward_mean", ".3f")),
+        ("episodes/s", _cell("episodes_per_second", ",.1f")),
+    )
     name: str
     episodes: int
     success_rate: float
@@ -153,26 +172,6 @@ class NavigationResult(_Summary):
             path_length=run["path_length"],
             reward=run["reward"],
         )
-
-    @staticmethod
-    def table(results: list[NavigationResult]) -> str:
-        """The results as one Markdown table."""
-        lines = [
-            "| agent | episodes | success (95% CI) | maneuvers to goal | final distance (m) | "
-            "path length (m) | reward | episodes/s |",
-            "|---|---:|---|---:|---:|---:|---:|---:|",
-        ]
-        for r in results:
-            low, high = r.success_ci
-            # "-": no success to count the maneuvers of
-            to_goal = "-" if math.isnan(r.maneuvers_mean) else f"{r.maneuvers_mean:.2f}"
-            lines.append(
-                f"| {r.name} | {r.episodes} | {100 * r.success_rate:.1f}% "
-                f"[{100 * low:.1f}, {100 * high:.1f}] | {to_goal} | "
-                f"{r.final_distance_mean:.3f} | {r.path_length_mean:.2f} | {r.reward_mean:.3f} | "
-                f"{r.episodes_per_second:,.1f} |"
-            )
-        return "\n".join(lines)
 
 
 def _mean(values: np.ndarray) -> float:
