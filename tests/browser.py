@@ -27,6 +27,20 @@ IMAGES = """[...document.images].map(i => ({src: i.getAttribute('src'), complete
     width: i.naturalWidth}))"""
 
 
+BOX = """(() => {
+    const a = document.querySelector(%s), b = document.querySelector(%s);
+    if (!a || !b) return null;
+    const top = a.getBoundingClientRect().top + scrollY - 16;
+    const bottom = b.getBoundingClientRect().top + scrollY;
+    const left = a.parentElement.getBoundingClientRect().left + scrollX - 16;
+    return {x: Math.max(0, left), y: Math.max(0, top),
+            width: Math.min(document.documentElement.clientWidth - left, 1100),
+            height: Math.min(16000, bottom - top)};
+})()"""
+PAGE_BOX = """({x: 0, y: 0, width: document.documentElement.clientWidth,
+    height: Math.min(16000, document.documentElement.scrollHeight)})"""
+
+
 def chromium() -> str | None:
     """The Chromium executable (Debian's package `chromium`), or None."""
     return shutil.which("chromium") or shutil.which("chromium-browser")
@@ -142,8 +156,19 @@ class Browser:
                 found.append(f"{params['entry']['text']} {params['entry'].get('url', '')}")
         return found
 
-    def screenshot(self, path: Path) -> None:
-        data = self.send("Page.captureScreenshot", format="png")["data"]
+    def screenshot(
+        self, path: Path, between: tuple[str, str] | None = None, full: bool = False
+    ) -> None:
+        """The viewport; with `between`, the page from the top of the first element one CSS
+        selector matches to the top of the other's (a section); with `full`, the whole page
+        (cut at 16,000 px)."""
+        params: dict = {"format": "png"}
+        if between is not None or full:
+            box = self.evaluate(BOX % tuple(map(json.dumps, between)) if between else PAGE_BOX)
+            if box is None:
+                raise ValueError(f"no elements match {between}")
+            params.update(captureBeyondViewport=True, clip={**box, "scale": 1})
+        data = self.send("Page.captureScreenshot", **params)["data"]
         path.write_bytes(base64.b64decode(data))
 
     def close(self) -> None:
