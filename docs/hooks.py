@@ -566,13 +566,24 @@ def help_prose(text: str) -> str:
     """A parser's description or epilog (written as Markdown, as the docstrings they often
     are) for a page: its tables set off by blank lines and joined to one row per entry,
     indented blocks kept, `<` escaped elsewhere."""
-    lines = []
+    lines: list[str] = []
     for line in textwrap.dedent(text).strip("\n").splitlines():
         table = _is_row(line)
         if lines and lines[-1].strip() and table != _is_row(lines[-1]):
             lines.append("")  # a table needs blank lines around it
+        listed = _LISTED.match(line)
+        if listed:  # argparse's "  name   what it does" (a dispatcher's commands): a list
+            if lines and lines[-1].strip() and not lines[-1].startswith("- "):
+                lines.append("")
+            lines.append(f"- `{listed[1]}`: {_escape(listed[2])}")
+            continue
+        if lines and lines[-1].startswith("- ") and line.strip():
+            lines.append("")
         lines.append(line if table or line.startswith("    ") else _escape(line))
     return join_table_rows("\n".join(lines))
+
+
+_LISTED = re.compile(r"^ {2,3}(\S+(?: \S+)*?) {2,}(\S.*)$")
 
 
 # --- tables in docstrings ------------------------------------------------------------------

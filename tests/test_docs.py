@@ -491,7 +491,10 @@ def test_the_cli_reference_renders_any_argparse_parser():
     parser.add_argument("path", help="where")
     commands = parser.add_subparsers(title="commands", dest="command")
     commands.add_parser("run", help="run it")
-    parser.epilog = "Its arguments:\n| name | meaning |\n|---|---|\n| `a` | one |\n|  | more |"
+    parser.epilog = (
+        "Its arguments:\n| name | meaning |\n|---|---|\n| `a` | one |\n|  | more |\n\n"
+        "commands:\n  run     run it\n  stop    stop it\nThe end."
+    )
     text = hooks.parser_markdown(parser)
     assert text.startswith("```text\nusage: tool [-h] [--count COUNT]")
     assert "Does &lt;things>." in text
@@ -499,6 +502,7 @@ def test_the_cli_reference_renders_any_argparse_parser():
     assert "| `path` | where |" in text
     assert "| command | meaning |\n|---|---|\n| `run` | run it |" in text
     assert "Its arguments:\n\n| name | meaning |\n|---|---|\n| `a` | one more |" in text
+    assert "commands:\n\n- `run`: run it\n- `stop`: stop it\n\nThe end." in text
 
 
 def test_the_cli_reference_catches_the_parser_of_a_console_script():
