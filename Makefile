@@ -35,9 +35,9 @@ test: $(STAMP)
 docs: $(STAMP)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
 
-# A headless Chromium (Debian's package: apt-get install chromium) opens the built site: the
-# home page and an environment page render with their GIFs and no console error; screenshots
-# in build/screenshots/. In `make test` the same check skips when chromium is absent.
+# A headless Chromium (Debian's package: apt-get install chromium) opens every page of the built
+# site at 1280 px: no console error, no table cut off, each table with its source's rows, the
+# GIFs loaded; screenshots in build/screenshots/. In `make test` it skips without chromium.
 docs-check: $(STAMP)
 	TETHER_REQUIRE_CHROMIUM=1 $(BIN)/python -m pytest -q tests/test_docs.py -k chromium
 

@@ -1,5 +1,6 @@
 """The docs' generated parts: results tables read from the repository's results files, the
-command-line help of the console scripts, the ladder's ids.
+command-line reference of the console scripts, the ladder's ids; and the docstrings' tables
+joined to one row per entry (`JoinTableRows`, a griffe extension in mkdocs.yml).
 
 A page (or the README) writes a placeholder, a call of one of `MACROS` with literal arguments:
 
@@ -28,6 +29,7 @@ import json
 import os
 import re
 import sys
+import textwrap
 from collections.abc import Callable
 from importlib import import_module, metadata
 from pathlib import Path
@@ -105,13 +107,57 @@ def kwargs_text(kwargs: dict[str, Any]) -> str:
     return " ".join(f"{k}:{v}" for k, v in kwargs.items()) if kwargs else "defaults"
 
 
+_README_NOTES = False
+"""Set while the README's tables render: their notes stay one line of static Markdown."""
+
+
 def sources_line(sources: dict[str, str]) -> str:
-    """The line under a table: its files, grouped by the command that writes them."""
+    """The note under a table: its files, grouped by the command that writes them. On a page,
+    a collapsed block (a `??? info`) with each command folded in a code block of its own; in
+    the README, one italic line."""
     by_command: dict[str, list[str]] = {}
     for pattern, command in sources.items():
-        by_command.setdefault(command, []).append(f"`{pattern}`")
-    parts = [f"{', '.join(p)}, written by `{c}`" for c, p in by_command.items()]
-    return "\n\n*Read from " + "; ".join(parts) + ".*\n"
+        by_command.setdefault(command, []).append(pattern)
+    if _README_NOTES:
+        parts = [", ".join(f"`{p}`" for p in ps) + f", written by `{c}`"
+                 for c, ps in by_command.items()]  # fmt: skip
+        return "\n\n*Read from " + "; ".join(parts) + ".*\n"
+    files = sum(len(p) for p in by_command.values())
+    title = f"Read from {files} file{'s' * (files > 1)}" + (
+        f", written by {len(by_command)} commands" if len(by_command) > 1 else ""
+    )
+    body = []
+    for command, patterns in by_command.items():
+        body.append(", ".join(f"`{p}`" for p in patterns) + ", written by:")
+        body.append(f"```bash\n{fold_command(command)}\n```")
+    block = "\n\n".join(body)
+    return f'\n\n??? info "{title}"\n\n{textwrap.indent(block, "    ")}\n'
+
+
+def fold_command(command: str, width: int = 88) -> str:
+    """A long shell command folded before its options (` \\` continuations, shell-valid), so it
+    reads without scrolling; quoted arguments are never split. A short one as it is."""
+    if len(command) <= width:
+        return command
+    words, word, quote = [], "", ""
+    for char in command:  # split on spaces outside quotes, keeping each word's own text
+        if quote:
+            quote = "" if char == quote else quote
+        elif char in "'\"":
+            quote = char
+        elif char == " ":
+            words.append(word)
+            word = ""
+            continue
+        word += char
+    words.append(word)
+    lines = [words[0]]
+    for word in words[1:]:
+        if word.startswith("-") or len(lines[-1]) + len(word) + 1 > width:
+            lines.append("  " + word)
+        else:
+            lines[-1] += " " + word
+    return " \\\n".join(lines)
 
 
 def _check_sources(sources: dict[str, str]) -> None:
@@ -395,11 +441,22 @@ def _entry_point(program: str) -> Callable[[list[str]], Any]:
     return point.load()
 
 
-def cli_help(command: str) -> str:
-    """The `--help` text of a console script (or `python -m module`), as a text block.
+class _HelpRequested(BaseException):
+    """Raised in place of printing a parser's help: carries the parser (a BaseException, as
+    SystemExit is, so that a `main` catching its errors lets it through)."""
+
+    def __init__(self, parser: argparse.ArgumentParser) -> None:
+        super().__init__(parser.prog)
+        self.parser = parser
+
+
+def help_parser(command: str) -> argparse.ArgumentParser:
+    """The argparse parser that `command --help` prints the help of.
 
     `command` is the program and any arguments before `--help`, e.g. `"tether-train --env
     TetherNavigate-v2"`; `"python -m tether_gym.agents.record"` runs that module's `main`.
+    Any `main` that builds its parsers with argparse works, subcommands included (`"tether
+    train"` gives the subcommand's parser): the parser is caught where it would print.
     """
     words = command.split()
     if words[:2] == ["python", "-m"]:
@@ -407,21 +464,183 @@ def cli_help(command: str) -> str:
     else:
         program, argv = words[0], words[1:]
     main = _entry_point(program)
-    out = io.StringIO()
-    old_columns = os.environ.get("COLUMNS")
-    os.environ["COLUMNS"] = "100"
+
+    def caught(parser: argparse.ArgumentParser, file=None) -> None:
+        raise _HelpRequested(parser)
+
+    saved = sys.argv[0], argparse.ArgumentParser.print_help
+    sys.argv[0] = program.removeprefix("-m ")  # a parser's default prog
+    argparse.ArgumentParser.print_help = caught
     try:
-        with contextlib.redirect_stdout(out), contextlib.suppress(SystemExit):
+        with contextlib.redirect_stdout(io.StringIO()):
             main([*argv, "--help"])
+    except _HelpRequested as requested:
+        return requested.parser
+    except SystemExit:
+        pass
     finally:
-        if old_columns is None:
-            del os.environ["COLUMNS"]
+        sys.argv[0], argparse.ArgumentParser.print_help = saved
+    raise ValueError(f"{command} --help printed no argparse help")
+
+
+@contextlib.contextmanager
+def _help_width(columns: int = 100):
+    """argparse's help `columns` wide (it reads COLUMNS)."""
+    saved = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = str(columns)
+    try:
+        yield
+    finally:
+        if saved is None:
+            os.environ.pop("COLUMNS", None)
         else:
-            os.environ["COLUMNS"] = old_columns
-    text = out.getvalue().strip()
-    if not text:
-        raise ValueError(f"{command} --help printed nothing")
-    return f"```text\n$ {command} --help\n{text}\n```\n"
+            os.environ["COLUMNS"] = saved
+
+
+def cli_help(command: str) -> str:
+    """The command-line reference of a console script (or `python -m module`), from its
+    argparse parser (`help_parser`): the usage in a text block, the description, one table per
+    argument group (an option and its meaning per row, a subcommand per row), the epilog."""
+    with _help_width(88):  # the usage block fits the page's width
+        return parser_markdown(help_parser(command))
+
+
+def parser_markdown(parser: argparse.ArgumentParser) -> str:
+    """Any argparse parser as Markdown (see `cli_help`); `%(default)s` and the like expanded
+    as `--help` expands them."""
+    formatter = parser._get_formatter()
+    parts = [f"```text\n{parser.format_usage().strip()}\n```"]
+    if parser.description:
+        parts.append(help_prose(parser.description))
+    for group in parser._action_groups:
+        actions = [a for a in group._group_actions if a.help != argparse.SUPPRESS]
+        if not actions:
+            continue
+        title = f"**{group.title}**" if group.title else ""
+        if group.description:
+            title += (
+                f": {help_prose(group.description)}" if title else help_prose(group.description)
+            )
+        kind = "argument" if all(not a.option_strings for a in actions) else "option"
+        if any(isinstance(a, argparse._SubParsersAction) for a in actions):
+            kind = "command"
+        rows = [f"| {kind} | meaning |", "|---|---|"]
+        for action in actions:
+            if isinstance(action, argparse._SubParsersAction):
+                rows += [
+                    f"| `{choice.dest}` | {_cell(formatter._expand_help(choice))} |"
+                    for choice in action._get_subactions()
+                ]
+                continue
+            meaning = formatter._expand_help(action) if action.help else ""
+            rows.append(f"| {_invocation(formatter, action)} | {_cell(meaning)} |")
+        parts += [title, "\n".join(rows)] if title else ["\n".join(rows)]
+    if parser.epilog:
+        parts.append(help_prose(parser.epilog))
+    return "\n\n".join(parts) + "\n"
+
+
+def _invocation(formatter: argparse.HelpFormatter, action: argparse.Action) -> str:
+    """`-p`, `--param VALUE`: each option string, the arguments after the last one only."""
+    if not action.option_strings:
+        return f"`{formatter._format_action_invocation(action)}`"
+    names = [f"`{name}`" for name in action.option_strings]
+    if action.nargs != 0:
+        metavar = formatter._get_default_metavar_for_optional(action)
+        names[-1] = f"`{action.option_strings[-1]} {formatter._format_args(action, metavar)}`"
+    return ", ".join(names)
+
+
+def _cell(text: str) -> str:
+    """Help text as one table cell: on one line, its `|` and `<` escaped."""
+    return _escape(" ".join(text.split())).replace("|", "\\|")
+
+
+def _escape(text: str) -> str:
+    """`<` outside code spans as `&lt;` (`runs/<name>` is no HTML tag)."""
+    parts = re.split(r"(`[^`]*`)", text)
+    return "".join(p if p.startswith("`") else p.replace("<", "&lt;") for p in parts)
+
+
+def help_prose(text: str) -> str:
+    """A parser's description or epilog (written as Markdown, as the docstrings they often
+    are) for a page: its tables set off by blank lines and joined to one row per entry,
+    indented blocks kept, `<` escaped elsewhere."""
+    lines: list[str] = []
+    for line in textwrap.dedent(text).strip("\n").splitlines():
+        table = _is_row(line)
+        if lines and lines[-1].strip() and table != _is_row(lines[-1]):
+            lines.append("")  # a table needs blank lines around it
+        listed = _LISTED.match(line)
+        if listed:  # argparse's "  name   what it does" (a dispatcher's commands): a list
+            if lines and lines[-1].strip() and not lines[-1].startswith("- "):
+                lines.append("")
+            lines.append(f"- `{listed[1]}`: {_escape(listed[2])}")
+            continue
+        if lines and lines[-1].startswith("- ") and line.strip():
+            lines.append("")
+        lines.append(line if table or line.startswith("    ") else _escape(line))
+    return join_table_rows("\n".join(lines))
+
+
+_LISTED = re.compile(r"^ {2,3}(\S+(?: \S+)*?) {2,}(\S.*)$")
+
+
+# --- tables in docstrings ------------------------------------------------------------------
+
+_SEPARATOR = re.compile(r"^\s*\|?(\s*:?-+:?\s*\|)+\s*(:?-+:?\s*)?$")
+
+
+def _is_row(line: str) -> bool:
+    return line.strip().startswith("|") and line.strip().endswith("|")
+
+
+def _cells(line: str) -> list[str]:
+    return [c.strip() for c in re.split(r"(?<!\\)\|", line.strip()[1:-1])]
+
+
+def join_table_rows(text: str) -> str:
+    """Markdown `text` with each table's continuation rows joined: in the docstrings' tables
+    (Gymnasium's convention, kept under the line length), a row whose first cell is empty
+    carries on the row above it, each cell the wrapped end of that row's cell. The page shows
+    one row per entry; `help()` shows the source as it is."""
+    lines = text.split("\n")
+    out: list[str] = []
+    i = 0
+    while i < len(lines):
+        line = lines[i]
+        if not (_is_row(line) and i + 1 < len(lines) and _SEPARATOR.match(lines[i + 1])):
+            out.append(line)
+            i += 1
+            continue
+        indent = line[: len(line) - len(line.lstrip())]
+        out += [line, lines[i + 1]]
+        rows: list[list[str]] = []
+        i += 2
+        while i < len(lines) and _is_row(lines[i]):
+            cells = _cells(lines[i])
+            if rows and not cells[0] and len(cells) == len(rows[-1]):
+                rows[-1] = [f"{a} {b}".strip() for a, b in zip(rows[-1], cells, strict=True)]
+            else:
+                rows.append(cells)
+            i += 1
+        out += [f"{indent}| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join(out)
+
+
+try:
+    from griffe import Extension
+except ImportError:  # only mkdocstrings needs it
+    Extension = object  # type: ignore[assignment,misc]
+
+
+class JoinTableRows(Extension):
+    """A griffe extension (mkdocs.yml's mkdocstrings `extensions`): every docstring's tables
+    one row per entry (`join_table_rows`)."""
+
+    def on_instance(self, *, obj, **kwargs) -> None:
+        if obj.docstring is not None:
+            obj.docstring.value = join_table_rows(obj.docstring.value)
 
 
 def ladder_ids() -> str:
@@ -495,7 +714,12 @@ def on_page_markdown(markdown: str, page, config, files) -> str:  # MkDocs hook
 
 def readme_text(text: str, root: Path = ROOT) -> str:
     """The README with each `<!-- results: CALL -->` block rendered anew from the files."""
-    return README_BLOCK.sub(lambda m: m[1] + expand(m[2], root) + m[4], text)
+    global _README_NOTES
+    _README_NOTES = True
+    try:
+        return README_BLOCK.sub(lambda m: m[1] + expand(m[2], root) + m[4], text)
+    finally:
+        _README_NOTES = False
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -17,8 +17,28 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+FLAGS = (
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+    "--remote-debugging-port=0",
+)  # fmt: skip
+"""Headless, and nothing fetched from elsewhere (a closed network refuses it)."""
 IMAGES = """[...document.images].map(i => ({src: i.getAttribute('src'), complete: i.complete,
     width: i.naturalWidth}))"""
+
+
+BOX = """(() => {
+    const a = document.querySelector(%s), b = document.querySelector(%s);
+    if (!a || !b) return null;
+    const top = a.getBoundingClientRect().top + scrollY - 16;
+    const bottom = b.getBoundingClientRect().top + scrollY;
+    const left = a.parentElement.getBoundingClientRect().left + scrollX - 16;
+    return {x: Math.max(0, left), y: Math.max(0, top),
+            width: Math.min(document.documentElement.clientWidth - left, 1100),
+            height: Math.min(16000, bottom - top)};
+})()"""
+PAGE_BOX = """({x: 0, y: 0, width: document.documentElement.clientWidth,
+    height: Math.min(16000, document.documentElement.scrollHeight)})"""
 
 
 def chromium() -> str | None:
@@ -52,16 +72,23 @@ class Browser:
         import websocket
 
         self.profile = tempfile.TemporaryDirectory()
+        self.width, self.height = width, height
         self.process = subprocess.Popen(
-            [executable, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
-             "--remote-debugging-port=0", f"--user-data-dir={self.profile.name}",
+            [executable, *FLAGS, f"--user-data-dir={self.profile.name}",
              f"--window-size={width},{height}", "about:blank"],
             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
         )  # fmt: skip
-        port = self._port(Path(self.profile.name) / "DevToolsActivePort")
-        with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=10) as r:
-            page = next(t for t in json.load(r) if t["type"] == "page")
-        self.socket = websocket.create_connection(page["webSocketDebuggerUrl"], timeout=30)
+        try:
+            port = self._port(Path(self.profile.name) / "DevToolsActivePort")
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=10) as r:
+                page = next(t for t in json.load(r) if t["type"] == "page")
+            # no Origin header: Chromium refuses a DevTools socket from another origin
+            self.socket = websocket.create_connection(
+                page["webSocketDebuggerUrl"], timeout=30, suppress_origin=True
+            )
+        except BaseException:
+            self._stop()
+            raise
         self.next_id = 0
         self.events: list[dict] = []
         for domain in ("Page", "Runtime", "Log"):
@@ -129,18 +156,32 @@ class Browser:
                 found.append(f"{params['entry']['text']} {params['entry'].get('url', '')}")
         return found
 
-    def screenshot(self, path: Path) -> None:
-        data = self.send("Page.captureScreenshot", format="png")["data"]
+    def screenshot(
+        self, path: Path, between: tuple[str, str] | None = None, full: bool = False
+    ) -> None:
+        """The viewport; with `between`, the page from the top of the first element one CSS
+        selector matches to the top of the other's (a section); with `full`, the whole page
+        (cut at 16,000 px)."""
+        params: dict = {"format": "png"}
+        if between is not None or full:
+            box = self.evaluate(BOX % tuple(map(json.dumps, between)) if between else PAGE_BOX)
+            if box is None:
+                raise ValueError(f"no elements match {between}")
+            params.update(captureBeyondViewport=True, clip={**box, "scale": 1})
+        data = self.send("Page.captureScreenshot", **params)["data"]
         path.write_bytes(base64.b64decode(data))
 
     def close(self) -> None:
         try:
             self.socket.close()
         finally:
-            self.process.terminate()
-            try:
-                self.process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
-            self.profile.cleanup()
+            self._stop()
+
+    def _stop(self) -> None:
+        self.process.terminate()
+        try:
+            self.process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+        self.profile.cleanup()

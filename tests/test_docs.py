@@ -5,6 +5,8 @@ files, it builds with --strict, and a headless Chromium shows its pages with no 
 from __future__ import annotations
 
 import contextlib
+import functools
+import html
 import importlib.util
 import json
 import os
@@ -153,8 +155,9 @@ def test_results_table_renders_from_its_files(page, call, tmp_path):
     assert not any(mark in table for mark in marks)
     changed = hooks.expand(call, tmp_path)
     assert changed != table and all(mark in changed for mark in marks)
+    unfolded = " ".join(table.replace("\\\n", " ").split())  # the note's commands, unfolded
     for command in sources.values():
-        assert f"`{command}`" in table, "the table names the command that regenerates it"
+        assert " ".join(command.split()) in unfolded, "the table names the command that writes it"
 
 
 def test_no_results_table_is_typed_by_hand():
@@ -204,9 +207,129 @@ def test_site_builds_with_the_results_and_the_specs(site):
     assert "--hyperparams" in training and "--env-kwargs" in training  # the CLI's own help
 
 
+# What a page shows of its tables, at 1280 px: each table's header and first column, and what
+# is wrong with its layout (cut off, clipped, scrolling without a scrollbar, an id broken).
+TABLES_JS = r"""(() => {
+  const text = e => e.textContent.replace(/\s+/g, ' ').trim();
+  const view = document.documentElement.clientWidth;
+  return [...document.querySelectorAll('article table')].map(table => {
+    const rows = [...table.rows];
+    const head = rows.length && rows[0].querySelector('th') ? rows.shift() : null;
+    const problems = [];
+    let box = table;
+    for (let e = table; e && e !== document.documentElement; e = e.parentElement) {
+      if (e.scrollWidth <= e.clientWidth + 1) continue;
+      const style = getComputedStyle(e);
+      if (style.overflowX === 'visible') continue;
+      if (style.overflowX === 'auto' || style.overflowX === 'scroll') {
+        const bar = e.offsetHeight - e.clientHeight - parseFloat(style.borderTopWidth)
+          - parseFloat(style.borderBottomWidth);
+        if (bar < 6 || style.scrollbarWidth === 'none')
+          problems.push('scrolls sideways with no scrollbar to show it');
+      } else {
+        problems.push(`cut off: ${e.scrollWidth} px wide in a box of ${e.clientWidth} px`);
+      }
+      box = e;
+      break;
+    }
+    const r = box.getBoundingClientRect();
+    if (r.right > view + 1 || r.left < -1) problems.push(`beyond the page: ${r.left}..${r.right}`);
+    for (const cell of table.querySelectorAll('th, td')) {
+      const style = getComputedStyle(cell);
+      if (style.overflowX !== 'visible' && cell.scrollWidth > cell.clientWidth + 1)
+        problems.push(`a clipped cell: ${text(cell).slice(0, 40)}`);
+    }
+    for (const code of table.querySelectorAll('code')) {
+      if (!/\s/.test(code.textContent) && code.getClientRects().length > 1)
+        problems.push(`broken mid-word: ${code.textContent}`);
+    }
+    return {head: head ? [...head.cells].map(text) : [],
+            first: rows.map(row => row.cells.length ? text(row.cells[0]) : ''),
+            problems};
+  });
+})()"""
+
+
+def _plain(cell: str) -> str:
+    """A Markdown cell's text as the page shows it: code spans, emphasis, links undone."""
+    cell = re.sub(r"\[([^]]*)\]\([^)]*\)", r"\1", cell.replace("\\|", "|"))
+    parts = re.split(r"(`[^`]*`)", cell)
+    text = "".join(p[1:-1] if p.startswith("`") else p.replace("*", "") for p in parts)
+    return " ".join(html.unescape(text).split())
+
+
+def _tables(markdown: str) -> list[tuple[list[str], list[str]]]:
+    """Each Markdown table's header and first column, one entry per row: a row with an empty
+    first cell continues the row above it (the docstrings' wrapped entries)."""
+    lines, found = markdown.splitlines(), []
+    for i, line in enumerate(lines[:-1]):
+        if not (
+            line.strip().startswith("|") and re.match(r"^\s*\|[\s:|-]*-[\s:|-]*$", lines[i + 1])
+        ):
+            continue
+
+        def cells(row):
+            return [c.strip() for c in re.split(r"(?<!\\)\|", row.strip()[1:-1])]
+
+        first = []
+        for row in lines[i + 2 :]:
+            if not row.strip().startswith("|"):
+                break
+            if cells(row)[0] or not first:
+                first.append(_plain(cells(row)[0]))
+        found.append(([_plain(c) for c in cells(line)], first))
+    return found
+
+
+def _docstrings(identifier: str, options: str) -> list[str]:
+    """The docstrings a `::: identifier` block shows: its own and its members' (all public
+    ones, or those `members:` lists; none with `members: false`)."""
+    import griffe
+
+    package = _griffe()
+    obj = package[identifier.removeprefix("tether_gym.")] if "." in identifier else package
+    listed = re.search(r"members:\s*(\[.*?\]|false)", options)
+    names = None if listed is None else re.findall(r"\w+", listed[1].replace("false", ""))
+    found = [obj.docstring.value] if obj.docstring else []
+    stack = [m for n, m in obj.members.items() if names is None or n in names]
+    while stack:
+        member = stack.pop()
+        if member.is_alias or member.name.startswith("_"):
+            continue
+        if member.docstring:
+            found.append(member.docstring.value)
+        if names is None and isinstance(member, griffe.Class | griffe.Module):
+            stack += member.members.values()
+    return found
+
+
+@functools.cache
+def _griffe():
+    import griffe
+
+    return griffe.load("tether_gym", search_paths=[str(ROOT)])
+
+
+def _source_tables(page: Path) -> list[tuple[list[str], list[str]]]:
+    """The tables a page's source makes: its own, its placeholders', its snippets' and the
+    docstrings' of its `:::` blocks."""
+    text = re.sub(r'^--8<-- "(.+)"$', lambda m: (ROOT / m[1]).read_text(), page.read_text(),
+                  flags=re.MULTILINE)  # fmt: skip
+    text = hooks.render(text)
+    found = _tables(text)
+    for identifier, options in re.findall(r"^::: (\S+)\n((?:    .*\n)*)", text, re.MULTILINE):
+        for docstring in _docstrings(identifier, options):
+            found += _tables(docstring)
+    return found
+
+
 def test_chromium_shows_the_site(site):
-    """The home page and an environment page render in a headless Chromium, with their GIFs
-    and no console error; screenshots go to build/screenshots/."""
+    """Every page of the built site in a headless Chromium 1280 px wide: no console error, no
+    table cut off (wider than its box with no scrolling wrapper, a scrollbar not shown, a cell
+    clipped, an id broken mid-word), and every table of its source (the page's, the results
+    files', the command-line help's, the docstrings') shown with one row per entry, neither
+    split nor merged; the home and env pages with their GIFs. Screenshots in
+    build/screenshots/: the env pages' action tables, Training and Results."""
     import browser
 
     executable = browser.chromium()
@@ -217,22 +340,61 @@ def test_chromium_shows_the_site(site):
             pytest.fail(reason)
         pytest.skip(reason)
     SCREENSHOTS.mkdir(parents=True, exist_ok=True)
-    chrome = browser.Browser(executable)
+    pages = sorted(p.parent.relative_to(site).as_posix() for p in site.rglob("index.html"))
+    pages = [("" if p == "." else p + "/") for p in pages if not p.startswith(("assets", "search"))]
+    assert len(pages) >= len(PAGES) - 1, pages
+    problems, checked = [], 0
+    chrome = browser.Browser(executable, width=1280, height=900)
     try:
         with browser.serve(site) as base:
-            for name, url in (("home", ""), ("tether-bounce", "envs/tether-bounce/")):
+            for url in pages:
                 chrome.open(base + url)
-                chrome.screenshot(SCREENSHOTS / f"{name}.png")
-                assert chrome.errors() == [], f"{url or 'home'}: console errors"
+                name = url or "home"
+                if chrome.errors():
+                    problems.append(f"{name}: console errors {chrome.errors()}")
                 title = chrome.evaluate("document.querySelector('article h1').textContent")
-                assert title and "404" not in title
-                gifs = [i for i in chrome.images() if i["src"].endswith(".gif")]
-                assert gifs, f"{url or 'home'}: no GIF"
-                for gif in gifs:
-                    assert gif["complete"] and gif["width"] >= 640, gif
+                assert title and "404" not in title, url
+                shown = chrome.evaluate(TABLES_JS)
+                for i, table in enumerate(shown):
+                    problems += [f"{name} table {i + 1} {table['head']}: {p}"
+                                 for p in table["problems"]]  # fmt: skip
+                source = DOCS / (url.rstrip("/") or "index")
+                source = source.with_suffix(".md") if source.with_suffix(".md").exists() else (
+                    source / "index.md")  # fmt: skip
+                unmatched = list(shown)
+                for head, first in _source_tables(source) if source.exists() else []:
+                    checked += 1
+                    twin = next((t for t in unmatched if (t["head"], t["first"]) == (head, first)),
+                                None)  # fmt: skip
+                    if twin is not None:
+                        unmatched.remove(twin)
+                        continue
+                    counts = [len(t["first"]) for t in shown if t["head"] == head]
+                    problems.append(
+                        f"{name}: the table {head} has {len(first)} rows in its "
+                        f"source, the page shows {counts or 'no such table'}"
+                    )
+                if url in ("", "envs/tether-bounce/"):
+                    gifs = [i for i in chrome.images() if i["src"].endswith(".gif")]
+                    assert gifs, f"{name}: no GIF"
+                    for gif in gifs:
+                        assert gif["complete"] and gif["width"] >= 640, gif
+                if url.startswith("envs/"):
+                    env = "tether_gym.envs." + (
+                        "TetherBounceEnv"
+                        if "bounce" in url
+                        else "tether_navigate.TetherNavigateEnv"
+                    )
+                    chrome.screenshot(SCREENSHOTS / f"{url.split('/')[1]}-action-space.png",
+                                      between=(f"[id='{env}--action-space']",
+                                               f"[id='{env}--observation-space']"))  # fmt: skip
+                if url in ("training/", "results/", ""):
+                    chrome.screenshot(SCREENSHOTS / f"{name.strip('/')}.png", full=True)
     finally:
         with contextlib.suppress(Exception):
             chrome.close()
+    assert not problems, "\n".join(dict.fromkeys(problems))
+    assert checked >= 40, f"only {checked} tables found in the pages' sources"
 
 
 def test_a_seeds_table_says_each_seed_s_paired_comparison(tmp_path):
@@ -301,3 +463,60 @@ def test_an_imitation_table_reads_each_picker_s_rates(tmp_path):
     assert prefix + "a random candidate | 30.0% | 10.0% |" in lines
     student = "student: observation, 3 seeds | 50.0% [40.0, 60.0] | 50.0% [40.0, 60.0] |"
     assert prefix + student in lines
+
+
+# --- tables from docstrings, the command-line reference, the notes' commands ----------------
+
+
+def test_a_docstring_table_shows_one_row_per_entry():
+    """A row with an empty first cell continues the row above (the docstrings' wrapped
+    entries): joined, cell by cell; other rows and the text around them as they are."""
+    text = (
+        "Before.\n\n| Num | Meaning |\n|-----|---------|\n| 0   | the peg whose bearing |\n"
+        "|     | is nearest hooks      |\n| 1   | length |\n\nAfter.\n"
+    )
+    assert hooks.join_table_rows(text) == (
+        "Before.\n\n| Num | Meaning |\n|-----|---------|\n"
+        "| 0 | the peg whose bearing is nearest hooks |\n| 1 | length |\n\nAfter.\n"
+    )
+
+
+def test_the_cli_reference_renders_any_argparse_parser():
+    """Usage in a text block, one table per group with a row per option (or subcommand), help
+    expanded as --help expands it, prose with its tables set off and joined."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="tool", description="Does <things>.")
+    parser.add_argument("--count", "-n", type=int, default=3, help="how many (default %(default)s)")
+    parser.add_argument("path", help="where")
+    commands = parser.add_subparsers(title="commands", dest="command")
+    commands.add_parser("run", help="run it")
+    parser.epilog = (
+        "Its arguments:\n| name | meaning |\n|---|---|\n| `a` | one |\n|  | more |\n\n"
+        "commands:\n  run     run it\n  stop    stop it\nThe end."
+    )
+    text = hooks.parser_markdown(parser)
+    assert text.startswith("```text\nusage: tool [-h] [--count COUNT]")
+    assert "Does &lt;things>." in text
+    assert "| `--count`, `-n COUNT` | how many (default 3) |" in text
+    assert "| `path` | where |" in text
+    assert "| command | meaning |\n|---|---|\n| `run` | run it |" in text
+    assert "Its arguments:\n\n| name | meaning |\n|---|---|\n| `a` | one more |" in text
+    assert "commands:\n\n- `run`: run it\n- `stop`: stop it\n\nThe end." in text
+
+
+def test_the_cli_reference_catches_the_parser_of_a_console_script():
+    parser = hooks.help_parser("python -m tether_gym.training.summary")
+    assert parser.prog == "python -m tether_gym.training.summary"
+
+
+def test_a_long_command_folds_before_its_options_and_unfolds_to_itself():
+    command = (
+        "python benchmarks/baselines.py --algo ppo --env ID --hyperparams "
+        "'policy_kwargs:dict(net_arch=[256, 256], log_std_init=-2.5)' --timesteps 500000"
+    )
+    folded = hooks.fold_command(command)
+    assert folded.splitlines()[0] == "python benchmarks/baselines.py \\"
+    assert all(len(line) <= 90 for line in folded.splitlines())
+    assert " ".join(folded.replace("\\\n", " ").split()) == command
+    assert hooks.fold_command("tether-train --seed 3") == "tether-train --seed 3"

@@ -87,8 +87,9 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     | 0   | peg    | nearest    | farthest   |      | the peg by rank in distance from the    |
     |     |        |            |            |      | puck (the observation's order), [-1, 1] |
     |     |        |            |            |      | cut into `n_anchors` equal bins         |
-    | 1   | aim_x  | 0          | 2          | m    | a point the path after the bounce       |
-    | 2   | aim_y  | 0          | 1          | m    | passes through (the goal, to reach it)  |
+    | 1   | aim_x  | 0          | 2          | m    | x of a point the path after the bounce  |
+    |     |        |            |            |      | passes through (the goal, to reach it)  |
+    | 2   | aim_y  | 0          | 1          | m    | y of that point                         |
     | 3   | speed  | 0          | 1          |      | after the bounce, over the speed at     |
     |     |        |            |            |      | tautening; 0 asks for a dead stop there |
 
