@@ -172,7 +172,7 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
-def setup(args: argparse.Namespace) -> tuple[RunConfig, Path]:
+def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
     """The run's config and folder from the command line, checked (ValueError)."""
     given = {key: getattr(args, key) for key in RUN_OPTIONS if getattr(args, key) is not None}
     if args.resume is not None:
@@ -203,7 +203,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser(chosen_env(argv))
     args = parser.parse_args(argv)
     try:
-        config, run_dir = setup(args)
+        config, run_dir = run_from_args(args)
     except ValueError as error:
         parser.error(str(error))
     try:
