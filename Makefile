@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 TRAIN_STAMP := $(VENV)/.installed-train
 PIP_INSTALL := $(BIN)/python -m pip install --quiet -c constraints.txt
 
-.PHONY: test train lint format docs docs-check figures bench clean clean-cache
+.PHONY: test test-fast train lint format docs docs-check figures bench clean clean-cache
 
 # The venv with the package and the extras $(1); `make train` needs only "train", which
 # installs in half the time of "test" (Ray, Optuna, the zoo, the test tools), part of the
@@ -30,6 +30,12 @@ test: $(STAMP)
 	$(MAKE) --no-print-directory docs
 	$(BIN)/python -m pytest -q -n auto --durations=15
 
+# The inner loop: ruff and every test but the `slow` ones (training runs, Ray, the browser, the
+# wheel, the docs' commands).
+test-fast: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/python -m pytest -q -n auto -m "not slow" --durations=10
+
 # The documentation site into build/site; --strict: a broken link, a missing reference or a
 # results table whose file is gone fails the build.
 docs: $(STAMP)
@@ -39,7 +45,7 @@ docs: $(STAMP)
 # site at 1280 px: no console error, no table cut off, each table with its source's rows, the
 # GIFs loaded; screenshots in build/screenshots/. In `make test` it skips without chromium.
 docs-check: $(STAMP)
-	TETHER_REQUIRE_CHROMIUM=1 $(BIN)/python -m pytest -q tests/test_docs.py -k chromium
+	TETHER_REQUIRE_CHROMIUM=1 $(BIN)/python -m pytest -q tests/contracts/test_docs.py -k chromium
 
 train: $(TRAIN_STAMP)
 	$(BIN)/python train.py

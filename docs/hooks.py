@@ -15,7 +15,7 @@ static Markdown: its table sits between `<!-- results: CALL -->` and `<!-- /resu
     python docs/hooks.py --readme          # rewrites that table from the files
     python docs/hooks.py --readme --check  # exit status 1 if the README's table is stale
 
-(`tests/test_docs.py` runs the check).
+(`tests/contracts/test_docs.py` runs the check).
 """
 
 from __future__ import annotations

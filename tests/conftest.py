@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-WARM = Path(__file__).with_name("warm_kernels.py")
+WARM = Path(__file__).with_name("helpers") / "warm_kernels.py"
 
 
 def pytest_configure(config: pytest.Config) -> None:

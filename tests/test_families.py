@@ -14,9 +14,10 @@ import gymnasium as gym
 import pytest
 
 import tether_gym
+from tests.helpers import ROOT
 from tether_gym.families import BOUNCE, FAMILIES, NAVIGATE, family, load
 
-PACKAGE = Path(__file__).resolve().parents[1] / "tether_gym"
+PACKAGE = ROOT / "tether_gym"
 HEAVY = ("torch", "stable_baselines3", "numba", "tether_gym.agents", "tether_gym.training")
 """What importing the registry must not import."""
 

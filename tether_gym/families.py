@@ -4,7 +4,7 @@ An env id belongs to the family of the entry point it is registered with (`famil
 ladder's ids and a new id of an existing env need no entry here; a new env is one `Family`
 in `FAMILIES`. The evaluation code a family runs is named by "module:name" paths (`load`),
 as Gymnasium names an entry point: this module imports no floor of the package, so every
-floor may import it (`tests/test_layers.py`, `tests/test_families.py`).
+floor may import it (`tests/contracts/test_layers.py`, `tests/test_families.py`).
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ class Family:
     card_episodes: int
     """The held-out episodes behind a pretrained card's success rate."""
     card_test_episodes: int
-    """The first of them whose successes the card records for tests/test_pretrained.py."""
+    """The first of them whose successes the card records for tests/agents/test_pretrained.py."""
 
 
 BOUNCE = Family(

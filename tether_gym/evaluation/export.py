@@ -146,7 +146,7 @@ def _card_text(facts: dict[str, Any], note: str) -> str:
         f"Command: `{facts['command']}`",
         "",
         f"Held-out episodes: {held['episodes']:,}, used neither in training nor to pick the "
-        "model or the seed. Success with its 95% Wilson interval; tests/test_pretrained.py "
+        "model or the seed. Success with its 95% Wilson interval; tests/agents/test_pretrained.py "
         f"reruns the first {first} episodes. The same table:",
         "",
         "```bash",

@@ -61,8 +61,6 @@ def _planners_act_in_setup(key: str, config: RunConfig) -> None:
     control = config.env_kwargs.get("control", "setup")
     if control != "setup":
         raise ValueError(f"{key}: the planners act in control='setup', not {control}")
-    if not family(config.env_id).planners:
-        raise ValueError(f"{key}: the planners solve TetherNavigate, not {config.env_id}")
 
 
 class Residual(Variant):
@@ -76,6 +74,8 @@ class Residual(Variant):
         if not self.asked(params):
             return
         _planners_act_in_setup(self.key, config)
+        if not family(config.env_id).planners:
+            raise ValueError(f"residual: the planners solve TetherNavigate, not {config.env_id}")
         make_planner(params["residual"], config.env_kwargs, config.env_id)
         check_scale(params.get("residual_scale", 1.0))
 
@@ -104,7 +104,7 @@ class Proposals(Variant):
                 )
             return
         _planners_act_in_setup(self.key, config)
-        if config.algo != "ppo":
+        if config.algo != "ppo" or not family(config.env_id).planners:
             raise ValueError("proposals: PPO on TetherNavigate only (the action is discrete)")
         if params.get("residual") is not None or params.get("pretrain") is not None:
             raise ValueError("proposals: not with residual or pretrain")

@@ -1,0 +1,44 @@
+"""benchmarks/imitation.py on a tiny budget: the yardsticks follow from the labels, every
+student's rates are its network seeds' mean, and bad arguments or an existing results file are
+refused by name."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from tests.helpers import ROOT
+
+SCRIPT = ROOT / "benchmarks" / "imitation.py"
+TINY = ["--states", "400", "--held-out", "100", "--seeds", "2", "--epochs", "5"]
+
+
+@pytest.mark.slow
+def test_imitation_rates_follow_from_the_labels(tmp_path):
+    out = tmp_path / "imitation.json"
+    subprocess.run([sys.executable, str(SCRIPT), *TINY, "--json", str(out)], check=True,
+                   capture_output=True)  # fmt: skip
+    result = json.loads(out.read_text())
+    assert result["candidates"] == 37 and result["held_out"] == 100
+    # always the goal is among the best exactly where no detour is needed
+    assert result["goal_in_best"]["in_best"] == pytest.approx(1.0 - result["detour_share"])
+    assert result["goal_in_best"]["in_best_detour"] == 0.0
+    assert set(result["students"]) == {"observation", "observation + direct preview"}
+    for student in result["students"].values():
+        for rate in student.values():
+            assert len(rate["seeds"]) == 2 and 0.0 <= min(rate["seeds"]) <= max(rate["seeds"]) <= 1
+            assert rate["mean"] == pytest.approx(np.mean(rate["seeds"]))
+            assert rate["ci"][0] <= rate["mean"] <= rate["ci"][1]
+    again = subprocess.run([sys.executable, str(SCRIPT), *TINY, "--json", str(out)],
+                           capture_output=True, text=True)  # fmt: skip
+    assert again.returncode == 2 and "--overwrite" in again.stderr
+
+
+def test_imitation_refuses_a_held_out_set_outside_the_states():
+    run = subprocess.run([sys.executable, str(SCRIPT), "--states", "100", "--held-out", "100"],
+                         capture_output=True, text=True)  # fmt: skip
+    assert run.returncode == 2 and "--held-out must be in (0, --states=100)" in run.stderr

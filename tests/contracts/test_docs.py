@@ -1,0 +1,533 @@
+"""The documentation site: its code blocks run, its results tables come from the results
+files, it builds with --strict, and a headless Chromium shows its pages with no console error.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import html
+import importlib.util
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.helpers import ROOT
+from tests.helpers.docblocks import RUNS, blocks, budget, commands
+
+DOCS = ROOT / "docs"
+PAGES = sorted(p for p in DOCS.rglob("*.md") if "figures" not in p.parts)
+BLOCKS = [b for page in [*PAGES, ROOT / "README.md"] for b in blocks(page)]
+SCREENSHOTS = ROOT / "build" / "screenshots"
+
+
+def _hooks():
+    spec = importlib.util.spec_from_file_location("docs_hooks", DOCS / "hooks.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+hooks = _hooks()
+
+
+def _entry_point(program: str):
+    return hooks._entry_point(program)
+
+
+# --- code blocks ---------------------------------------------------------------------------
+
+
+def test_every_block_runs_or_says_why_not():
+    assert BLOCKS, "no code block found"
+    for block in BLOCKS:
+        assert block.language in RUNS or block.not_run, (
+            f"{block.id}: a ```{block.language} block: make it python or bash, or mark it "
+            "<!-- not run: reason -->"
+        )
+        if block.language == "bash" and not block.not_run:
+            for words in commands(block.code):
+                budget(words)  # ValueError for a program the tests cannot run
+
+
+PYTHON = [b for b in BLOCKS if b.language == "python" and not b.not_run]
+BASH = [b for b in BLOCKS if b.language == "bash" and not b.not_run]
+
+
+TRAINS = (".learn(", "train(")
+"""A Python block that trains runs among the slow tests."""
+
+
+@pytest.mark.parametrize(
+    "block",
+    [pytest.param(b, marks=pytest.mark.slow) if any(t in b.code for t in TRAINS) else b
+     for b in PYTHON],
+    ids=[b.id for b in PYTHON],
+)  # fmt: skip
+def test_python_block_runs(block, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    exec(compile(block.code, f"{block.path}:{block.line}", "exec"), {"__name__": "__main__"})
+    assert capsys.readouterr().out.strip(), f"{block.id} printed nothing"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("block", BASH, ids=[b.id for b in BASH])
+def test_bash_block_runs(block, tmp_path, monkeypatch):
+    """Each command of the block, in order in one folder, with a small budget."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    for words in commands(block.code):
+        program, argv = budget(words)
+        for i, word in enumerate(argv[:-1]):  # output files go into the block's folder
+            if word in ("--out", "--json", "--csv", "--plot") and "." in Path(argv[i + 1]).name:
+                Path(argv[i + 1]).parent.mkdir(parents=True, exist_ok=True)
+        try:
+            status = _entry_point(program)(argv)
+        except SystemExit as stop:
+            status = stop.code
+        assert status in (None, 0), f"{block.id}: {' '.join(words)} exited with {status}"
+
+
+# --- results tables ------------------------------------------------------------------------
+
+SOURCES = [*PAGES, ROOT / "README.md"]
+
+
+def _calls(page: Path) -> list[str]:
+    """The placeholders of a page, and the README's generated blocks."""
+    text = page.read_text()
+    return [*hooks.PLACEHOLDER.findall(text), *(m[1] for m in hooks.README_BLOCK.findall(text))]
+
+
+CALLS = [(page, call) for page in SOURCES for call in _calls(page)]
+RESULTS_CALLS = [(p, c) for p, c in CALLS if hooks.parse_call(c)[0] in hooks.RESULTS_MACROS]
+
+
+def test_the_docs_show_results_tables():
+    assert any(p.name == "results.md" for p, _ in RESULTS_CALLS)
+    assert any(p.name == "README.md" for p, _ in RESULTS_CALLS)
+
+
+@pytest.mark.parametrize("page, call", CALLS, ids=[f"{p.name}:{c[:40]}" for p, c in CALLS])
+def test_placeholder_renders(page, call):
+    assert hooks.expand(call).strip()
+
+
+def _change(path: Path) -> str:
+    """Set the first success rate (an imitation benchmark's: always-goal's) of a results file to
+    0.123456, or a fuzz's first count to 123456: what the table then shows."""
+    if path.suffix == ".json" and "holes" in (data := json.loads(path.read_text())):
+        data["counts"]["single"]["counts"][data["holes"][0]] = 123456  # benchmarks/fuzz_navigate
+        path.write_text(json.dumps(data))
+        return "123,456"
+    if path.suffix == ".md":
+        text = path.read_text()
+        text, n = re.subn(r"success_rate: [0-9.]+", "success_rate: 0.123456", text, count=1)
+        assert n == 1
+        path.write_text(text)
+        return "12.3%"
+    data = json.loads(path.read_text())
+    if "decisions_per_second" in data:  # benchmarks/planners.py
+        implementation = next(iter(data["success"].values()))
+        next(iter(next(iter(implementation.values())).values()))["success_rate"] = 0.123456
+    elif "students" in data:  # benchmarks/imitation.py
+        data["goal_in_best"]["in_best"] = 0.123456
+    else:
+        (data["results"][0] if "results" in data else data)["success_rate"] = 0.123456
+    path.write_text(json.dumps(data))
+    return "12.3%"
+
+
+@pytest.mark.parametrize(
+    "page, call", RESULTS_CALLS, ids=[f"{p.name}:{c[:40]}" for p, c in RESULTS_CALLS]
+)
+def test_results_table_renders_from_its_files(page, call, tmp_path):
+    """The table is its files': the same files elsewhere give the same table, and changing a
+    file's number changes the table."""
+    _, args, _ = hooks.parse_call(call)
+    sources = args[0]
+    assert all(command.strip() for command in sources.values())
+    files = [f for pattern in sources for f in hooks.files_of(pattern, ROOT)]
+    for file in files:
+        copy = tmp_path / file.relative_to(ROOT)
+        copy.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(file, copy)
+    table = hooks.expand(call)
+    assert hooks.expand(call, tmp_path) == table
+    marks = {_change(hooks.files_of(pattern, tmp_path)[0]) for pattern in sources}
+    assert not any(mark in table for mark in marks)
+    changed = hooks.expand(call, tmp_path)
+    assert changed != table and all(mark in changed for mark in marks)
+    unfolded = " ".join(table.replace("\\\n", " ").split())  # the note's commands, unfolded
+    for command in sources.values():
+        assert " ".join(command.split()) in unfolded, "the table names the command that writes it"
+
+
+def test_no_results_table_is_typed_by_hand():
+    """A table row in a page's source with a percentage is a number typed by hand (the
+    README's generated blocks left out)."""
+    for page in SOURCES:
+        text = hooks.README_BLOCK.sub("", page.read_text())
+        for number, line in enumerate(text.splitlines(), 1):
+            assert not re.match(r"\s*\|.*\d(\.\d+)?%", line), f"{page.name}:{number}: {line}"
+
+
+def test_readme_table_is_fresh():
+    text = (ROOT / "README.md").read_text()
+    assert hooks.readme_text(text) == text, "stale: python docs/hooks.py --readme"
+
+
+def test_a_results_file_without_its_command_is_refused():
+    with pytest.raises(ValueError, match="command"):
+        hooks.success_table({"results/ladder/*.json": " "})
+    with pytest.raises(ValueError, match="no results file"):
+        hooks.success_table({"results/none/*.json": "true"})
+
+
+# --- the site ------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("site")
+    env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
+    done = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "--quiet", "--site-dir", str(out)],
+        cwd=ROOT, capture_output=True, text=True, env=env, timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    return out
+
+
+def test_site_builds_with_the_results_and_the_specs(site):
+    results = (site / "results" / "index.html").read_text()
+    data = json.loads((ROOT / "results/ladder/TetherNavigate_OpenReach-v2_setup.json").read_text())
+    greedy = next(r for r in data["results"] if r["name"] == "greedy")
+    assert f"{100 * greedy['success_rate']:.1f}%" in results
+    bounce = (site / "envs" / "tether-bounce" / "index.html").read_text()
+    assert "Action Space" in bounce and "tether_bounce.gif" in bounce  # the env's docstring
+    training = (site / "training" / "index.html").read_text()
+    assert "--hyperparams" in training and "--env-kwargs" in training  # the CLI's own help
+
+
+# What a page shows of its tables, at 1280 px: each table's header and first column, and what
+# is wrong with its layout (cut off, clipped, scrolling without a scrollbar, an id broken).
+TABLES_JS = r"""(() => {
+  const text = e => e.textContent.replace(/\s+/g, ' ').trim();
+  const view = document.documentElement.clientWidth;
+  return [...document.querySelectorAll('article table')].map(table => {
+    const rows = [...table.rows];
+    const head = rows.length && rows[0].querySelector('th') ? rows.shift() : null;
+    const problems = [];
+    let box = table;
+    for (let e = table; e && e !== document.documentElement; e = e.parentElement) {
+      if (e.scrollWidth <= e.clientWidth + 1) continue;
+      const style = getComputedStyle(e);
+      if (style.overflowX === 'visible') continue;
+      if (style.overflowX === 'auto' || style.overflowX === 'scroll') {
+        const bar = e.offsetHeight - e.clientHeight - parseFloat(style.borderTopWidth)
+          - parseFloat(style.borderBottomWidth);
+        if (bar < 6 || style.scrollbarWidth === 'none')
+          problems.push('scrolls sideways with no scrollbar to show it');
+      } else {
+        problems.push(`cut off: ${e.scrollWidth} px wide in a box of ${e.clientWidth} px`);
+      }
+      box = e;
+      break;
+    }
+    const r = box.getBoundingClientRect();
+    if (r.right > view + 1 || r.left < -1) problems.push(`beyond the page: ${r.left}..${r.right}`);
+    for (const cell of table.querySelectorAll('th, td')) {
+      const style = getComputedStyle(cell);
+      if (style.overflowX !== 'visible' && cell.scrollWidth > cell.clientWidth + 1)
+        problems.push(`a clipped cell: ${text(cell).slice(0, 40)}`);
+    }
+    for (const code of table.querySelectorAll('code')) {
+      if (!/\s/.test(code.textContent) && code.getClientRects().length > 1)
+        problems.push(`broken mid-word: ${code.textContent}`);
+    }
+    return {head: head ? [...head.cells].map(text) : [],
+            first: rows.map(row => row.cells.length ? text(row.cells[0]) : ''),
+            problems};
+  });
+})()"""
+
+
+def _plain(cell: str) -> str:
+    """A Markdown cell's text as the page shows it: code spans, emphasis, links undone."""
+    cell = re.sub(r"\[([^]]*)\]\([^)]*\)", r"\1", cell.replace("\\|", "|"))
+    parts = re.split(r"(`[^`]*`)", cell)
+    text = "".join(p[1:-1] if p.startswith("`") else p.replace("*", "") for p in parts)
+    return " ".join(html.unescape(text).split())
+
+
+def _tables(markdown: str) -> list[tuple[list[str], list[str]]]:
+    """Each Markdown table's header and first column, one entry per row: a row with an empty
+    first cell continues the row above it (the docstrings' wrapped entries)."""
+    lines, found = markdown.splitlines(), []
+    for i, line in enumerate(lines[:-1]):
+        if not (
+            line.strip().startswith("|") and re.match(r"^\s*\|[\s:|-]*-[\s:|-]*$", lines[i + 1])
+        ):
+            continue
+
+        def cells(row):
+            return [c.strip() for c in re.split(r"(?<!\\)\|", row.strip()[1:-1])]
+
+        first = []
+        for row in lines[i + 2 :]:
+            if not row.strip().startswith("|"):
+                break
+            if cells(row)[0] or not first:
+                first.append(_plain(cells(row)[0]))
+        found.append(([_plain(c) for c in cells(line)], first))
+    return found
+
+
+def _docstrings(identifier: str, options: str) -> list[str]:
+    """The docstrings a `::: identifier` block shows: its own and its members' (all public
+    ones, or those `members:` lists; none with `members: false`)."""
+    import griffe
+
+    package = _griffe()
+    obj = package[identifier.removeprefix("tether_gym.")] if "." in identifier else package
+    listed = re.search(r"members:\s*(\[.*?\]|false)", options)
+    names = None if listed is None else re.findall(r"\w+", listed[1].replace("false", ""))
+    found = [obj.docstring.value] if obj.docstring else []
+    stack = [m for n, m in obj.members.items() if names is None or n in names]
+    while stack:
+        member = stack.pop()
+        if member.is_alias or member.name.startswith("_"):
+            continue
+        if member.docstring:
+            found.append(member.docstring.value)
+        if names is None and isinstance(member, griffe.Class | griffe.Module):
+            stack += member.members.values()
+    return found
+
+
+@functools.cache
+def _griffe():
+    import griffe
+
+    return griffe.load("tether_gym", search_paths=[str(ROOT)])
+
+
+def _source_tables(page: Path) -> list[tuple[list[str], list[str]]]:
+    """The tables a page's source makes: its own, its placeholders', its snippets' and the
+    docstrings' of its `:::` blocks."""
+    text = re.sub(r'^--8<-- "(.+)"$', lambda m: (ROOT / m[1]).read_text(), page.read_text(),
+                  flags=re.MULTILINE)  # fmt: skip
+    text = hooks.render(text)
+    found = _tables(text)
+    for identifier, options in re.findall(r"^::: (\S+)\n((?:    .*\n)*)", text, re.MULTILINE):
+        for docstring in _docstrings(identifier, options):
+            found += _tables(docstring)
+    return found
+
+
+@pytest.mark.slow
+def test_chromium_shows_the_site(site):
+    """Every page of the built site in a headless Chromium 1280 px wide: no console error, no
+    table cut off (wider than its box with no scrolling wrapper, a scrollbar not shown, a cell
+    clipped, an id broken mid-word), and every table of its source (the page's, the results
+    files', the command-line help's, the docstrings') shown with one row per entry, neither
+    split nor merged; the home and env pages with their GIFs. Screenshots in
+    build/screenshots/: the env pages' action tables, Training and Results."""
+    from tests.helpers import browser
+
+    executable = browser.chromium()
+    required = os.environ.get("TETHER_REQUIRE_CHROMIUM") == "1"
+    if executable is None or importlib.util.find_spec("websocket") is None:
+        reason = "no chromium (apt-get install chromium) or no websocket-client (docs extra)"
+        if required:
+            pytest.fail(reason)
+        pytest.skip(reason)
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    pages = sorted(p.parent.relative_to(site).as_posix() for p in site.rglob("index.html"))
+    pages = [("" if p == "." else p + "/") for p in pages if not p.startswith(("assets", "search"))]
+    assert len(pages) >= len(PAGES) - 1, pages
+    problems, checked = [], 0
+    chrome = browser.Browser(executable, width=1280, height=900)
+    try:
+        with browser.serve(site) as base:
+            for url in pages:
+                chrome.open(base + url)
+                name = url or "home"
+                if chrome.errors():
+                    problems.append(f"{name}: console errors {chrome.errors()}")
+                title = chrome.evaluate("document.querySelector('article h1').textContent")
+                assert title and "404" not in title, url
+                shown = chrome.evaluate(TABLES_JS)
+                for i, table in enumerate(shown):
+                    problems += [f"{name} table {i + 1} {table['head']}: {p}"
+                                 for p in table["problems"]]  # fmt: skip
+                source = DOCS / (url.rstrip("/") or "index")
+                source = source.with_suffix(".md") if source.with_suffix(".md").exists() else (
+                    source / "index.md")  # fmt: skip
+                unmatched = list(shown)
+                for head, first in _source_tables(source) if source.exists() else []:
+                    checked += 1
+                    twin = next((t for t in unmatched if (t["head"], t["first"]) == (head, first)),
+                                None)  # fmt: skip
+                    if twin is not None:
+                        unmatched.remove(twin)
+                        continue
+                    counts = [len(t["first"]) for t in shown if t["head"] == head]
+                    problems.append(
+                        f"{name}: the table {head} has {len(first)} rows in its "
+                        f"source, the page shows {counts or 'no such table'}"
+                    )
+                if url in ("", "envs/tether-bounce/"):
+                    gifs = [i for i in chrome.images() if i["src"].endswith(".gif")]
+                    assert gifs, f"{name}: no GIF"
+                    for gif in gifs:
+                        assert gif["complete"] and gif["width"] >= 640, gif
+                if url.startswith("envs/"):
+                    env = "tether_gym.envs." + (
+                        "TetherBounceEnv"
+                        if "bounce" in url
+                        else "tether_navigate.TetherNavigateEnv"
+                    )
+                    chrome.screenshot(SCREENSHOTS / f"{url.split('/')[1]}-action-space.png",
+                                      between=(f"[id='{env}--action-space']",
+                                               f"[id='{env}--observation-space']"))  # fmt: skip
+                if url in ("training/", "results/", ""):
+                    chrome.screenshot(SCREENSHOTS / f"{name.strip('/')}.png", full=True)
+    finally:
+        with contextlib.suppress(Exception):
+            chrome.close()
+    assert not problems, "\n".join(dict.fromkeys(problems))
+    assert checked >= 40, f"only {checked} tables found in the pages' sources"
+
+
+def test_a_seeds_table_says_each_seed_s_paired_comparison(tmp_path):
+    """A summary with `baselines.py --paired` results gets a line per file under its table:
+    each seed's wins and losses against the reference, from the file."""
+    summary = {
+        "env_id": "TetherNavigate_PostsReach-v2", "env_kwargs": {}, "seeds": [0, 1],
+        "timesteps": 1024, "train_seconds": [60.0, 90.0],
+        "results": [{"name": "PPO (best)", "success_rate": 0.5, "success_ci": [0.4, 0.6],
+                     "worst": 0.45, "episodes": 10}],
+        "paired": {"reference": "lookahead", "reference_success_rate": 0.4, "episodes": 10,
+                   "per_seed": [{"seed": 0, "wins": 3, "losses": 1, "mcnemar_p": 0.625},
+                                {"seed": 1, "wins": 2, "losses": 2, "mcnemar_p": 1.0}]},
+    }  # fmt: skip
+    (tmp_path / "summary.json").write_text(json.dumps(summary))
+    table = hooks.seeds_table({"summary.json": "python benchmarks/baselines.py"}, root=tmp_path)
+    assert "against lookahead (40.0%) on the same 10 episodes" in table
+    assert "seed 0: 3 won, 1 lost (p 0.62); seed 1: 2 won, 2 lost (p 1)" in table
+
+
+def test_a_ladder_seeds_table_reads_each_summary_s_agent_and_yardsticks(tmp_path):
+    """One row per summary: the overridden policy beside the algorithm, the learned agent's best
+    models over seeds, the planners and random from the same file, and the paired comparison
+    counted by seed."""
+    summary = {
+        "algo": "ppo", "env_id": "TetherNavigate_OpenStop-v2",
+        "env_kwargs": {"control": "aim", "coast": True},
+        "hyperparams": {"policy": "AimPolicy", "policy_kwargs": "dict(log_std_init=-2.5)"},
+        "seeds": [0, 1, 2], "timesteps": 1024, "train_seconds": [60.0, 120.0, 90.0],
+        "results": [{"name": "PPO (best)", "success_rate": 0.5, "success_ci": [0.4, 0.6],
+                     "worst": 0.45},
+                    {"name": "PPO (last)", "success_rate": 0.2, "worst": 0.1},
+                    {"name": "greedy planner", "success_rate": 0.551},
+                    {"name": "lookahead planner", "success_rate": 0.731},
+                    {"name": "random", "success_rate": 0.012}],
+        "paired": {"reference": "direct", "reference_success_rate": 0.6, "episodes": 10,
+                   "per_seed": [{"seed": 0, "wins": 1, "losses": 9, "mcnemar_p": 0.02},
+                                {"seed": 1, "wins": 3, "losses": 4, "mcnemar_p": 1.0},
+                                {"seed": 2, "wins": 9, "losses": 0, "mcnemar_p": 0.004}]},
+    }  # fmt: skip
+    (tmp_path / "summary.json").write_text(json.dumps(summary))
+    table = hooks.ladder_seeds_table({"*.json": "python benchmarks/baselines.py"}, root=tmp_path)
+    row = ("| `TetherNavigate_OpenStop-v2` | control:aim coast:True | PPO AimPolicy, "
+           "policy_kwargs as in the command | 3 | "
+           "1,024 | 2 | 50.0% [40.0, 60.0] | 45.0% | 55.1% | 73.1% | 1.2% | "
+           "direct 60.0%: ahead on 1, behind on 1 of 3 seeds (p < 0.05) |")  # fmt: skip
+    assert row in table.splitlines()
+
+
+def test_an_imitation_table_reads_each_picker_s_rates(tmp_path):
+    """One row per picker: the yardsticks as rates, the students as the mean over network seeds
+    with its interval, both over all held-out states and where a detour is needed."""
+    seeds = {"mean": 0.5, "ci": [0.4, 0.6], "seeds": [0.45, 0.5, 0.55]}
+    result = {
+        "env_id": "TetherNavigate_PostsReach-v2", "teacher": "aim-search", "candidates": 37,
+        "states": 1000, "held_out": 100, "detour_share": 0.2,
+        "goal_in_best": {"in_best": 0.8, "in_best_detour": 0.0},
+        "random_in_best": {"in_best": 0.3, "in_best_detour": 0.1},
+        "students": {"observation": {"in_best": seeds, "in_best_detour": seeds}},
+    }  # fmt: skip
+    (tmp_path / "imitation.json").write_text(json.dumps(result))
+    table = hooks.imitation_table({"*.json": "python benchmarks/imitation.py"}, root=tmp_path)
+    lines = table.splitlines()
+    prefix = "| `TetherNavigate_PostsReach-v2` | aim-search, 37 | 100 of 1,000 | 20.0% | "
+    assert prefix + "always the goal (the direct shot) | 80.0% | 0.0% |" in lines
+    assert prefix + "a random candidate | 30.0% | 10.0% |" in lines
+    student = "student: observation, 3 seeds | 50.0% [40.0, 60.0] | 50.0% [40.0, 60.0] |"
+    assert prefix + student in lines
+
+
+# --- tables from docstrings, the command-line reference, the notes' commands ----------------
+
+
+def test_a_docstring_table_shows_one_row_per_entry():
+    """A row with an empty first cell continues the row above (the docstrings' wrapped
+    entries): joined, cell by cell; other rows and the text around them as they are."""
+    text = (
+        "Before.\n\n| Num | Meaning |\n|-----|---------|\n| 0   | the peg whose bearing |\n"
+        "|     | is nearest hooks      |\n| 1   | length |\n\nAfter.\n"
+    )
+    assert hooks.join_table_rows(text) == (
+        "Before.\n\n| Num | Meaning |\n|-----|---------|\n"
+        "| 0 | the peg whose bearing is nearest hooks |\n| 1 | length |\n\nAfter.\n"
+    )
+
+
+def test_the_cli_reference_renders_any_argparse_parser():
+    """Usage in a text block, one table per group with a row per option (or subcommand), help
+    expanded as --help expands it, prose with its tables set off and joined."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="tool", description="Does <things>.")
+    parser.add_argument("--count", "-n", type=int, default=3, help="how many (default %(default)s)")
+    parser.add_argument("path", help="where")
+    commands = parser.add_subparsers(title="commands", dest="command")
+    commands.add_parser("run", help="run it")
+    parser.epilog = (
+        "Its arguments:\n| name | meaning |\n|---|---|\n| `a` | one |\n|  | more |\n\n"
+        "commands:\n  run     run it\n  stop    stop it\nThe end."
+    )
+    text = hooks.parser_markdown(parser)
+    assert text.startswith("```text\nusage: tool [-h] [--count COUNT]")
+    assert "Does &lt;things>." in text
+    assert "| `--count`, `-n COUNT` | how many (default 3) |" in text
+    assert "| `path` | where |" in text
+    assert "| command | meaning |\n|---|---|\n| `run` | run it |" in text
+    assert "Its arguments:\n\n| name | meaning |\n|---|---|\n| `a` | one more |" in text
+    assert "commands:\n\n- `run`: run it\n- `stop`: stop it\n\nThe end." in text
+
+
+def test_the_cli_reference_catches_the_parser_of_a_console_script():
+    parser = hooks.help_parser("python -m tether_gym.training.summary")
+    assert parser.prog == "python -m tether_gym.training.summary"
+
+
+def test_a_long_command_folds_before_its_options_and_unfolds_to_itself():
+    command = (
+        "python benchmarks/baselines.py --algo ppo --env ID --hyperparams "
+        "'policy_kwargs:dict(net_arch=[256, 256], log_std_init=-2.5)' --timesteps 500000"
+    )
+    folded = hooks.fold_command(command)
+    assert folded.splitlines()[0] == "python benchmarks/baselines.py \\"
+    assert all(len(line) <= 90 for line in folded.splitlines())
+    assert " ".join(folded.replace("\\\n", " ").split()) == command
+    assert hooks.fold_command("tether-train --seed 3") == "tether-train --seed 3"
