@@ -105,12 +105,13 @@ def test_help_with_env_shows_that_envs_arguments(main, capsys):
     assert "TetherBounce-v0 (TetherBounceEnv)" not in out
 
 
-def test_an_unknown_env_kwargs_key_lists_the_valid_ones(capsys):
+def test_an_unknown_env_kwargs_key_is_one_line_with_a_suggestion_and_the_valid_ones(capsys):
     with pytest.raises(SystemExit):
         evaluate.main(["--env", "TetherNavigate-v2", "--env-kwargs", "n_obstacle:3"])
     err = capsys.readouterr().err
-    assert "TetherNavigate-v2 has no argument 'n_obstacle'; its arguments: task, " in err
-    assert "n_obstacles" in err and "layout" in err
+    assert err.startswith("tether-evaluate: error: TetherNavigate-v2 has no argument 'n_obstacle' ")
+    assert "(did you mean 'n_obstacles'?); its arguments: task, " in err and "layout" in err
+    assert err.count("\n") == 1 and "usage:" not in err and "--help` lists the options" in err
     with pytest.raises(ValueError, match="has no argument 'n_anchors'; its arguments: task, dyn"):
         arguments.check_env("TetherBounce-v0", {"n_anchors": 3})
 
@@ -152,3 +153,22 @@ def test_the_dispatchers_old_names_warn_and_still_work():
 
     with pytest.warns(DeprecationWarning, match="tether_gym.arguments.check_env"):
         assert cli.check_env is arguments.check_env
+
+
+@pytest.mark.parametrize(
+    "override, message",
+    [
+        ("learning_rat:0.001", "unknown PPO hyperparameters ['learning_rat'] (did you mean "
+         "'learning_rate'?)"),
+        ("learning_rate:fast", "bad hyperparameter value for learning_rate: could not convert"),
+    ],
+)  # fmt: skip
+def test_a_bad_hyperparameter_is_one_line_naming_its_key(override, message, tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    from tether_gym.training import train
+
+    with pytest.raises(SystemExit) as exit_:
+        train.main(["--runs-dir", str(tmp_path), "--hyperparams", override])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"tether-train: error: {message}") and err.count("\n") == 1

@@ -14,11 +14,12 @@ from __future__ import annotations
 import argparse
 import ast
 import dataclasses
+import difflib
 import importlib.util
 import inspect
 import typing
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NoReturn
 
 import gymnasium as gym
 from gymnasium.envs.registration import load_env_creator
@@ -35,6 +36,20 @@ TRAIN_EXTRA = ("stable_baselines3", "torch", "tensorboard", "yaml", "rich")
 """Import names of the optional extra "train" (pyproject.toml)."""
 SWEEP_EXTRA = (*TRAIN_EXTRA, "ray", "optuna", "pandas")
 """Import names of the optional extra "sweep", which includes "train"."""
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse's parser with one-line errors: `PROG: error: MESSAGE` and where the options
+    are listed, without the usage block above it."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (`{self.prog} --help` lists the options)\n")
+
+
+def did_you_mean(word: str, choices: Sequence[str]) -> str:
+    """ " (did you mean 'x'?)" for the choice closest to a misspelt `word`, else ""."""
+    close = difflib.get_close_matches(word, list(choices), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def require_extra(
@@ -201,8 +216,9 @@ def check_env(env_id: str, env_kwargs: dict[str, Any]) -> None:
     valid = env_arguments(env_id)
     unknown = [key for key in env_kwargs if key not in valid]
     if unknown:
+        hint = did_you_mean(unknown[0], list(valid))
         raise ValueError(
-            f"{env_id} has no argument {unknown[0]!r}; its arguments: {', '.join(valid)}"
+            f"{env_id} has no argument {unknown[0]!r}{hint}; its arguments: {', '.join(valid)}"
         )
     try:
         gym.make(env_id, **env_kwargs).close()

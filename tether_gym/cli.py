@@ -5,8 +5,8 @@
     python -m tether_gym sweep sweeps/seeds.yml         # the same dispatcher
 
 Each command is the console script of the same name (`tether-train`, ...), given the rest of
-the command line; `COMMANDS` names where each lives, imported only when it runs, so that
-`tether --help` and a command without the training extra start fast.
+the command line; `COMMANDS` names where each lives, imported only when it runs, so that a
+command needs only its own extra (`tether evaluate` runs without the training extra).
 """
 
 from __future__ import annotations
@@ -17,6 +17,8 @@ import sys
 import warnings
 from collections.abc import Sequence
 from typing import Any, NamedTuple
+
+from tether_gym.arguments import ArgumentParser
 
 
 class Command(NamedTuple):
@@ -64,7 +66,7 @@ def __getattr__(name: str) -> Any:
 
 def build_parser() -> argparse.ArgumentParser:
     listing = "\n".join(f"  {name:<10}{command.summary}" for name, command in COMMANDS.items())
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="tether",
         description="One entry to every command of tether_gym.",
         epilog=f"commands:\n{listing}\n\n`tether COMMAND --help` shows a command's options.",

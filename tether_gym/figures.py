@@ -13,7 +13,6 @@ one, the trajectory pictures come from `physics.trajectory` (hybrid model).
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import sys
@@ -28,6 +27,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 from tqdm import tqdm
 
+from tether_gym.arguments import ArgumentParser
 from tether_gym.physics import (
     bounce,
     deadspin_offset_angles,
@@ -683,7 +683,7 @@ def write_figure(spec: FigureSpec, out: Path, svg: bool = False) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """The `tether-figures` command."""
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="tether-figures",
         description="Recompute the paper's figures (PNG + CSV) from the tether_gym physics.",
     )

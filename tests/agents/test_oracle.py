@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import math
 
-import gymnasium as gym
 import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
+from tests.helpers.envs import vector_env
 from tether_gym.agents.oracle import ImpulseOracle, ShootingOracle
 from tether_gym.envs.tether_bounce import decode_observation
 from tether_gym.envs.tether_bounce.kernel import PUCK_RADIUS
@@ -21,9 +21,7 @@ SPEEDS = np.linspace(1.0, 3.0, 41)
 
 def episodes(task: str, n: int, seed: int = 0, **kwargs):
     """One batch of n seeded episodes: the env, the observations and the oracle's outcome."""
-    env = gym.make_vec(
-        "TetherBounce-v0", num_envs=n, vectorization_mode="vector_entry_point", task=task, **kwargs
-    )
+    env = vector_env("TetherBounce-v0", n, task=task, **kwargs)
     obs, _ = env.reset(seed=seed)
     return obs.astype(np.float64), env
 

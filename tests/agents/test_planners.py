@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
+from tests.helpers.envs import vector_env
 from tether_gym.agents.planners import (
     IMPLEMENTATIONS,
     GreedyPlanner,
@@ -89,8 +90,7 @@ def test_the_state_is_read_back_from_the_observation():
 def test_predict_takes_one_observation_or_a_batch(planner, implementation):
     """SB3's signature; the bearing points at a peg (the kernel hooks the nearest bearing)."""
     agent = planner({"task": "stop", "n_obstacles": 2}, implementation=implementation)
-    vector = gym.make_vec("TetherNavigate-v2", num_envs=5, vectorization_mode="vector_entry_point",
-                          task="stop", n_obstacles=2)  # fmt: skip
+    vector = vector_env("TetherNavigate-v2", 5, task="stop", n_obstacles=2)
     batch, _ = vector.reset(seed=3)
     actions, state = agent.predict(batch, state=None, episode_start=None, deterministic=True)
     assert actions.shape == (5, 4) and actions.dtype == np.float32 and state is None

@@ -13,6 +13,7 @@ import pytest
 
 import tether_gym  # noqa: F401
 from tests.helpers import ROOT
+from tests.helpers.envs import vector_env
 from tether_gym.agents.aim_search import AimSearch
 from tether_gym.agents.direct import DirectShot
 from tether_gym.agents.oracle import ImpulseOracle
@@ -208,7 +209,7 @@ def test_agents_and_plots_are_refused_on_the_wrong_env(tmp_path):
 @pytest.mark.parametrize(("env_id", "speed"), [("TetherNavigate_PostsReach-v2", 1.0),
                                                ("TetherNavigate_OpenStop-v2", 0.0)])  # fmt: skip
 def test_the_direct_shot_aims_at_the_goal_at_its_task_s_speed(env_id, speed):
-    env = gym.make_vec(env_id, num_envs=8, vectorization_mode="vector_entry_point", control="aim")
+    env = vector_env(env_id, 8, control="aim")
     obs, _ = env.reset(seed=0)
     action, _ = DirectShot(env_id=env_id).predict(obs)
     command = AIM_ACTION.decode(AIM_ACTION.denormalize(action))

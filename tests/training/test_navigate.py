@@ -17,6 +17,7 @@ import torch
 from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.torch_layers import CombinedExtractor
 
+from tests.helpers.envs import vector_env
 from tests.helpers.training import TINY_NAVIGATE_NET, TINY_PPO, TINY_SAC, saved_timesteps
 from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtractor, ProposalPolicy
 from tether_gym.agents.saved import load_agent
@@ -237,9 +238,7 @@ def test_a_zero_residual_plays_the_planner_through_the_vec_env_and_the_agent():
     env = residual.ResidualVecEnv(
         make_sb3_vec_env(4, seed=7, env_id="TetherNavigate-v2", **kwargs), planner, 0.3
     )
-    native = gym.make_vec(
-        "TetherNavigate-v2", num_envs=4, vectorization_mode="vector_entry_point", **kwargs
-    )
+    native = vector_env("TetherNavigate-v2", 4, **kwargs)
     obs = env.reset()
     ref, _ = native.reset(seed=7)
     truncated = 0

@@ -12,6 +12,7 @@ pytest.importorskip("stable_baselines3")
 import torch
 from stable_baselines3.common.torch_layers import CombinedExtractor
 
+from tests.helpers.envs import vector_env
 from tether_gym.agents.networks import NavigateExtractor, ProposalPolicy
 from tether_gym.agents.planned import PROPOSALS_KEY
 from tether_gym.agents.planners import KINDS, GreedyPlanner, observed_states
@@ -24,10 +25,9 @@ KIND = slice(5, 5 + len(KINDS))
 
 
 def native_env(n: int, seed: int, **kwargs):
-    env = gym.make_vec(
+    env = vector_env(
         "TetherNavigate-v2",
-        num_envs=n,
-        vectorization_mode="vector_entry_point",
+        n,
         **(kwargs or KWARGS),
     )
     return env, env.reset(seed=seed)[0]

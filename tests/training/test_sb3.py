@@ -12,15 +12,14 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import tether_gym  # noqa: F401
+from tests.helpers.envs import vector_env
 from tether_gym.training.sb3 import SB3VecEnv, make_sb3_vec_env
 
 N = 6
 
 
 def native(**kwargs) -> gym.vector.VectorEnv:
-    return gym.make_vec(
-        "TetherBounce-v0", num_envs=N, vectorization_mode="vector_entry_point", **kwargs
-    )
+    return vector_env("TetherBounce-v0", N, **kwargs)
 
 
 def actions(rng: np.random.Generator) -> np.ndarray:
@@ -118,9 +117,7 @@ def test_goal_dicts_and_their_final_obs_split_per_copy():
     terminal_observation is that copy's slice of the native final_obs dict."""
     kwargs = {"n_obstacles": 2}
     ours = make_sb3_vec_env(N, seed=4, env_id="TetherNavigate-v2", **kwargs)
-    theirs = gym.make_vec(
-        "TetherNavigate-v2", num_envs=N, vectorization_mode="vector_entry_point", **kwargs
-    )
+    theirs = vector_env("TetherNavigate-v2", N, **kwargs)
     obs = ours.reset()
     ref, _ = theirs.reset(seed=4)
     assert set(obs) == {"observation", "achieved_goal", "desired_goal"}

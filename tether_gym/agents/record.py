@@ -22,7 +22,7 @@ import gymnasium as gym
 import numpy as np
 
 from tether_gym.agents.registry import make_agent
-from tether_gym.arguments import add_env_arguments, env_from_args
+from tether_gym.arguments import ArgumentParser, add_env_arguments, env_from_args
 
 GIF_COLOURS = 128
 """The GIF's one palette: the drawing's few colours and their anti-aliased blends."""
@@ -87,7 +87,7 @@ def write_gif(frames: list[np.ndarray], path: Path, fps: float, size: int) -> No
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="python -m tether_gym.agents.record",
         description="Write an animated GIF of an agent's episodes.",
     )

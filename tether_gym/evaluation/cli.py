@@ -14,7 +14,7 @@ import json
 from pathlib import Path
 
 from tether_gym.agents.registry import make_agent
-from tether_gym.arguments import add_env_arguments, chosen_env, env_from_args
+from tether_gym.arguments import ArgumentParser, add_env_arguments, chosen_env, env_from_args
 from tether_gym.evaluation.reports import format_table, paired_table, plot
 from tether_gym.evaluation.runner import evaluate
 from tether_gym.families import family
@@ -55,7 +55,7 @@ def agent_names(specs: list[str]) -> list[str]:
 
 def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
     """The command line; `--help` ends with the arguments of `env_id` (else of both envs)."""
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="tether-evaluate",
         description="Evaluate agents on the same fixed, seeded episodes of an env.",
         formatter_class=argparse.RawDescriptionHelpFormatter,

@@ -10,7 +10,6 @@ without importing itself. For maintainers.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 from typing import Any
@@ -26,7 +25,7 @@ from tether_gym.agents.pretrained import (
 )
 from tether_gym.agents.registry import make_agent
 from tether_gym.agents.saved import SB3Agent, read_config
-from tether_gym.arguments import DEFAULT_ENV_ID
+from tether_gym.arguments import DEFAULT_ENV_ID, ArgumentParser
 from tether_gym.evaluation.runner import evaluate
 from tether_gym.families import family
 from tether_gym.seeds import HELD_OUT_SEED
@@ -180,7 +179,7 @@ def _env_flags(facts: dict[str, Any]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """`python -m tether_gym.agents.pretrained RUN_DIR NAME --command ...`."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("run_dir", type=Path, help="a training run folder with best/")
     parser.add_argument("name", choices=sorted(AGENTS), help="the pretrained agent to replace")
     parser.add_argument("--command", required=True, help="the command that trained the run")

@@ -21,7 +21,7 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from tether_gym.agents.saved import read_config
-from tether_gym.arguments import check_env
+from tether_gym.arguments import check_env, did_you_mean
 from tether_gym.evaluation.reports import format_table
 from tether_gym.evaluation.results import EvalResult, NavigationResult
 from tether_gym.evaluation.runner import evaluate
@@ -48,7 +48,9 @@ def check_config(config: RunConfig | Mapping[str, Any]) -> None:
     allowed = set(signature.parameters) - {"self", "env", "_init_setup_model"}
     unknown = set(config.hyperparams) - allowed - set(ZOO_KEYS)
     if unknown:
-        raise ValueError(f"unknown {label(config)} hyperparameters {sorted(unknown)}")
+        first = sorted(unknown)[0]
+        hint = did_you_mean(first, sorted(allowed | set(ZOO_KEYS)))
+        raise ValueError(f"unknown {label(config)} hyperparameters {sorted(unknown)}{hint}")
     algo_kwargs(config.hyperparams)
     for variant in VARIANTS:
         variant.check(config)

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tether_gym.arguments import ArgumentParser
 from tether_gym.evaluation.statistics import t_interval
 
 RESULTS = "results.json"
@@ -72,7 +73,7 @@ def summarize(runs: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="python -m tether_gym.training.summary",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,

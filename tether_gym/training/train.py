@@ -40,6 +40,7 @@ from typing import Any
 from tether_gym.agents.saved import read_config
 from tether_gym.arguments import (
     DEFAULT_ENV_ID,
+    ArgumentParser,
     add_env_arguments,
     chosen_env,
     env_arguments,
@@ -120,7 +121,7 @@ def default_name(env_id: str, env_kwargs: dict[str, Any], seed: int, algo: str =
 
 def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
     """The command line; `--help` ends with the arguments of `env_id` (else of both envs)."""
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="tether-train",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,

@@ -101,6 +101,7 @@ def algo_kwargs(params: dict[str, Any]) -> dict[str, Any]:
     """The algorithm's keyword arguments in a zoo entry (schedules, policy_kwargs and
     replay_buffer_kwargs evaluated, replay_buffer_class by name)."""
     kwargs = {k: v for k, v in params.items() if k not in ZOO_KEYS}
+    key = ""
     try:
         for key in ("learning_rate", "clip_range", "clip_range_vf"):
             if kwargs.get(key) is not None:
@@ -108,13 +109,15 @@ def algo_kwargs(params: dict[str, Any]) -> dict[str, Any]:
         for key in ("policy_kwargs", "replay_buffer_kwargs"):
             if isinstance(kwargs.get(key), str):
                 kwargs[key] = expression(kwargs[key])
-        buffer = kwargs.get("replay_buffer_class")
+        key = "replay_buffer_class"
+        buffer = kwargs.get(key)
         if isinstance(buffer, str):
             if buffer not in REPLAY_BUFFERS:
-                raise ValueError(f"replay_buffer_class must be one of {sorted(REPLAY_BUFFERS)}")
-            kwargs["replay_buffer_class"] = REPLAY_BUFFERS[buffer]
-        if isinstance(params.get("normalize"), str):
-            expression(params["normalize"])
+                raise ValueError(f"must be one of {sorted(REPLAY_BUFFERS)}")
+            kwargs[key] = REPLAY_BUFFERS[buffer]
+        key = "normalize"
+        if isinstance(params.get(key), str):
+            expression(params[key])
     except Exception as error:
-        raise ValueError(f"bad hyperparameter value: {error}") from None
+        raise ValueError(f"bad hyperparameter value for {key}: {error}") from None
     return kwargs

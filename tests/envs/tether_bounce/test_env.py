@@ -18,6 +18,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import tether_gym  # noqa: F401
 from tests.helpers import rollouts
+from tests.helpers.envs import vector_env
 from tether_gym.envs import EnvConfig, TetherBounceEnv, TetherBounceVectorEnv
 from tether_gym.envs.tether_bounce import kernel
 
@@ -77,8 +78,7 @@ def test_same_seed_same_rollout(dynamics):
 @pytest.mark.parametrize("dynamics", DYNAMICS)
 def test_vector_matches_single_envs_step_for_step(dynamics):
     n, seed, steps = 5, 11, 300  # more steps than one block of uniforms
-    vec = gym.make_vec(
-        "TetherBounce-v0", num_envs=n, vectorization_mode="vector_entry_point", dynamics=dynamics,
+    vec = vector_env("TetherBounce-v0", n, dynamics=dynamics,
         block=64, task="mixed", spin_disturbance=2.0, restitution=(0.6, 1.0),
     )  # fmt: skip
     singles = [
@@ -102,7 +102,7 @@ def test_vector_matches_single_envs_step_for_step(dynamics):
 
 
 def test_native_vector_env_is_registered():
-    envs = gym.make_vec("TetherBounce-v0", num_envs=4, vectorization_mode="vector_entry_point")
+    envs = vector_env("TetherBounce-v0", 4)
     assert isinstance(envs, TetherBounceVectorEnv)
     obs, _ = envs.reset(seed=0)
     assert obs.shape == (4, 10) and envs.observation_space.contains(obs)

@@ -15,6 +15,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import tether_gym  # noqa: F401
 from tests.helpers import rollouts
+from tests.helpers.envs import vector_env
 from tether_gym.envs.tether_navigate import TetherNavigateEnv, TetherNavigateVectorEnv
 from tether_gym.envs.tether_navigate.config import (
     INERTIA_RATIO,
@@ -66,9 +67,7 @@ def test_vector_matches_single_envs_step_for_step(dynamics):
     streams give copy i exactly the episodes of a single env seeded s + i."""
     n, seed, steps = 10, 7, 25
     kwargs = dict(dynamics=dynamics, n_obstacles=2, max_maneuvers=3)
-    vector = gym.make_vec(
-        "TetherNavigate-v2", num_envs=n, vectorization_mode="vector_entry_point", block=8, **kwargs
-    )
+    vector = vector_env("TetherNavigate-v2", n, block=8, **kwargs)
     singles = [gym.make("TetherNavigate-v2", **kwargs) for _ in range(n)]
     obs, _ = vector.reset(seed=seed)
     single = [env.reset(seed=seed + i)[0] for i, env in enumerate(singles)]

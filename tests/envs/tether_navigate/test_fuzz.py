@@ -27,6 +27,7 @@ from benchmarks.fuzz_navigate import (
     random_actions,
     replay,
 )
+from tests.helpers.envs import vector_env
 from tether_gym.envs.tether_navigate.config import PUCK_RADIUS, TABLE_HEIGHT, TABLE_WIDTH
 
 COMBOS = combos()
@@ -164,8 +165,7 @@ def test_audit_step_finds_nan_and_notes_an_infinite_command_error(sample):
 
 def test_audit_vector_step_is_audit_step_row_by_row():
     """On a vector env's transitions, each row's findings are a single env's audit of it."""
-    envs = gym.make_vec("TetherNavigate_WallReach-v2", num_envs=32,
-                        vectorization_mode="vector_entry_point")  # fmt: skip
+    envs = vector_env("TetherNavigate_WallReach-v2", 32)
     space = envs.single_observation_space
     envs.reset(seed=5)
     rng = np.random.default_rng(5)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
+from tests.helpers.envs import vector_env
 from tether_gym.envs.tether_navigate import TetherNavigateEnv
 from tether_gym.envs.tether_navigate.config import (
     POST_RADIUS,
@@ -59,8 +60,7 @@ def test_a_layout_without_posts_works():
     np.testing.assert_allclose(obs["desired_goal"], [5 / 3, 5 / 6])
     _, _, _, _, info = env.step(env.action_space.sample())
     assert not info["hit_post"]
-    vector = gym.make_vec("TetherNavigate-v2", num_envs=3, vectorization_mode="vector_entry_point",
-                          layout=NO_POSTS)  # fmt: skip
+    vector = vector_env("TetherNavigate-v2", 3, layout=NO_POSTS)
     obs, _ = vector.reset(seed=0)
     assert vector.observation_space.contains(obs)
 
@@ -77,8 +77,7 @@ def test_a_layout_with_a_count_of_pegs_or_posts_is_refused(name, value):
     with pytest.raises(ValueError, match=rf"{name}={value} given with a layout"):
         navigate(layout=NO_POSTS, **{name: value})
     with pytest.raises(ValueError, match=rf"{name}={value} given with a layout"):
-        gym.make_vec("TetherNavigate-v2", num_envs=2, vectorization_mode="vector_entry_point",
-                     layout=NO_POSTS, **{name: value})  # fmt: skip
+        vector_env("TetherNavigate-v2", 2, layout=NO_POSTS, **{name: value})
 
 
 @pytest.mark.parametrize("name", ["n_anchors", "n_obstacles"])
@@ -209,7 +208,7 @@ def test_actions_that_are_not_real_numbers_are_refused(action):
 
 
 def test_the_vector_envs_refuse_them_naming_the_batch_shape():
-    envs = gym.make_vec("TetherNavigate-v2", num_envs=2, vectorization_mode="vector_entry_point")
+    envs = vector_env("TetherNavigate-v2", 2)
     envs.reset(seed=0)
     with pytest.raises(ValueError, match=r"action must be a real .* shape \(2, 4\), got dtype"):
         envs.step(np.zeros((2, 4), dtype=complex))
@@ -343,7 +342,7 @@ def test_options_that_clash_with_a_drawn_item_ask_for_it_too():
 
 
 def test_every_copy_of_the_vector_env_is_checked():
-    envs = gym.make_vec("TetherNavigate-v2", num_envs=8, vectorization_mode="vector_entry_point")
+    envs = vector_env("TetherNavigate-v2", 8)
     envs.reset(seed=0)
     states = envs.unwrapped.state
     start = (states["x"][5], states["y"][5])

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
+from tests.helpers.envs import vector_env
 from tether_gym.envs.tether_navigate.config import (
     COAST_STRETCHES,
     POST_RADIUS,
@@ -268,8 +269,7 @@ def test_the_peg_entry_picks_the_peg_by_rank_in_distance():
 def test_velocity_control_single_and_vector_envs_agree():
     """The native vector env's copies play exactly the single env's episodes."""
     kwargs = {"n_obstacles": 3, "control": "velocity"}
-    vec = gym.make_vec("TetherNavigate-v2", num_envs=3, vectorization_mode="vector_entry_point",
-                       **kwargs)  # fmt: skip
+    vec = vector_env("TetherNavigate-v2", 3, **kwargs)
     singles = [gym.make("TetherNavigate-v2", **kwargs) for _ in range(3)]
     obs, _ = vec.reset(seed=5)
     for i, env in enumerate(singles):
