@@ -29,7 +29,7 @@ PACKAGED = [
     "tether_gym/training/sb3.py",
     "tether_gym/training/hyperparams/ppo.yml",
     "tether_gym/training/hyperparams/sac.yml",
-    "tether_gym/training/sweep.py",
+    "tether_gym/training/sweep/cli.py",
     "tether_gym/agents/record.py",
     "tether_gym/envs/tether_navigate/kernel.py",
     "tether_gym/envs/tether_navigate/controls/setup.py",

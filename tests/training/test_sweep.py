@@ -20,12 +20,15 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
 import pytest
 import yaml
 
 pytest.importorskip("ray.tune")
 
 from tests.helpers import ROOT
+from tether_gym.evaluation.statistics import t_interval
 from tether_gym.training import cluster, sweep, sweep_main
 
 SWEEPS = ROOT / "sweeps"
@@ -56,7 +59,7 @@ def test_smoke_sweep_writes_the_summary_and_prints_its_table(smoke):
     lines = (out / "summary.csv").read_text().splitlines()
     assert lines[0].split(",") == list(sweep.SUMMARY_COLUMNS)  # nothing varies but the seed
     assert len(lines) == 2
-    (row,) = sweep.pd.read_csv(out / "summary.csv").to_dict("records")
+    (row,) = pd.read_csv(out / "summary.csv").to_dict("records")
     assert row["n_seeds"] == 2 and row["seeds"] == "0 1"
     assert 0 <= row["success_ci_low"] <= row["success_mean"] <= row["success_ci_high"] <= 1
     assert 0 <= row["success_worst"] <= row["success_mean"]
@@ -151,12 +154,12 @@ def test_the_example_sweeps_are_valid():
 
 
 def test_the_interval_over_seeds():
-    assert all(math.isnan(end) for end in sweep.t_interval(sweep.np.array([0.5])))
-    assert sweep.t_interval(sweep.np.array([0.9, 0.9])) == (0.9, 0.9)
-    low, high = sweep.t_interval(sweep.np.array([0.90, 0.92, 0.94]))
+    assert all(math.isnan(end) for end in t_interval(np.array([0.5])))
+    assert t_interval(np.array([0.9, 0.9])) == (0.9, 0.9)
+    low, high = t_interval(np.array([0.90, 0.92, 0.94]))
     assert low == pytest.approx(0.92 - 4.303 * 0.02 / math.sqrt(3), abs=1e-3)
     assert high == pytest.approx(0.92 + 4.303 * 0.02 / math.sqrt(3), abs=1e-3)
-    assert sweep.t_interval(sweep.np.array([0.0, 1.0])) == (0.0, 1.0)
+    assert t_interval(np.array([0.0, 1.0])) == (0.0, 1.0)
 
 
 def interrupt_when(condition, timeout: float = 240) -> threading.Thread:
@@ -197,7 +200,7 @@ def test_resume_continues_an_interrupted_sweep_without_redoing_finished_trials(t
     assert sweep.main(["--resume", str(out)]) == 0
     assert snapshot(first) == before, "the finished trial was not redone"
     assert yaml.safe_load((second / "last" / "config.yaml").read_text())["num_timesteps"] == 16384
-    summary = sweep.pd.read_csv(out / "summary.csv")
+    summary = pd.read_csv(out / "summary.csv")
     assert sorted(summary["timesteps"]) == [1024, 16384]
     assert list(summary["n_seeds"]) == [1, 1] and summary["success_ci_low"].isna().all()
 
@@ -233,7 +236,7 @@ def test_a_sweep_on_tether_navigate_compares_with_the_greedy_planner(tmp_path):
     path.write_text(yaml.safe_dump(data))
     out = tmp_path / "out"
     assert sweep.main([str(path), "--out", str(out)]) == 0
-    (row,) = sweep.pd.read_csv(out / "summary.csv").to_dict("records")
+    (row,) = pd.read_csv(out / "summary.csv").to_dict("records")
     assert row["oracle_success"] > 0.5, "the greedy planner's success on the test episodes"
     assert "| greedy planner | train s |" in (out / "summary.md").read_text()
 
