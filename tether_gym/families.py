@@ -28,6 +28,8 @@ class Family:
     env_id: str
     """Its main id, whose arguments `--help` lists when no `--env` is given."""
     entry_point: str
+    config: str
+    """The "module:name" path of its config: the env's arguments checked and completed."""
     """The Gymnasium entry point its ids are registered with."""
     runner: str
     """The "module:name" path of the function that plays one agent on its seeded episodes
@@ -67,6 +69,7 @@ BOUNCE = Family(
     name="TetherBounce",
     env_id="TetherBounce-v0",
     entry_point="tether_gym.envs:TetherBounceEnv",
+    config="tether_gym.envs:EnvConfig",
     runner="tether_gym.evaluation.runner:run_bounce",
     result="tether_gym.evaluation.results:EvalResult",
     plots=True,
@@ -84,6 +87,7 @@ NAVIGATE = Family(
     name="TetherNavigate",
     env_id=f"TetherNavigate-v{VERSION}",
     entry_point="tether_gym.envs.tether_navigate:TetherNavigateEnv",
+    config="tether_gym.envs.tether_navigate.config:NavigateConfig",
     runner="tether_gym.evaluation.runner:run_navigation",
     result="tether_gym.evaluation.results:NavigationResult",
     plots=False,
@@ -123,6 +127,16 @@ def family(env_id: str) -> Family:
         if candidate.entry_point == entry_point:
             return candidate
     raise ValueError(f"{env_id!r} ({entry_point}) is in no env family; the families: {known}")
+
+
+def env_config(env_id: str, env_kwargs: Mapping[str, Any] | None = None) -> Any:
+    """The env's arguments parsed once: its family's config of `env_kwargs` over those its
+    registration fixes (a ladder id's task and table), with the env's own defaults and checks
+    (ValueError naming a bad argument). Arguments that are not the config's (`render_mode`)
+    are left out."""
+    config = load(family(env_id).config)
+    given = {**gym.spec(env_id).kwargs, **(env_kwargs or {})}
+    return config(**{key: value for key, value in given.items() if key in config.names()})
 
 
 def check_agent(agent: str, env_id: str) -> None:

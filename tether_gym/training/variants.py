@@ -18,7 +18,7 @@ from stable_baselines3.common.vec_env import VecEnv
 from tether_gym.agents.networks import AIMED_CONTROLS
 from tether_gym.agents.planned import check_scale, make_planner, make_proposer
 from tether_gym.agents.planned import settings as proposal_settings
-from tether_gym.families import family
+from tether_gym.families import env_config, family
 from tether_gym.training.config import RunConfig
 from tether_gym.training.pretrain import check_pretrain, clone_planner
 from tether_gym.training.proposals import ProposalVecEnv
@@ -58,7 +58,9 @@ class Variant:
 
 
 def _planners_act_in_setup(key: str, config: RunConfig) -> None:
-    control = config.env_kwargs.get("control", "setup")
+    if not family(config.env_id).planners:
+        return  # the variant's own check names the env the planners solve
+    control = env_config(config.env_id, config.env_kwargs).control
     if control != "setup":
         raise ValueError(f"{key}: the planners act in control='setup', not {control}")
 
@@ -164,7 +166,7 @@ class Aim(Variant):
     def check(self, config: RunConfig) -> None:
         if not self.asked(config.hyperparams):
             return
-        control = config.env_kwargs.get("control", "setup")
+        control = getattr(env_config(config.env_id, config.env_kwargs), "control", None)
         if control not in AIMED_CONTROLS:
             raise ValueError(
                 f"policy AimPolicy: TetherNavigate with control one of {AIMED_CONTROLS} "
@@ -174,7 +176,7 @@ class Aim(Variant):
             raise ValueError("policy AimPolicy: not with normalize (it reads the goal in metres)")
 
     def policy_kwargs(self, config: RunConfig) -> dict[str, Any]:
-        return {"control": config.env_kwargs["control"]}
+        return {"control": env_config(config.env_id, config.env_kwargs).control}
 
 
 VARIANTS: tuple[Variant, ...] = (Residual(), Proposals(), Pretrain(), Aim())
