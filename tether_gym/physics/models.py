@@ -2,8 +2,9 @@
 
 `MODELS` maps a model's name to its `Model`; `name in MODELS` and iteration over the names work
 as with a tuple of names. `api.bounce` and `api.bounce_one` (the launch frame) and the world
-contacts all dispatch through it, so that a model is added in one place. pymunk, a heavy
-optional engine, is imported on first use only.
+contacts all dispatch through it, so that a model is added in one place. A model's code in the
+compiled env kernels is its index in `MODELS` (`DYNAMICS`; `IMPULSE`, `HYBRID`, `PYMUNK`).
+pymunk, a heavy optional engine, is imported on first use only.
 """
 
 from __future__ import annotations
@@ -64,3 +65,7 @@ MODELS: dict[str, Model] = {
 }
 """name -> `Model`: "impulse" (closed form), "hybrid" (spring tether), "pymunk" (the hybrid
 model's tether in the pymunk engine, the reference)."""
+DYNAMICS = tuple(MODELS)
+"""The models' names in `MODELS`' order: a model's code in a compiled kernel is its index here."""
+IMPULSE, HYBRID, PYMUNK = (DYNAMICS.index(name) for name in ("impulse", "hybrid", "pymunk"))
+"""The dynamics codes every env kernel reads (one table: `DYNAMICS`)."""
