@@ -84,8 +84,12 @@ DYNAMICS = ("hybrid", "impulse")
 """The dynamics this env allows; the kernels read their codes in `physics.MODELS` (`HYBRID`,
 `IMPULSE`)."""
 CONTROLS = ("setup", "velocity", "aim")
-"""The control modes (`controls`): what an action commands."""
+"""The control modes' names (`controls.CONTROL_MODES`: what an action commands); a mode's code
+in the kernels is its index here."""
 SETUP, VELOCITY, AIM = range(len(CONTROLS))
+AIMED = ("velocity", "aim")
+"""The modes that command the motion after the bounce: the env meets the offset angle (they
+need the reaction wheel), and the puck may coast to the aim (`coast`)."""
 
 STATE = np.dtype(
     [("x", np.float64), ("y", np.float64), ("vx", np.float64), ("vy", np.float64),
@@ -317,12 +321,13 @@ class NavigateConfig:
              check_float("wall_restitution", self.wall_restitution, 0.0, 1.0))  # fmt: skip
         if not isinstance(self.reaction_wheel, (bool, np.bool_)):
             raise ValueError(f"reaction_wheel must be True or False, got {self.reaction_wheel!r}")
-        if self.control != "setup" and not self.reaction_wheel:
+        if self.control in AIMED and not self.reaction_wheel:
             raise ValueError(f"control={self.control!r} needs reaction_wheel=True (the offset)")
         if not isinstance(self.coast, (bool, np.bool_)):
             raise ValueError(f"coast must be True or False, got {self.coast!r}")
-        if self.coast and self.control == "setup":
-            raise ValueError("coast=True needs control='velocity' or 'aim' (it coasts to the aim)")
+        if self.coast and self.control not in AIMED:
+            coasting = " or ".join(repr(name) for name in AIMED)
+            raise ValueError(f"coast=True needs control={coasting} (it coasts to the aim)")
         set_(self, "wheel_rate", check_float("wheel_rate", self.wheel_rate, 0.0, 1e4))
 
     @classmethod

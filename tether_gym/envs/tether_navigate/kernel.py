@@ -34,7 +34,7 @@ from tether_gym.envs.tether_navigate.config import (
     NavigateConfig,
     table_breach,
 )
-from tether_gym.envs.tether_navigate.controls import ACTIONS, play
+from tether_gym.envs.tether_navigate.controls import control_mode, play
 from tether_gym.envs.tether_navigate.sampling import reset_rows, sample
 from tether_gym.envs.tether_navigate.spaces import (
     GOAL_KEYS,
@@ -128,11 +128,17 @@ class NavigateKernel(Kernel):
         self.config = config
         self.params = config.params()
         self.n_uniforms = config.n_uniforms()
+        self.mode = control_mode(config.control)
+        """The control mode (`controls.ControlMode`)."""
 
     @property
     def action(self):
         """The action fields of the configured control mode."""
-        return ACTIONS[self.config.control]
+        return self.mode.action
+
+    def action_space(self):
+        """The configured control mode's normalized actions."""
+        return self.mode.space()
 
     def reset(self, uniforms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         n = uniforms.shape[0]
