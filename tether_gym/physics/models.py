@@ -11,10 +11,39 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from tether_gym.physics.contact import hybrid_contact, impulse_contact, pymunk_contact
 from tether_gym.physics.hybrid import hybrid_bounce, hybrid_kernel
 from tether_gym.physics.impulse import impulse_bounce, impulse_kernel
+
+
+class LaunchArgs(NamedTuple):
+    """The arguments of every model's launch-frame bounce, in their order (`Model.bounce_one`
+    takes them as floats, `Model.bounce_kernel` as flat arrays); a model ignores those it has no
+    use for."""
+
+    tether_angle: float
+    """The paper's beta, rad."""
+    offset_angle: float
+    """The paper's alpha at tautening, rad."""
+    offset: float
+    """The attachment point's distance from the centre of mass over the radius."""
+    inertia_ratio: float
+    """kappa = I / (m R^2)."""
+    speed: float
+    """m/s, before the bounce, along +y."""
+    spin: float
+    """rad/s, before the bounce."""
+    restitution: float
+    radius: float
+    """m."""
+    mass: float
+    """kg."""
+    tether_length: float
+    """The rest length L0, m."""
+    stiffness: float
+    """N/m (a stand-in for the impulse model)."""
 
 
 @dataclass(frozen=True)
@@ -25,9 +54,8 @@ class Model:
     needs_stiffness: bool
     """A spring tether: the stiffness is required and the restitution must be in (0, 1]."""
     bounce_one: Callable = field(repr=False)
-    """The launch-frame bounce from plain floats (tether_angle, offset_angle, offset,
-    inertia_ratio, speed, spin, restitution, radius, mass, tether_length, stiffness; those a
-    model has no use for are ignored) -> (vx, vy, spin, bounced, completed, contact_time)."""
+    """The launch-frame bounce from plain floats (`LaunchArgs`, in order) -> (vx, vy, spin,
+    bounced, completed, contact_time)."""
     bounce_kernel: Callable = field(repr=False)
     """The launch-frame bounce of a batch: the same arguments as flat float64 arrays of
     length n or 1, then the outputs it fills: velocity (n, 2), spin, deflection, speed ratio,
