@@ -1,4 +1,4 @@
-"""What the console scripts share: env flags from `EnvConfig`, literal values, the extra check."""
+"""What the console scripts share: env flags from `BounceConfig`, literals, the extra check."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import importlib.util
 import pytest
 
 from tether_gym import arguments, training
-from tether_gym.envs import EnvConfig
+from tether_gym.envs import BounceConfig
 from tether_gym.evaluation import cli as evaluate
 
 NAVIGATE_ARGUMENTS = ("`n_obstacles`", "`n_anchors`", "`layout`", "`control`", "`max_maneuvers`")
@@ -29,7 +29,7 @@ def test_both_commands_have_a_flag_per_envconfig_field():
     from tether_gym.training import train
 
     flags = {"--env", "--env-kwargs"}
-    flags |= {"--" + f.name.replace("_", "-") for f in dataclasses.fields(EnvConfig)}
+    flags |= {"--" + f.name.replace("_", "-") for f in dataclasses.fields(BounceConfig)}
     for parser in (evaluate.build_parser(), train.build_parser()):
         assert flags <= set(parser._option_string_actions)
 

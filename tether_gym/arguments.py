@@ -1,7 +1,7 @@
 """The env arguments the console scripts share, from one declaration, and the extras check.
 
 `tether-train` and `tether-evaluate` take `--env ID` and rl-zoo style `--env-kwargs key:value
-...`, plus one named flag per field of TetherBounce-v0's `EnvConfig` (`--task`, `--rho`, ...),
+...`, plus one named flag per field of TetherBounce-v0's `BounceConfig` (`--task`, `--rho`, ...),
 generated here so that the flags cannot drift from the env. Values are Python literals
 (`rho:(5, 100)`, `stiffness:3000`), a plain word is a string (`task:heading`). The env validates
 them itself: `check_env` builds it once, so a bad value fails with the env's own error before
@@ -24,14 +24,14 @@ from typing import Any, NoReturn
 import gymnasium as gym
 from gymnasium.envs.registration import load_env_creator
 
-from tether_gym.envs import EnvConfig  # the one place the CLIs learn the env's arguments
+from tether_gym.envs import BounceConfig  # the one place the CLIs learn the env's arguments
 from tether_gym.families import FAMILIES
 
 DEFAULT_ENV_ID = "TetherBounce-v0"
 HELP_ENV_IDS = tuple(env_family.env_id for env_family in FAMILIES)
 """The envs whose arguments `--help` lists when no `--env` is given: each family's main id."""
-ENV_DEFAULTS: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(EnvConfig)}
-"""TetherBounce-v0's arguments (`EnvConfig`'s fields) and their defaults."""
+ENV_DEFAULTS: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(BounceConfig)}
+"""TetherBounce-v0's arguments (`BounceConfig`'s fields) and their defaults."""
 TRAIN_EXTRA = ("stable_baselines3", "torch", "tensorboard", "yaml", "rich")
 """Import names of the optional extra "train" (pyproject.toml)."""
 SWEEP_EXTRA = (*TRAIN_EXTRA, "ray", "optuna", "pandas")
@@ -80,7 +80,7 @@ def _flag(name: str) -> str:
 
 
 def _takes_range(hint) -> bool:
-    """Whether an `EnvConfig` field's type admits a (low, high) tuple."""
+    """Whether an `BounceConfig` field's type admits a (low, high) tuple."""
     options = typing.get_args(hint) if typing.get_origin(hint) is not tuple else (hint,)
     return any(typing.get_origin(option) is tuple for option in options)
 
@@ -150,13 +150,13 @@ def env_epilog(env_id: str | None = None) -> str:
 
 
 def add_env_arguments(parser: argparse.ArgumentParser, env_id: str | None = None) -> None:
-    """`--env`, `--env-kwargs` and one flag per `EnvConfig` field, all defaulting to None
+    """`--env`, `--env-kwargs` and one flag per `BounceConfig` field, all defaulting to None
     (not given: the env's own default); the arguments of `env_id` (else of both envs) close
     `--help` (the parser needs a `RawDescriptionHelpFormatter` to keep their table)."""
     parser.epilog = env_epilog(env_id)
     group = parser.add_argument_group(
         "environment",
-        "--env-kwargs and the named flags (the fields of TetherBounce-v0's EnvConfig; --task, "
+        "--env-kwargs and the named flags (the fields of TetherBounce-v0's BounceConfig; --task, "
         "--dynamics, --rho and --stiffness are TetherNavigate's arguments too) set the env's "
         "keyword arguments, listed at the end; values are Python literals or plain words, "
         "validated by the env itself before any work.",
@@ -170,7 +170,7 @@ def add_env_arguments(parser: argparse.ArgumentParser, env_id: str | None = None
         metavar="KEY:VALUE",
         help="env keyword arguments, e.g. task:heading rho:(5,100)",
     )
-    hints = typing.get_type_hints(EnvConfig)
+    hints = typing.get_type_hints(BounceConfig)
     for name, default in ENV_DEFAULTS.items():
         if _takes_range(hints[name]):
             nargs, metavar = "+", ("LOW", "HIGH")

@@ -20,6 +20,7 @@ from tether_gym.agents import planner_kernels as compiled
 from tether_gym.agents.direct import aim_actions
 from tether_gym.agents.planners import OBSERVED_KEYS, env_arguments
 from tether_gym.envs.tether_navigate.config import NavigateConfig
+from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OUT
 
@@ -36,8 +37,10 @@ class AimSearch:
     the env's arguments, over those its registered `env_id` fixes; the search predicts with
     that env in `control="aim"` (its dynamics, `coast` as given)."""
 
-    control = "aim"
+    control_mode = CONTROL_MODES["aim"]
     """The control mode the agent acts in."""
+    control = control_mode.name
+    """The mode's name (the older attribute)."""
 
     def __init__(self, env_kwargs: dict | None = None, env_id: str | None = None):
         self.config = NavigateConfig(**{**env_arguments(env_kwargs, env_id), "control": "aim"})

@@ -8,6 +8,7 @@ import gymnasium as gym
 import numpy as np
 
 from tether_gym.envs.tether_navigate.config import NavigateConfig
+from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.controls.velocity import AIM_ACTION
 from tether_gym.tasks.navigate import TASKS
 
@@ -17,8 +18,10 @@ class DirectShot:
     harness plays it there). `env_kwargs`: the env's arguments, over those its registered
     `env_id` fixes (the ladder's tasks): the task sets the speed."""
 
-    control = "aim"
+    control_mode = CONTROL_MODES["aim"]
     """The control mode the agent acts in."""
+    control = control_mode.name
+    """The mode's name (the older attribute)."""
 
     def __init__(self, env_kwargs: dict | None = None, env_id: str | None = None):
         given = {**(gym.spec(env_id).kwargs if env_id else {}), **(env_kwargs or {})}

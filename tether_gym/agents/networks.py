@@ -45,7 +45,7 @@ from torch import nn
 
 from tether_gym.agents.planned import PROPOSAL_FEATURES, PROPOSALS_KEY
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_POSTS
-from tether_gym.envs.tether_navigate.controls import ACTIONS
+from tether_gym.envs.tether_navigate.controls import control_mode
 from tether_gym.envs.tether_navigate.spaces import GOAL_KEYS, OBS
 
 ANCHORS = slice(OBS.anchor0_present, OBS.anchor0_present + 3 * MAX_ANCHORS)
@@ -129,7 +129,7 @@ class GoalAim(nn.Module):
             )
         if speed is not None and not 0.0 <= speed <= 1.0:
             raise ValueError(f"AimPolicy: start_speed must be in [0, 1], got {speed!r}")
-        fields = ACTIONS[control]
+        fields = control_mode(control).action
         self.speed, self.speed_column = speed, fields.columns.speed
         self.action_size = len(fields)
         self.aim = [getattr(fields.columns, name) for name in ("aim_x", "aim_y")]

@@ -18,6 +18,7 @@ import numpy as np
 
 from tether_gym.agents.planners import FAIL, KINDS, GreedyPlanner, LookaheadPlanner, observed_states
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_SPEED, PUCK_RADIUS
+from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 
 BASE_KEY = "base_action"
 """The observation entry of a residual policy: its planner's action."""
@@ -53,7 +54,10 @@ def check_scale(scale: Any) -> float:
 class ResidualAgent:
     """A residual policy with its planner as one agent (SB3's `predict`)."""
 
-    control = "setup"
+    control_mode = CONTROL_MODES["setup"]
+    """The control mode the agent acts in: its planner's set-ups."""
+    control = control_mode.name
+    """The mode's name (the older attribute)."""
 
     def __init__(self, policy, base, scale: float):
         self.policy, self.base, self.scale = policy, base, check_scale(scale)
@@ -173,7 +177,10 @@ def _batched(obs: dict) -> tuple[dict, bool]:
 class ProposalAgent:
     """A policy over a planner's proposals with its planner as one agent (SB3's `predict`)."""
 
-    control = "setup"
+    control_mode = CONTROL_MODES["setup"]
+    """The control mode the agent acts in: its planner's set-ups."""
+    control = control_mode.name
+    """The mode's name (the older attribute)."""
 
     def __init__(self, policy, planner: GreedyPlanner, k: int, depth: int = 1):
         self.policy, self.planner = policy, planner

@@ -59,6 +59,7 @@ from tether_gym.envs.tether_navigate.config import (
     TABLE_WIDTH,
     NavigateConfig,
 )
+from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.controls.setup import ACTION
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OUT, decode_observation
@@ -455,8 +456,10 @@ class GreedyPlanner:
     (`spin_weight`), else its distance), worse if it ends on a post, then failures.
     """
 
-    control = "setup"
+    control_mode = CONTROL_MODES["setup"]
     """The control mode the planner acts in: its actions are set-ups, in any env's episodes."""
+    control = control_mode.name
+    """The mode's name (the older attribute)."""
 
     def __init__(
         self,

@@ -8,13 +8,27 @@ style of gymnax's pure `reset(key, params)` / `step(state, action, params)`:
     step_autoreset(state, observation, actions, uniforms)
                                   -> (state, observation, final observation, outcome)
 
-over named fields: `state` is a numpy record array (one record per episode, fields declared by
-the kernel), observations and outcomes are plain float arrays whose columns are declared once as
-`Fields`. The outcome holds `reward`, `terminated` and `truncated`, and everything else it holds
-is reported in `info`. Randomness comes in only as uniforms, drawn by the env from its own
-generators, `n_uniforms` per reset; the kernel's configuration (`params`, a validated record)
-is bound when the kernel is built. Kernels return new arrays and never change their inputs, so
-a refused step (a NaN action raises `ValueError`) changes nothing.
+over named fields: `state` holds one episode per row, observations and outcomes are plain float
+arrays whose columns are declared once as `Fields`. The outcome holds `reward`, `terminated`
+and `truncated`, and everything else it holds is reported in `info`. Randomness comes in only
+as uniforms, drawn by the env from its own generators, `n_uniforms` per reset; the kernel's
+configuration (`params`, validated) is bound when the kernel is built. Kernels return new
+arrays and never change their inputs, so a refused step (a NaN action raises `ValueError`)
+changes nothing.
+
+The state and the params come in either of two conventions, the envs here handling both alike
+(they index rows and never read a field):
+
+- records (a numpy structured array, fields read by name in the kernels: `s.vx`), for a state
+  with array fields or of mixed types: TetherNavigate's pegs and posts, its counts;
+- float64 rows with named columns (`Fields.columns`: `s[ST.spin]`), for a state of a few
+  floats: TetherBounce's, where numba's dispatch on record arrays and numpy's allocation of
+  them cost a tenth of a single env's step. Moving it to records would slow the env for no
+  gain in what its kernels can say.
+
+What the kernels share beyond this interface (the puck, the dynamics codes of
+`physics.MODELS`, the tether's stiffness check, the refusal of non-finite actions, the fused
+step-and-reset over chunks of rows) is in `envs.kernels`.
 
 `KernelEnv` and `KernelVectorEnv` do the rest: seeding, spaces, the episode's bookkeeping, the
 vector env's same-step autoreset with a mask (copies whose episode ended start the next one in

@@ -60,14 +60,18 @@ def run_navigation(
 ) -> dict[str, np.ndarray]:
     """Per-episode outcomes of one agent on a navigation env, and its wall time. Copy i plays
     its first episodes in turn (`episodes` shared out among the copies), the same ones for
-    every agent, listed round by round. An agent with a `control` mode of its own (a planner's
-    set-ups) plays in it: the episodes do not depend on the control mode."""
+    every agent, listed round by round. An agent with a control mode of its own (`control_mode`,
+    a `ControlMode`, or its name as `control`: a planner's set-ups) plays in it
+    (`ControlMode.env_kwargs`): the episodes do not depend on the control mode."""
     copies = min(episodes, BATCH)
     quota = episodes // copies + (np.arange(copies) < episodes % copies)
-    if hasattr(agent, "control"):  # coasting to an aim belongs to the aiming modes
-        env_kwargs = {**env_kwargs, "control": agent.control}
-        if agent.control == "setup":
-            env_kwargs.pop("coast", None)
+    from tether_gym.envs.tether_navigate.controls import control_mode
+
+    mode = getattr(agent, "control_mode", None)
+    if mode is None and hasattr(agent, "control"):  # a mode by name only
+        mode = control_mode(agent.control)
+    if mode is not None:
+        env_kwargs = mode.env_kwargs(env_kwargs)
     env = gym.make_vec(
         env_id, num_envs=copies, vectorization_mode="vector_entry_point", **env_kwargs
     )

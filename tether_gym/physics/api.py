@@ -13,7 +13,7 @@ import numpy as np
 
 from tether_gym.physics.checks import check_float, check_parameter, check_range
 from tether_gym.physics.geometry import deflection_and_speed_ratio
-from tether_gym.physics.models import MODELS
+from tether_gym.physics.models import MODELS, LaunchArgs
 
 
 @dataclass(frozen=True)
@@ -36,10 +36,7 @@ class BounceResult:
     """How long the tether stayed taut, s (0 for the instantaneous impulse model)."""
 
 
-BOUNCE_PARAMETERS = (
-    "tether_angle", "offset_angle", "offset", "inertia_ratio", "speed", "spin", "restitution",
-    "radius", "mass", "tether_length", "stiffness",
-)  # fmt: skip
+BOUNCE_PARAMETERS = LaunchArgs._fields
 """The physical parameters of `bounce`, in the order of every model's launch-frame core."""
 UNUSED_STIFFNESS = 1.0
 """Stands in for the stiffness of the impulse model, which has no spring."""
@@ -132,7 +129,7 @@ def bounce(
     spin_out, angle, ratio, contact_time = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     bounced, completed = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
     MODELS[model].bounce_kernel(
-        *(_flat(a, shape) for a in args.values()),
+        *LaunchArgs(**{name: _flat(a, shape) for name, a in args.items()}),
         velocity,
         spin_out,
         angle,
@@ -186,6 +183,6 @@ def bounce_one(
         mass=mass,
         tether_length=tether_length,
     )
-    vx, vy, w, bounced, completed, contact_time = MODELS[model].bounce_one(*a.values())
+    vx, vy, w, bounced, completed, contact_time = MODELS[model].bounce_one(*LaunchArgs(**a))
     angle, ratio = deflection_and_speed_ratio(vx, vy, a["speed"])
     return BounceResult(np.array([vx, vy]), w, angle, ratio, bounced, completed, contact_time)

@@ -11,6 +11,7 @@ pose as it is; the spring models' contacts last a finite time and move it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -44,6 +45,26 @@ class ContactResult:
     """The tether went slack again within the contact budget (always true for `impulse`)."""
     contact_time: np.ndarray
     """How long the tether stayed taut, s (0 for the instantaneous impulse model)."""
+
+
+class TetherRows(NamedTuple):
+    """A batch's tethers, flat arrays (n,): rest length (m), restitution, stiffness (N/m) and
+    the damper's ratio (`damping_ratios` of the restitution; the restitution itself for the
+    impulse model, which has no damper)."""
+
+    length: np.ndarray
+    restitution: np.ndarray
+    stiffness: np.ndarray
+    damping_ratio: np.ndarray
+
+
+class ContactRows(NamedTuple):
+    """What the contacts of a batch fill, flat arrays (n,): `ContactResult`'s fields."""
+
+    states: np.ndarray
+    bounced: np.ndarray
+    completed: np.ndarray
+    contact_time: np.ndarray
 
 
 def _validated(model, states, anchor, puck, tether_length, restitution, stiffness, spring):
@@ -82,22 +103,23 @@ def _validated(model, states, anchor, puck, tether_length, restitution, stiffnes
 
 
 @numba.njit(cache=True)
-def _contact_kernel(
-    hybrid, states, anchor_x, anchor_y, tether_length, restitution, stiffness, zeta,
-    mass, radius, kappa, offset, out, out_bounced, out_completed, out_time,
-):  # fmt: skip
+def _contact_kernel(hybrid, states, anchor_x, anchor_y, puck, tether, out):
+    """The contacts of the rows of `states` with the tethers (`TetherRows`) anchored at
+    (anchor_x, anchor_y), of one puck (`PuckParams`), into `out` (`ContactRows`)."""
     for i in range(states.shape[0]):
         if hybrid:
             after, bounced, completed, t = hybrid_contact_row(
-                states[i], anchor_x[i], anchor_y[i], mass, radius, kappa, offset,
-                tether_length[i], stiffness[i], zeta[i],
+                states[i], anchor_x[i], anchor_y[i], puck.mass, puck.radius,
+                puck.inertia_ratio, puck.offset, tether.length[i], tether.stiffness[i],
+                tether.damping_ratio[i],
             )  # fmt: skip
         else:
             after, bounced, completed, t = impulse_contact_row(
-                states[i], anchor_x[i], anchor_y[i], radius, kappa, offset, restitution[i]
-            )
-        write_state(out[i], after)
-        out_bounced[i], out_completed[i], out_time[i] = bounced, completed, t
+                states[i], anchor_x[i], anchor_y[i], puck.radius, puck.inertia_ratio,
+                puck.offset, tether.restitution[i],
+            )  # fmt: skip
+        write_state(out.states[i], after)
+        out.bounced[i], out.completed[i], out.contact_time[i] = bounced, completed, t
 
 
 def _run(model, states, anchor, puck, tether_length, restitution, stiffness) -> ContactResult:
@@ -107,24 +129,22 @@ def _run(model, states, anchor, puck, tether_length, restitution, stiffness) -> 
         model, states, anchor, puck, tether_length, restitution, stiffness, spring
     )
     n = flat[0].size
-    out = np.empty(n, dtype=PUCK_STATE)
-    bounced, completed, contact_time = np.empty(n, bool), np.empty(n, bool), np.empty(n)
-    zeta = damping_ratios(flat[4]) if spring else flat[4]
-    puck_args = (puck.mass, puck.radius, puck.inertia_ratio, puck.offset)
+    states, anchor_x, anchor_y, length, restitution, stiffness = flat
+    zeta = damping_ratios(restitution) if spring else restitution
+    tether = TetherRows(length, restitution, stiffness, zeta)
+    out = ContactRows(np.empty(n, PUCK_STATE), np.empty(n, bool), np.empty(n, bool), np.empty(n))
     if model == "pymunk":
         from tether_gym.physics.pymunk_backend import pymunk_contact_row
 
         for i in range(n):
-            state = PuckState.from_record(flat[0][i])
-            args = (flat[1][i], flat[2][i], *puck_args, flat[3][i], flat[5][i], zeta[i])
-            after, bounced[i], completed[i], contact_time[i] = pymunk_contact_row(state, *args)
-            out[i] = tuple(after)
+            after, out.bounced[i], out.completed[i], out.contact_time[i] = pymunk_contact_row(
+                PuckState.from_record(states[i]), anchor_x[i], anchor_y[i], *puck.params,
+                length[i], stiffness[i], zeta[i],
+            )  # fmt: skip
+            out.states[i] = tuple(after)
     else:
-        _contact_kernel(spring, *flat, zeta, *puck_args, out, bounced, completed, contact_time)
-    return ContactResult(
-        out.reshape(shape), bounced.reshape(shape), completed.reshape(shape),
-        contact_time.reshape(shape),
-    )  # fmt: skip
+        _contact_kernel(spring, states, anchor_x, anchor_y, puck.params, tether, out)
+    return ContactResult(*(rows.reshape(shape) for rows in out))
 
 
 def impulse_contact(

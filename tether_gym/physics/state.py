@@ -52,6 +52,16 @@ PUCK_STATE = np.dtype([(name, np.float64) for name in PuckState._fields])
 """The structured dtype of a batch of puck states: float64 fields x, y, vx, vy, angle, spin."""
 
 
+class PuckParams(NamedTuple):
+    """The puck's parameters as the numba rows take them (`Puck.params`): one argument in place
+    of four floats."""
+
+    mass: float
+    radius: float
+    inertia_ratio: float
+    offset: float
+
+
 @dataclass(frozen=True)
 class Puck:
     """The puck's parameters, validated (ValueError naming the parameter and its range)."""
@@ -69,6 +79,11 @@ class Puck:
         for field in fields(self):
             value = check_parameter(field.name, getattr(self, field.name), check_float)
             object.__setattr__(self, field.name, value)
+
+    @property
+    def params(self) -> PuckParams:
+        """The parameters as a `PuckParams` for the numba rows."""
+        return PuckParams(self.mass, self.radius, self.inertia_ratio, self.offset)
 
     @property
     def arm(self) -> float:

@@ -19,7 +19,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import tether_gym  # noqa: F401
 from tests.helpers import rollouts
 from tests.helpers.envs import vector_env
-from tether_gym.envs import EnvConfig, TetherBounceEnv, TetherBounceVectorEnv
+from tether_gym.envs import BounceConfig, TetherBounceEnv, TetherBounceVectorEnv
 from tether_gym.envs.tether_bounce import kernel
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
@@ -42,7 +42,7 @@ def test_the_action_map_is_the_documented_one_compiled_and_not():
     np.testing.assert_allclose(kernel.ACTION.denormalize([[-1] * 4, [1] * 4]), ends)
     rng = np.random.default_rng(1)
     actions = rng.uniform(-1.3, 1.3, (50, 4))
-    bounce = kernel.TetherBounceKernel(EnvConfig(dynamics="impulse"))
+    bounce = kernel.TetherBounceKernel(BounceConfig(dynamics="impulse"))
     state, _ = bounce.reset(rng.random((50, bounce.n_uniforms)))
     _, _, out = bounce.step(state, actions)
     setup = out[:, kernel.SETUP : kernel.SETUP + 4]
@@ -307,7 +307,7 @@ def test_wrong_action_shape_names_the_action():
 def test_threaded_step_and_reset_equals_the_serial_kernels(dynamics):
     """The vector env's fused pass across threads (batches of two chunks or more) gives the same
     outcomes and next episodes as the kernel's `step` then `reset`, bit for bit."""
-    config = EnvConfig(
+    config = BounceConfig(
         dynamics=dynamics, restitution=(0.6, 1.0), inertia_ratio=(0.3, 2.0), spin_disturbance=5.0
     )
     bounce = kernel.TetherBounceKernel(config)

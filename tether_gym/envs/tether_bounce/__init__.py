@@ -2,6 +2,12 @@
 frames (`rendering`)."""
 
 from tether_gym.envs.tether_bounce.env import TetherBounceEnv, TetherBounceVectorEnv
-from tether_gym.envs.tether_bounce.kernel import EnvConfig, decode_observation
+from tether_gym.envs.tether_bounce.kernel import BounceConfig, EnvConfig, decode_observation
 
-__all__ = ["EnvConfig", "TetherBounceEnv", "TetherBounceVectorEnv", "decode_observation"]
+__all__ = [
+    "BounceConfig",
+    "EnvConfig",
+    "TetherBounceEnv",
+    "TetherBounceVectorEnv",
+    "decode_observation",
+]

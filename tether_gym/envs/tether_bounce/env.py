@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 from tether_gym.envs.base import KernelEnv, KernelVectorEnv
-from tether_gym.envs.tether_bounce.kernel import EnvConfig, TetherBounceKernel, decode_observation
+from tether_gym.envs.tether_bounce.kernel import (
+    BounceConfig,
+    TetherBounceKernel,
+    decode_observation,
+)
 
 
 class TetherBounceEnv(KernelEnv):
@@ -134,7 +138,7 @@ class TetherBounceEnv(KernelEnv):
         spin_disturbance: float = 0.0,
         render_mode: str | None = None,
     ):
-        self.config = EnvConfig(
+        self.config = BounceConfig(
             task, dynamics, inertia_ratio, restitution, rho, stiffness, spin_disturbance
         )
         super().__init__(TetherBounceKernel(self.config), render_mode)
@@ -168,5 +172,5 @@ class TetherBounceVectorEnv(KernelVectorEnv):
         **kwargs,
     ):
         """`kwargs`: the arguments of `TetherBounceEnv` (its Arguments table)."""
-        self.config = EnvConfig(**kwargs)
+        self.config = BounceConfig(**kwargs)
         super().__init__(TetherBounceKernel(self.config), num_envs, render_mode, block)

@@ -21,25 +21,34 @@ from numba import prange
 
 from tether_gym.envs.base import Kernel
 from tether_gym.envs.fields import Field, Fields
-from tether_gym.physics import MODELS, bounce
+from tether_gym.envs.kernels import (
+    DYNAMICS,
+    HYBRID,
+    IMPULSE,
+    PUCK_MASS,
+    PUCK_RADIUS,
+    PYMUNK,
+    check_finite,
+    fused_autoreset,
+    parallel_chunk,
+    tether_stiffness,
+)
+from tether_gym.physics import bounce
 from tether_gym.physics.checks import check_float
 from tether_gym.physics.geometry import stiffness_for_rho
 from tether_gym.physics.hybrid import damping_ratio, hybrid_core
 from tether_gym.physics.impulse import impulse_core
-from tether_gym.physics.jit import choose_threading_layer
 from tether_gym.tasks import bounce as task
 from tether_gym.tasks.bounce import TARGET_SPEED, TASKS
 
-PUCK_MASS, PUCK_RADIUS, TETHER_LENGTH = 0.03, 0.04, 1.0
-"""The puck (kg, m; an air-hockey puck's) and the tether's rest length (m)."""
+TETHER_LENGTH = 1.0
+"""m: the tether's rest length (the puck is `envs.kernels`', shared with TetherNavigate)."""
 MAX_INERTIA_RATIO = 4.0
 MAX_SPIN_DISTURBANCE = 50.0
 """rad/s: a rim speed of 2 m/s at R = 4 cm."""
 RHO_RANGE = (1.0, 1e6)
-DEFAULT_RHO = 850.0
-"""The paper's experimental stiffness (its rho > 850)."""
-DYNAMICS = tuple(MODELS)
-IMPULSE, HYBRID, PYMUNK = (DYNAMICS.index(name) for name in ("impulse", "hybrid", "pymunk"))
+"""The rho this env allows (`envs.kernels.tether_stiffness`), its default `DEFAULT_RHO`. The
+dynamics are every model of `physics.MODELS`, by their codes there (`DYNAMICS`)."""
 
 ACTION = Fields(
     Field("launch_speed", 1.0, 3.0, "m/s"),
@@ -104,8 +113,8 @@ STATE = Fields(
     Field("spin", doc="rad/s, before the bounce"),
 )
 """An episode, one float64 row: its task, goal and physical parameters. Plain rows with named
-columns rather than records: numba's dispatch and numpy's allocation of record arrays cost a
-tenth of a single env's step."""
+columns rather than records (`envs.base` allows both): numba's dispatch and numpy's allocation
+of record arrays cost a tenth of a single env's step."""
 ST = STATE.columns
 
 PARAMS = Fields(
@@ -151,7 +160,7 @@ def _value_or_range(name: str, value, low: float, high: float, low_open: bool = 
 
 
 @dataclass(frozen=True)
-class EnvConfig:
+class BounceConfig:
     """TetherBounce's arguments (see the env's Arguments table), validated on construction:
     a bad one raises ValueError naming it. A number or a (low, high) range where noted; after
     construction the ranges are pairs and `rho` is set even if `stiffness` was given."""
@@ -177,16 +186,13 @@ class EnvConfig:
                 "e = 0 needs an infinite damper"
             )
         set_(self, "restitution", restitution)
-        rho = self.rho
-        if self.stiffness is not None:
-            if rho is not None:
-                raise ValueError(
-                    "give the tether's stiffness either as rho or as stiffness, not both"
-                )
-            low, high = (env_stiffness(r) for r in RHO_RANGE)
-            set_(self, "stiffness", check_float("stiffness", self.stiffness, low, high))
-            rho = env_rho(self.stiffness)
-        set_(self, "rho", _value_or_range("rho", DEFAULT_RHO if rho is None else rho, *RHO_RANGE))
+        rho, stiffness = tether_stiffness(
+            self.rho, self.stiffness, RHO_RANGE, env_stiffness, _value_or_range
+        )
+        if stiffness is not None:
+            set_(self, "stiffness", stiffness)
+            rho = _value_or_range("rho", env_rho(stiffness), *RHO_RANGE)
+        set_(self, "rho", rho)
         set_(self, "inertia_ratio", _value_or_range(
             "inertia_ratio", self.inertia_ratio, 0.0, MAX_INERTIA_RATIO, low_open=True
         ))  # fmt: skip
@@ -373,46 +379,44 @@ def _observe_all(state, obs):
         _observe(state[i], obs[i])
 
 
+@numba.njit(cache=True)
+def _step_autoreset(actions, params, state, out, uniforms, next_state, obs):
+    """The step kernel of the configured dynamics, then `_reset` (every episode ends at its
+    step)."""
+    if params[PA.dynamics] == IMPULSE:
+        bad = _step_impulse(actions, params, state, out)
+    else:
+        bad = _step_hybrid(actions, params, state, out)
+    _reset(uniforms, params, next_state, obs)
+    return bad
+
+
 @numba.njit(cache=True, parallel=True)
 def _step_autoreset_parallel(actions, params, state, out, uniforms, next_state, obs, chunk):
-    """The step kernel of the configured dynamics, then `_reset` (every episode ends at its
-    step), on chunks of `chunk` rows across threads (the serial kernels' loops compile tighter
-    than one prange over rows)."""
+    """`_step_autoreset` on chunks of `chunk` rows across threads (`envs.kernels`)."""
     n = state.shape[0]
     bad = 0
     for c in prange((n + chunk - 1) // chunk):
         rows = slice(c * chunk, min((c + 1) * chunk, n))
-        if params[PA.dynamics] == IMPULSE:
-            bad += _step_impulse(actions[rows], params, state[rows], out[rows])
-        else:
-            bad += _step_hybrid(actions[rows], params, state[rows], out[rows])
-        _reset(uniforms[rows], params, next_state[rows], obs[rows])
+        bad += _step_autoreset(
+            actions[rows], params, state[rows], out[rows], uniforms[rows], next_state[rows],
+            obs[rows],
+        )  # fmt: skip
     return bad
 
 
 STEP_KERNELS = {HYBRID: _step_hybrid, IMPULSE: _step_impulse}
-PARALLEL_CHUNK = (
-    {HYBRID: 32, IMPULSE: 2048}
-    if choose_threading_layer() == "workqueue"
-    else {HYBRID: 4, IMPULSE: 256}
-)
-"""Rows per parallel task: tens of microseconds of work, enough to pay for handing it to a TBB
-thread. Workqueue, the fallback where TBB does not load, is slow to wake its threads, so its
-chunks hold several times more. A batch of fewer than two chunks runs serially."""
-
-
-def _check_finite(bad: int, actions: np.ndarray) -> None:
-    """The kernels count NaN or infinite actions; any is a ValueError."""
-    if bad:
-        raise ValueError(f"action must be finite (no NaN or infinity), got {actions!r}")
+PARALLEL_CHUNK = {HYBRID: parallel_chunk(4, 32), IMPULSE: parallel_chunk(256, 2048)}
+"""Rows per parallel task, by dynamics (`envs.kernels.parallel_chunk`). A batch of fewer than
+two chunks runs serially."""
 
 
 class TetherBounceKernel(Kernel):
-    """The kernel of TetherBounce-v0 for one `EnvConfig`."""
+    """The kernel of TetherBounce-v0 for one `BounceConfig`."""
 
     observation, outcome, action = OBSERVATION, OUTCOME, ACTION
 
-    def __init__(self, config: EnvConfig):
+    def __init__(self, config: BounceConfig):
         self.config = config
         self.params = config.params()
         p = PARAMS.decode(self.params)
@@ -437,9 +441,9 @@ class TetherBounceKernel(Kernel):
         obs, out = OBSERVATION.empty(n), OUTCOME.empty(n)
         _observe_all(state, obs)
         if self.dynamics != PYMUNK:
-            _check_finite(STEP_KERNELS[self.dynamics](actions, self.params, state, out), actions)
+            check_finite(STEP_KERNELS[self.dynamics](actions, self.params, state, out), actions)
             return state, obs, out
-        _check_finite(_decode_all(actions, out), actions)
+        check_finite(_decode_all(actions, out), actions)
         result = bounce(
             out[:, OUT.tether_angle], out[:, OUT.offset_angle], offset=out[:, OUT.offset],
             inertia_ratio=state[:, ST.inertia_ratio], speed=out[:, OUT.launch_speed],
@@ -455,19 +459,18 @@ class TetherBounceKernel(Kernel):
 
     def step_autoreset(self, state, obs, actions, uniforms):
         """Every episode ends at its step: step, then all start anew, fused into one pass
-        across threads for batches large enough to pay for it. A step leaves the state
-        unchanged, so the final observations are `obs` itself."""
+        (`envs.kernels.fused_autoreset`: across threads for batches large enough to pay for
+        it). A step leaves the state unchanged, so the final observations are `obs` itself."""
         n = state.shape[0]
-        if self.dynamics == PYMUNK or n < 2 * PARALLEL_CHUNK[self.dynamics]:
+        if self.dynamics == PYMUNK:
             _, _, out = self.step(state, actions)
             return (*self.reset(uniforms), obs, out)
         actions = self.as_actions(actions, n)
         out, next_state, next_obs = OUTCOME.empty(n), STATE.empty(n), OBSERVATION.empty(n)
-        bad = _step_autoreset_parallel(
-            actions, self.params, state, out, uniforms, next_state, next_obs,
-            PARALLEL_CHUNK[self.dynamics],
+        fused_autoreset(
+            _step_autoreset, _step_autoreset_parallel, PARALLEL_CHUNK[self.dynamics], actions,
+            self.params, state, out, uniforms, next_state, next_obs,
         )  # fmt: skip
-        _check_finite(bad, actions)
         return next_state, next_obs, obs, out
 
     def episode_end(self, outcome: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -516,3 +519,8 @@ def decode_observation(obs) -> dict[str, np.ndarray]:
         "stiffness": env_stiffness(rho),
         "spin": o["spin"],
     }
+
+
+EnvConfig = BounceConfig
+"""The old name of `BounceConfig` (deprecated: it sat beside TetherNavigate's
+`NavigateConfig`)."""

@@ -8,14 +8,24 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from tether_gym.envs.kernels import DEFAULT_RHO as DEFAULT_RHO  # re-exported, as before
+from tether_gym.envs.kernels import (
+    HYBRID,
+    IMPULSE,
+    PUCK_INERTIA_RATIO,
+    PUCK_MASS,
+    PUCK_RADIUS,
+    tether_stiffness,
+)
 from tether_gym.physics.checks import check_float
 from tether_gym.physics.geometry import stiffness_for_rho
 from tether_gym.tasks.navigate import REWARD_TYPES, TASKS
 
 TABLE_WIDTH, TABLE_HEIGHT = 2.0, 1.0
 """m: the air table, x along its long side, origin at a corner."""
-PUCK_MASS, PUCK_RADIUS, INERTIA_RATIO, OFFSET = 0.03, 0.04, 0.5, 1.0
-"""TetherBounce's puck (kg, m, I/(m R^2)), its tether attached on the rim."""
+INERTIA_RATIO, OFFSET = PUCK_INERTIA_RATIO, 1.0
+"""TetherBounce's puck (`envs.kernels`: `PUCK_MASS` kg, `PUCK_RADIUS` m, I/(m R^2)), its tether
+attached on the rim."""
 ARM = OFFSET * PUCK_RADIUS
 GYRATION2 = INERTIA_RATIO * PUCK_RADIUS**2
 """I / m, m^2."""
@@ -65,16 +75,21 @@ budget that winds about the peg for longer is drawn with its last chord longer."
 PATH_POINTS = MAX_WALL_HITS + 3 + CONTACT_POINTS + COAST_STRETCHES
 """A maneuver's path: its start, the wall hits, the tautening, the contact's arc, the slack
 instant, and with `coast` the coast's wall hits and its end."""
-DEFAULT_RHO = 850.0
 RHO_LENGTH, RHO_SPEED = 0.8, START_SPEED[1]
 """The stiffness is the one whose rho (eq. 11) is `rho` for the longest tether at the fastest
 start: shorter tethers and slower pucks meet a lower rho."""
 RHO_RANGE = (10.0, 1e6)
+"""The rho this env allows (`envs.kernels.tether_stiffness`), its default `DEFAULT_RHO`."""
 DYNAMICS = ("hybrid", "impulse")
-HYBRID, IMPULSE = range(len(DYNAMICS))
+"""The dynamics this env allows; the kernels read their codes in `physics.MODELS` (`HYBRID`,
+`IMPULSE`)."""
 CONTROLS = ("setup", "velocity", "aim")
-"""The control modes (`controls`): what an action commands."""
+"""The control modes' names (`controls.CONTROL_MODES`: what an action commands); a mode's code
+in the kernels is its index here."""
 SETUP, VELOCITY, AIM = range(len(CONTROLS))
+AIMED = ("velocity", "aim")
+"""The modes that command the motion after the bounce: the env meets the offset angle (they
+need the reaction wheel), and the puck may coast to the aim (`coast`)."""
 
 STATE = np.dtype(
     [("x", np.float64), ("y", np.float64), ("vx", np.float64), ("vy", np.float64),
@@ -238,6 +253,12 @@ def table_breach(items: dict[str, tuple[np.ndarray, np.ndarray]]) -> Breach | No
     return None
 
 
+def _stiffness(rho: float) -> float:
+    """The spring constant (N/m) whose rho is `rho` for the longest tether at the fastest start
+    (`RHO_LENGTH`, `RHO_SPEED`)."""
+    return stiffness_for_rho(rho, PUCK_MASS, RHO_LENGTH, RHO_SPEED)
+
+
 def _count(name: str, value, low: int, high: int) -> int:
     if (
         isinstance(value, bool)
@@ -274,17 +295,11 @@ class NavigateConfig:
                               ("dynamics", DYNAMICS), ("control", CONTROLS)):  # fmt: skip
             if getattr(self, name) not in options:
                 raise ValueError(f"{name} must be one of {options}, got {getattr(self, name)!r}")
-        low, high = (stiffness_for_rho(r, PUCK_MASS, RHO_LENGTH, RHO_SPEED) for r in RHO_RANGE)
-        if self.stiffness is not None:
-            if self.rho is not None:
-                raise ValueError(
-                    "give the tether's stiffness either as rho or as stiffness, not both"
-                )
-            set_(self, "stiffness", check_float("stiffness", self.stiffness, low, high))
-        else:
-            rho = check_float("rho", DEFAULT_RHO if self.rho is None else self.rho, *RHO_RANGE)
+        rho, stiffness = tether_stiffness(self.rho, self.stiffness, RHO_RANGE, _stiffness)
+        if stiffness is None:
             set_(self, "rho", rho)
-            set_(self, "stiffness", stiffness_for_rho(rho, PUCK_MASS, RHO_LENGTH, RHO_SPEED))
+            stiffness = _stiffness(rho)
+        set_(self, "stiffness", stiffness)
         if self.layout is None:
             n_anchors = DEFAULT_ANCHORS if self.n_anchors is None else self.n_anchors
             n_obstacles = DEFAULT_OBSTACLES if self.n_obstacles is None else self.n_obstacles
@@ -306,12 +321,13 @@ class NavigateConfig:
              check_float("wall_restitution", self.wall_restitution, 0.0, 1.0))  # fmt: skip
         if not isinstance(self.reaction_wheel, (bool, np.bool_)):
             raise ValueError(f"reaction_wheel must be True or False, got {self.reaction_wheel!r}")
-        if self.control != "setup" and not self.reaction_wheel:
+        if self.control in AIMED and not self.reaction_wheel:
             raise ValueError(f"control={self.control!r} needs reaction_wheel=True (the offset)")
         if not isinstance(self.coast, (bool, np.bool_)):
             raise ValueError(f"coast must be True or False, got {self.coast!r}")
-        if self.coast and self.control == "setup":
-            raise ValueError("coast=True needs control='velocity' or 'aim' (it coasts to the aim)")
+        if self.coast and self.control not in AIMED:
+            coasting = " or ".join(repr(name) for name in AIMED)
+            raise ValueError(f"coast=True needs control={coasting} (it coasts to the aim)")
         set_(self, "wheel_rate", check_float("wheel_rate", self.wheel_rate, 0.0, 1e4))
 
     @classmethod
@@ -322,7 +338,8 @@ class NavigateConfig:
         """The (1,) `PARAMS` record the kernels read."""
         p = np.zeros(1, PARAMS)
         p["task"], p["reward_type"] = TASKS.index(self.task), REWARD_TYPES.index(self.reward_type)
-        p["dynamics"], p["control"] = DYNAMICS.index(self.dynamics), CONTROLS.index(self.control)
+        p["dynamics"] = HYBRID if self.dynamics == "hybrid" else IMPULSE
+        p["control"] = CONTROLS.index(self.control)
         p["wall_restitution"], p["stiffness"] = self.wall_restitution, self.stiffness
         p["reaction_wheel"], p["wheel_rate"] = self.reaction_wheel, self.wheel_rate
         p["max_maneuvers"], p["coast"] = self.max_maneuvers, self.coast

@@ -21,6 +21,7 @@ import numpy as np
 from numba import prange
 
 from tether_gym.envs.base import Kernel
+from tether_gym.envs.kernels import check_finite, fused_autoreset, parallel_chunk
 from tether_gym.envs.tether_navigate.config import (
     INERTIA_RATIO,
     MAX_ANCHORS,
@@ -33,7 +34,7 @@ from tether_gym.envs.tether_navigate.config import (
     NavigateConfig,
     table_breach,
 )
-from tether_gym.envs.tether_navigate.controls import ACTIONS, play
+from tether_gym.envs.tether_navigate.controls import control_mode, play
 from tether_gym.envs.tether_navigate.sampling import reset_rows, sample
 from tether_gym.envs.tether_navigate.spaces import (
     GOAL_KEYS,
@@ -46,7 +47,6 @@ from tether_gym.envs.tether_navigate.spaces import (
     observe_all,
 )
 from tether_gym.physics.checks import as_finite, check_float
-from tether_gym.physics.jit import choose_threading_layer
 
 
 @numba.njit(cache=True, inline="always")
@@ -102,7 +102,7 @@ def _step_autoreset(actions, params, old_state, state, final_obs, out, uniforms,
 def _step_autoreset_parallel(
     actions, params, old_state, state, final_obs, out, uniforms, obs, chunk
 ):
-    """`_step_autoreset` on chunks of `chunk` rows across threads."""
+    """`_step_autoreset` on chunks of `chunk` rows across threads (`envs.kernels`)."""
     n = state.shape[0]
     bad = 0
     for c in prange((n + chunk - 1) // chunk):
@@ -114,13 +114,9 @@ def _step_autoreset_parallel(
     return bad
 
 
-PARALLEL_CHUNK = 16 if choose_threading_layer() == "workqueue" else 4
-"""Rows per parallel task: a maneuver costs microseconds (tens with the hybrid contact)."""
-
-
-def _check_finite(bad: int, actions: np.ndarray) -> None:
-    if bad:
-        raise ValueError(f"action must be finite (no NaN or infinity), got {actions!r}")
+PARALLEL_CHUNK = parallel_chunk(4, 16)
+"""Rows per parallel task (`envs.kernels.parallel_chunk`): a maneuver costs microseconds (tens
+with the hybrid contact)."""
 
 
 class NavigateKernel(Kernel):
@@ -132,11 +128,17 @@ class NavigateKernel(Kernel):
         self.config = config
         self.params = config.params()
         self.n_uniforms = config.n_uniforms()
+        self.mode = control_mode(config.control)
+        """The control mode (`controls.ControlMode`)."""
 
     @property
     def action(self):
         """The action fields of the configured control mode."""
-        return ACTIONS[self.config.control]
+        return self.mode.action
+
+    def action_space(self):
+        """The configured control mode's normalized actions."""
+        return self.mode.space()
 
     def reset(self, uniforms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         n = uniforms.shape[0]
@@ -148,22 +150,20 @@ class NavigateKernel(Kernel):
         n = state.shape[0]
         actions = self.as_actions(actions, n)
         new_state, obs, out = np.empty(n, STATE), OBSERVATION.empty(n), OUTCOME.empty(n)
-        _check_finite(_step(actions, self.params, state, new_state, obs, out), actions)
+        check_finite(_step(actions, self.params, state, new_state, obs, out), actions)
         return new_state, obs, out
 
     def step_autoreset(self, state, obs, actions, uniforms):
-        """Fused into one pass, across threads for batches large enough to pay for it (`obs`
-        is not needed: a maneuver changes the whole state)."""
+        """Fused into one pass (`envs.kernels.fused_autoreset`: across threads for batches
+        large enough to pay for it; `obs` is not needed: a maneuver changes the whole state)."""
         n = state.shape[0]
         actions = self.as_actions(actions, n)
         new_state = np.empty(n, STATE)
         final_obs, obs, out = OBSERVATION.empty(n), OBSERVATION.empty(n), OUTCOME.empty(n)
-        args = (actions, self.params, state, new_state, final_obs, out, uniforms, obs)
-        if n < 2 * PARALLEL_CHUNK:
-            bad = _step_autoreset(*args)
-        else:
-            bad = _step_autoreset_parallel(*args, PARALLEL_CHUNK)
-        _check_finite(bad, actions)
+        fused_autoreset(
+            _step_autoreset, _step_autoreset_parallel, PARALLEL_CHUNK, actions, self.params,
+            state, new_state, final_obs, out, uniforms, obs,
+        )  # fmt: skip
         return new_state, obs, final_obs, out
 
     def reset_options(self, options: dict, state: np.ndarray, obs: np.ndarray) -> None:

@@ -1,36 +1,120 @@
 """TetherNavigate's control modes: how an action becomes a maneuver's set-up (`maneuver`).
 
+Each mode is a `ControlMode`, as HighwayEnv's action types are: its action's fields and
+`space()`, `decode` (a normalized action in physical terms, by name), its compiled `solve`
+(one episode's set-up from a normalized action), and what it asks of the env (the reaction
+wheel; whether `coast` applies, `env_kwargs`). `control_mode(name)` is the factory,
+`CONTROL_MODES` the table:
+
 - `setup`: the set-up itself (`controls.setup`).
 - `velocity`: the peg and the motion after the bounce, turned into the set-up by the inverse of
   the bounce (`controls.velocity`).
 - `aim`: the motion after the bounce alone; the peg is the environment's choice too.
+
+Inside the compiled step (`play`) the configured mode is its code (`config.CONTROLS`' index):
+a kernel that took the mode's `solve` as an argument could not be cached (`envs.kernels`).
 """
 
 from __future__ import annotations
 
-import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numba
+import numpy as np
+from gymnasium import spaces
 
-from tether_gym.envs.tether_navigate.config import CONTROLS, SETUP
+from tether_gym.envs.fields import Fields
+from tether_gym.envs.tether_navigate.config import AIMED, CONTROLS, SETUP
 from tether_gym.envs.tether_navigate.controls import setup, velocity
 from tether_gym.envs.tether_navigate.maneuver import maneuver
-from tether_gym.envs.tether_navigate.spaces import OUT
 
-ACTIONS = {"setup": setup.ACTION, "velocity": velocity.ACTION, "aim": velocity.AIM_ACTION}
-"""Each control mode's action fields: the physical ranges [-1, 1] maps onto."""
+
+@dataclass(frozen=True)
+class ControlMode:
+    """A control mode: what an action commands and how the env turns it into a set-up."""
+
+    name: str
+    action: Fields = field(repr=False)
+    """The action's entries: the physical ranges the normalized action [-1, 1] maps onto."""
+    solve: Callable = field(repr=False)
+    """Compiled, `(action, s, p, out) -> (peg, tether length, offset angle, brake, aim x, aim
+    y)`: the set-up of episode state `s`'s maneuver for a normalized action (the aim NaN where
+    the mode has none); writes `command_met` and `command_error` into outcome row `out`."""
+
+    @property
+    def needs_wheel(self) -> bool:
+        """The set-up's offset angle is the env's to meet: the mode needs the reaction wheel
+        (`config.AIMED`, which `NavigateConfig` checks)."""
+        return self.name in AIMED
+
+    @property
+    def coasts(self) -> bool:
+        """The mode has an aim the puck may coast to (the env's `coast`; `config.AIMED`)."""
+        return self.name in AIMED
+
+    @property
+    def code(self) -> int:
+        """The mode in the compiled kernels (`PARAMS["control"]`)."""
+        return CONTROLS.index(self.name)
+
+    def space(self) -> spaces.Box:
+        """Normalized actions: [-1, 1] per entry of `action`, mapped linearly onto its range."""
+        return spaces.Box(-1.0, 1.0, shape=(len(self.action),), dtype=np.float32)
+
+    def decode(self, actions) -> dict[str, np.ndarray]:
+        """Normalized actions (..., len(action)), clipped to [-1, 1], in physical terms by
+        name (the command; the set-up itself under `setup`)."""
+        return self.action.decode(self.action.denormalize(actions))
+
+    def __reduce__(self):
+        """Pickled by name: a pickled env's mode is the table's (its `action` holds a class
+        made at import, which pickle cannot find by name)."""
+        return control_mode, (self.name,)
+
+    def env_kwargs(self, kwargs: dict) -> dict:
+        """An env's arguments `kwargs` for playing in this mode: `control` set to it, `coast`
+        dropped where it does not apply (the episodes do not depend on the mode)."""
+        kwargs = {**kwargs, "control": self.name}
+        if not self.coasts:
+            kwargs.pop("coast", None)
+        return kwargs
+
+
+CONTROL_MODES = {
+    mode.name: mode
+    for mode in (
+        ControlMode("setup", setup.ACTION, setup.solve),
+        ControlMode("velocity", velocity.ACTION, velocity.solve),
+        ControlMode("aim", velocity.AIM_ACTION, velocity.solve),
+    )
+}
+"""name -> `ControlMode`, in `config.CONTROLS`' order."""
+assert tuple(CONTROL_MODES) == CONTROLS
+
+ACTIONS = {name: mode.action for name, mode in CONTROL_MODES.items()}
+"""Each control mode's action fields (the older table; `CONTROL_MODES[name].action`)."""
+
+
+def control_mode(control: str | ControlMode) -> ControlMode:
+    """The `ControlMode` named `control` (a mode is returned as it is); ValueError naming the
+    modes otherwise."""
+    if isinstance(control, ControlMode):
+        return control
+    if not isinstance(control, str) or control not in CONTROL_MODES:
+        raise ValueError(f"control must be one of {CONTROLS}, got {control!r}")
+    return CONTROL_MODES[control]
 
 
 @numba.njit(cache=True, inline="always")
 def play(action, s, p, out):
-    """One maneuver of episode `s` from a normalized action in the configured control mode."""
+    """One maneuver of episode `s` from a normalized action: the configured mode's `solve`,
+    then `maneuver`."""
     if p.control == SETUP:
-        anchor, length, alpha, e = setup.decode(action, s)
-        aim_x = aim_y = math.nan
-        out[OUT.command_met], out[OUT.command_error] = 1.0, 0.0
-    else:
+        anchor, length, alpha, e, aim_x, aim_y = setup.solve(action, s, p, out)
+    else:  # velocity and aim
         anchor, length, alpha, e, aim_x, aim_y = velocity.solve(action, s, p, out)
     maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out)
 
 
-__all__ = ["ACTIONS", "CONTROLS", "play"]
+__all__ = ["ACTIONS", "CONTROLS", "CONTROL_MODES", "ControlMode", "control_mode", "play"]

@@ -9,6 +9,7 @@ import numba
 import numpy as np
 
 from tether_gym.envs.fields import Field, Fields
+from tether_gym.envs.tether_navigate.spaces import OUT
 from tether_gym.physics.geometry import fold_angle
 
 ACTION = Fields(
@@ -43,3 +44,12 @@ def decode(action, s):
             ACTION_HIGH[j] - ACTION_LOW[j]
         )
     return hook(s, a[0]), a[1], a[2], a[3]
+
+
+@numba.njit(cache=True, inline="always")
+def solve(action, s, p, out):
+    """The mode's `ControlMode.solve`: the set-up `decode`s, the command met (it is the set-up
+    itself), no aim."""
+    anchor, length, alpha, e = decode(action, s)
+    out[OUT.command_met], out[OUT.command_error] = 1.0, 0.0
+    return anchor, length, alpha, e, math.nan, math.nan

@@ -35,6 +35,7 @@ there). `info` reports `command_met` (a miss under `COMMAND_TOLERANCE` that the 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -104,6 +105,64 @@ BOUND_SLACK = 1e-9
 GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
 
 
+class Aim(NamedTuple):
+    """A command (`_command`): the point the path after the bounce should pass through (m) and
+    the speed after it as a `fraction` of the speed at tautening."""
+
+    x: float
+    y: float
+    fraction: float
+
+
+class Command(NamedTuple):
+    """The command at one tautening point: the aim (m), the speed after the bounce (m/s) and
+    how much its error weighs (s, `speed_weight`)."""
+
+    x: float
+    y: float
+    speed: float
+    weight: float
+
+
+class Peg(NamedTuple):
+    """The peg hooked (m) and the longest tether it allows (m)."""
+
+    x: float
+    y: float
+    longest: float
+
+
+class Table(NamedTuple):
+    """What the path after the bounce meets: the posts (k, 2), m, and the walls' restitution."""
+
+    posts: np.ndarray
+    restitution: float
+
+
+class Wheel(NamedTuple):
+    """The reaction wheel on one straight stretch of the flight (`flight.wheel_crossing`): the
+    stretch's start from the decision (s), its length (s), the wheel's rate (rad/s) and the
+    contact's clearance (m)."""
+
+    elapsed: float
+    t_end: float
+    rate: float
+    clearance: float
+
+
+class Found(NamedTuple):
+    """A peg's grid search (`_search`): the best score (inf if no window), the straight
+    stretch it lies on (its start), the bracket about it (s into the stretch), the stretch's
+    wheel and the peg."""
+
+    score: float
+    puck: PuckState
+    low: float
+    high: float
+    wheel: Wheel
+    peg: Peg
+
+
 @numba.njit(cache=True, inline="always")
 def _norm(x, y):
     """|(x, y)| by sqrt: glibc's `hypot` is slow in the search's inner loop."""
@@ -132,9 +191,9 @@ def _pick_peg(s, value):
 def _miss(px, py, ox, oy, gx, gy, speed, weight, table):
     """(the command's miss, whether a post stops the path first) for a bounce at (px, py)
     leaving at (ox, oy): the aim's distance from the path over the next `PATH_TIME`, its first
-    `COAST_STRETCHES` straight stretches (the walls reflect it, `table` = (posts, the walls'
-    restitution)), up to the first post it touches (a slow puck's path is short, a stopped
-    one's the point itself), plus `weight` (s) times the speed error."""
+    `COAST_STRETCHES` straight stretches (the walls reflect it, `table` a `Table`), up to the
+    first post it touches (a slow puck's path is short, a stopped one's the point itself), plus
+    `weight` (s) times the speed error."""
     posts, restitution = table
     puck = PuckState(px, py, ox, oy, 0.0, 0.0)
     v2 = ox * ox + oy * oy
@@ -232,11 +291,12 @@ def _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, table,
 
 
 @numba.njit(cache=True)
-def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest, table, bound):
-    """The impulse bounce at tautening point (px, py) for the command, the tether at most
-    `longest`: (score, miss, tether length, moment arm R sin(alpha), brake e); a score of at
-    least `bound` may come back inf (the set-up then meaningless)."""
-    rx, ry = px - ax, py - ay
+def _bounce_at(px, py, vx, vy, spin, peg, command, table, bound):
+    """The impulse bounce at tautening point (px, py) for the `Command`, the tether from the
+    `Peg`: (score, miss, tether length, moment arm R sin(alpha), brake e); a score of at least
+    `bound` may come back inf (the set-up then meaningless)."""
+    gx, gy, speed, weight = command
+    rx, ry = px - peg.x, py - peg.y
     radius = _norm(rx, ry)
     dx, dy = gx - px, gy - py
     distance = _norm(dx, dy)
@@ -245,7 +305,7 @@ def _bounce_at(px, py, vx, vy, spin, ax, ay, gx, gy, speed, weight, longest, tab
     change = _norm(cx, cy)
     arm = 0.0
     if change > 0.0 and rx * cx + ry * cy > 0.0:
-        limit = _longest_arm(radius, longest)
+        limit = _longest_arm(radius, peg.longest)
         arm = min(max((ry * cx - rx * cy) / change, -limit), limit)
     lateral = math.sqrt(max(ARM * ARM - arm * arm, 0.0))  # R cos(alpha), alpha in [-pi/2, pi/2]
     length, ux, uy = taut_tether(rx, ry, radius, arm, lateral)
@@ -275,58 +335,58 @@ def _longest_arm(radius, longest):
 
 
 @numba.njit(cache=True)
-def _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, table, wheel, bound=math.inf):
-    """`_bounce_at` `t` into the straight stretch starting at `puck`, the commanded speed a
-    `fraction` of the puck's there, and whether the reaction wheel can meet its offset angle
-    there (`flight.wheel_crossing`, with `wheel` = (the stretch's start from the decision, its
-    length, the wheel's rate, the contact's clearance)); `WHEEL_PENALTY` on the score if not.
-    A score of at least `bound` comes back as at least it (perhaps inf; the wheel unchecked,
-    not turning), any other exactly."""
+def _bounce_on(puck, t, peg, aim, table, wheel, bound=math.inf):
+    """`_bounce_at` `t` into the straight stretch starting at `puck`, the commanded speed the
+    `Aim`'s fraction of the puck's there, and whether the reaction wheel can meet its offset
+    angle there (`flight.wheel_crossing` with the stretch's `Wheel`); `WHEEL_PENALTY` on the
+    score if not. A score of at least `bound` comes back as at least it (perhaps inf; the wheel
+    unchecked, not turning), any other exactly."""
     x, y = puck.x + puck.vx * t, puck.y + puck.vy * t
-    speed, weight = fraction * _norm(puck.vx, puck.vy), speed_weight(fraction)
+    speed, weight = aim.fraction * _norm(puck.vx, puck.vy), speed_weight(aim.fraction)
     score, miss, length, arm, e = _bounce_at(
-        x, y, puck.vx, puck.vy, puck.spin, ax, ay, gx, gy, speed, weight, longest, table, bound
-    )
+        x, y, puck.vx, puck.vy, puck.spin, peg, Command(aim.x, aim.y, speed, weight), table,
+        bound,
+    )  # fmt: skip
     if score >= bound:
         return score, miss, length, arm, e, False
     elapsed, t_end, rate, clearance = wheel
     at, _ = wheel_crossing(
-        puck, ax, ay, length, math.asin(arm / ARM), elapsed, t_end, rate, clearance
+        puck, peg.x, peg.y, length, math.asin(arm / ARM), elapsed, t_end, rate, clearance
     )
     turns = abs(at - t) <= 1e-6 * max(1.0, t)
     return score + (0.0 if turns else WHEEL_PENALTY), miss, length, arm, e, turns
 
 
 @numba.njit(cache=True)
-def _golden(puck, lo, hi, ax, ay, gx, gy, fraction, longest, table, wheel):
+def _golden(puck, lo, hi, peg, aim, table, wheel):
     """(t, score): the least score in [lo, hi] by golden-section search, one new point a step
     (scored only as far as it decides against the point kept, `_bounce_on`'s bound)."""
     t1, t2 = hi - GOLDEN * (hi - lo), lo + GOLDEN * (hi - lo)
-    m1 = _bounce_on(puck, t1, ax, ay, gx, gy, fraction, longest, table, wheel)[0]
-    m2 = _bounce_on(puck, t2, ax, ay, gx, gy, fraction, longest, table, wheel)[0]
+    m1 = _bounce_on(puck, t1, peg, aim, table, wheel)[0]
+    m2 = _bounce_on(puck, t2, peg, aim, table, wheel)[0]
     for _ in range(REFINEMENTS):
         if m1 <= m2:
             hi, t2, m2 = t2, t1, m1
             t1 = hi - GOLDEN * (hi - lo)
             bound = np.nextafter(m2, math.inf)  # m1 <= m2 must stay decided
-            m1 = _bounce_on(puck, t1, ax, ay, gx, gy, fraction, longest, table, wheel, bound)[0]
+            m1 = _bounce_on(puck, t1, peg, aim, table, wheel, bound)[0]
         else:
             lo, t1, m1 = t1, t2, m2
             t2 = lo + GOLDEN * (hi - lo)
-            m2 = _bounce_on(puck, t2, ax, ay, gx, gy, fraction, longest, table, wheel, m1)[0]
+            m2 = _bounce_on(puck, t2, peg, aim, table, wheel, m1)[0]
     return (t1, m1) if m1 <= m2 else (t2, m2)
 
 
 @numba.njit(cache=True)
 def _command(action, first):
-    """(aim x, aim y, speed fraction): the action's entries from `first` on, mapped from
-    [-1, 1] (clipped) onto their ranges."""
+    """The `Aim`: the action's entries from `first` on, mapped from [-1, 1] (clipped) onto
+    their ranges."""
     values = np.empty(3)
     for j in range(3):
         x = min(max(action[first + j], -1.0), 1.0)
         low, high = ACTION_LOW[j + 1], ACTION_HIGH[j + 1]
         values[j] = low + 0.5 * (x + 1.0) * (high - low)
-    return values[0], values[1], values[2]
+    return Aim(values[0], values[1], values[2])
 
 
 @numba.njit(cache=True)
@@ -362,20 +422,20 @@ def _closest_approach(flight, gx, gy):
 
 
 @numba.njit(cache=True)
-def _search(s, p, anchor, flight, gx, gy, fraction, after_stretch, after_t):
+def _search(s, p, anchor, flight, aim, after_stretch, after_t):
     """The grid search over the tautening windows of the `flight` from `after_t` into stretch
-    `after_stretch` on: (best score, its stretch's puck, the bracket about it, its `wheel`,
-    the longest tether); score inf if no window."""
+    `after_stretch` on, for peg `anchor`: `Found`, score inf if no window."""
     starts, elapsed, lengths = flight
     ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
     reach = _norm(s.x + ARM * math.cos(s.angle) - ax, s.y + ARM * math.sin(s.angle) - ay)
     longest = max(reach, LENGTH_HIGH)  # a tether raised to the peg is taut at once
+    peg = Peg(ax, ay, longest)
     r_low, r_high = max(reach, LENGTH_LOW) + ARM, longest + ARM
-    table = (s.posts[: s.n_posts], p.wall_restitution)
+    table = Table(s.posts[: s.n_posts], p.wall_restitution)
     farthest = 0.0
     best, best_stretch, best_low, best_high = math.inf, _stretch(starts, 0), 0.0, 0.0
     clearance = contact_clearance(s, p)
-    best_wheel = (0.0, 0.0, p.wheel_rate, clearance)
+    best_wheel = Wheel(0.0, 0.0, p.wheel_rate, clearance)
     for segment in range(len(lengths)):
         puck = _stretch(starts, segment)
         t_end = lengths[segment]
@@ -387,41 +447,35 @@ def _search(s, p, anchor, flight, gx, gy, fraction, after_stretch, after_t):
         )
         if segment == after_stretch:
             t_low = max(t_low, after_t)
-        wheel = (elapsed[segment], t_end, p.wheel_rate, clearance)
+        wheel = Wheel(elapsed[segment], t_end, p.wheel_rate, clearance)
         if segment >= after_stretch and t_low <= t_high:
             step = (t_high - t_low) / (SAMPLES - 1)
             for j in range(SAMPLES):
                 t = t_low + j * step
-                score = _bounce_on(puck, t, ax, ay, gx, gy, fraction, longest, table, wheel, best)[
-                    0
-                ]
+                score = _bounce_on(puck, t, peg, aim, table, wheel, best)[0]
                 if score < best:
                     best, best_stretch, best_wheel = score, puck, wheel
                     best_low, best_high = max(t - step, t_low), min(t + step, t_high)
-    return best, best_stretch, best_low, best_high, best_wheel, longest
+    return Found(best, best_stretch, best_low, best_high, best_wheel, peg)
 
 
 @numba.njit(cache=True)
-def _search_peg(s, p, anchor, flight, gx, gy, fraction, stretch, at):
+def _search_peg(s, p, anchor, flight, aim, stretch, at):
     """`_search` after the closest approach (`stretch`, `at`), anywhere if nothing comes
     after it."""
-    found = _search(s, p, anchor, flight, gx, gy, fraction, stretch, at)
-    if found[0] == math.inf:
-        found = _search(s, p, anchor, flight, gx, gy, fraction, 0, 0.0)
+    found = _search(s, p, anchor, flight, aim, stretch, at)
+    if found.score == math.inf:
+        found = _search(s, p, anchor, flight, aim, 0, 0.0)
     return found
 
 
 @numba.njit(cache=True)
-def _refine(s, p, anchor, found, gx, gy, fraction):
+def _refine(s, p, found, aim):
     """(score, the set-up's miss, length, moment arm, brake, the wheel meets it) at the
     golden-section refinement of a peg's grid search `found`."""
-    _, puck, low, high, wheel, longest = found
-    ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
-    table = (s.posts[: s.n_posts], p.wall_restitution)
-    t, score = _golden(puck, low, high, ax, ay, gx, gy, fraction, longest, table, wheel)
-    _, miss, length, arm, e, turns = _bounce_on(
-        puck, t, ax, ay, gx, gy, fraction, longest, table, wheel
-    )
+    table = Table(s.posts[: s.n_posts], p.wall_restitution)
+    t, score = _golden(found.puck, found.low, found.high, found.peg, aim, table, found.wheel)
+    _, miss, length, arm, e, turns = _bounce_on(found.puck, t, found.peg, aim, table, found.wheel)
     return score, miss, length, arm, e, turns
 
 
@@ -433,29 +487,29 @@ def solve(action, s, p, out):
     approach to the aim where the flight allows one; writes `command_met` and
     `command_error` into `out`; and the aim (m)."""
     pick = p.control == VELOCITY
-    gx, gy, fraction = _command(action, 1 if pick else 0)
+    aim = _command(action, 1 if pick else 0)
     flight = _flight(s, p)
-    stretch, at = _closest_approach(flight, gx, gy)
+    stretch, at = _closest_approach(flight, aim.x, aim.y)
     if pick:
         anchor = second = _pick_peg(s, action[0])
-        found = runner = _search_peg(s, p, anchor, flight, gx, gy, fraction, stretch, at)
+        found = runner = _search_peg(s, p, anchor, flight, aim, stretch, at)
     else:
-        anchor, found = 0, _search_peg(s, p, 0, flight, gx, gy, fraction, stretch, at)
+        anchor, found = 0, _search_peg(s, p, 0, flight, aim, stretch, at)
         second, runner = 0, found
         for j in range(1, s.n_anchors):
-            other = _search_peg(s, p, j, flight, gx, gy, fraction, stretch, at)
-            if other[0] < found[0]:
+            other = _search_peg(s, p, j, flight, aim, stretch, at)
+            if other.score < found.score:
                 second, runner, anchor, found = anchor, found, j, other
-            elif other[0] < runner[0] or second == anchor:
+            elif other.score < runner.score or second == anchor:
                 second, runner = j, other
-    if found[0] == math.inf:  # no tautening on the stretches searched: the longest tether
+    if found.score == math.inf:  # no tautening on the stretches searched: the longest tether
         out[OUT.command_met], out[OUT.command_error] = 0.0, math.inf
-        return anchor, LENGTH_HIGH, 0.0, BRAKE_HIGH, gx, gy
-    best = _refine(s, p, anchor, found, gx, gy, fraction)
-    if second != anchor and runner[0] < math.inf:
-        other = _refine(s, p, second, runner, gx, gy, fraction)
+        return anchor, LENGTH_HIGH, 0.0, BRAKE_HIGH, aim.x, aim.y
+    best = _refine(s, p, found, aim)
+    if second != anchor and runner.score < math.inf:
+        other = _refine(s, p, runner, aim)
         if other[0] < best[0]:
             anchor, best = second, other
     _, miss, length, arm, e, turns = best
     out[OUT.command_met], out[OUT.command_error] = turns and miss < COMMAND_TOLERANCE, miss
-    return anchor, length, math.asin(arm / ARM), e, gx, gy
+    return anchor, length, math.asin(arm / ARM), e, aim.x, aim.y
