@@ -110,7 +110,7 @@ def test_the_default_hyperparameters_have_navigate_entries():
     assert ppo["policy"] == sac["policy"] == "MultiInputPolicy"
     assert zoo.algo_kwargs(sac)["replay_buffer_class"] is PathHerReplayBuffer
     assert zoo.algo_kwargs(ppo)["policy_kwargs"]["features_extractor_class"] is NavigateExtractor
-    with pytest.raises(ValueError, match="replay_buffer_class must be one of"):
+    with pytest.raises(ValueError, match="value for replay_buffer_class: must be one of"):
         zoo.algo_kwargs({"replay_buffer_class": "DictReplayBuffer"})
 
 
