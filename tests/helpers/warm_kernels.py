@@ -28,18 +28,14 @@ def single() -> None:
 
 
 def vector() -> None:
-    """The native vector envs' steps with autoreset, serial and parallel (many copies), the
-    navigation kernel's batch step (the aim search's model) and the planners' batch builds."""
-    batch = None
+    """The native vector envs' steps with autoreset, serial and parallel (many copies), and
+    the navigation kernel's batch step (the aim search's model)."""
     for env_id in ("TetherBounce-v0", NAVIGATE):
         for copies in (4, 1024):
             env = gym.make_vec(env_id, num_envs=copies, vectorization_mode="vector_entry_point")
             obs, _ = env.reset(seed=0)
             env.step(env.action_space.sample())
-            batch = obs if env_id == NAVIGATE and copies == 4 else batch
     make_agent("aim-search", {"coast": True}, env_id=NAVIGATE).predict(obs)
-    for name in ("greedy", "lookahead"):
-        make_agent(name, {}, env_id=NAVIGATE).predict(batch)
 
 
 PARTS = {"single": single, "vector": vector}
