@@ -54,3 +54,43 @@ def test_importing_the_package_records_its_sources():
     """`import tether_gym` refreshes: the digest beside the caches is that of today's sources."""
     stamp = Path(tether_gym.__file__).parent / kernel_cache.STAMP
     assert stamp.read_text() == kernel_cache.sources_digest()
+
+
+def load_kernel(folder: Path, name: str = "kernel_module"):
+    """A fresh import of a module holding one cached numba kernel, `plus_one`."""
+    import importlib.util
+
+    path = folder / f"{name}.py"
+    if not path.exists():
+        path.write_text(
+            "import numba\n\n\n@numba.njit(cache=True)\ndef plus_one(x):\n    return x + 1\n"
+        )
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.plus_one
+
+
+def test_a_kernel_compiles_until_built_here_or_cached_on_disk(tmp_path):
+    kernel = load_kernel(tmp_path)
+    assert kernel_cache.compiles(kernel)
+    assert kernel(1) == 2
+    assert not kernel_cache.compiles(kernel)  # built in this process
+    again = load_kernel(tmp_path)
+    assert not again.overloads
+    assert not kernel_cache.compiles(again)  # its cache is on disk
+
+
+def test_a_first_run_is_announced_once(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(kernel_cache, "_ANNOUNCED", set())
+    kernel = load_kernel(tmp_path)
+    kernel_cache.announce("the test's kernels", kernel)
+    kernel_cache.announce("the test's kernels", kernel)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == [
+        "tether_gym: compiling the test's kernels for this machine (first run only, cached "
+        "after; `tether compile` builds every kernel ahead of time)"
+    ]
+    kernel(1)
+    kernel_cache.announce("other kernels", kernel)
+    assert capsys.readouterr().err == ""

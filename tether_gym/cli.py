@@ -42,6 +42,9 @@ COMMANDS = {
     "export": Command(
         "tether_gym.evaluation.export:main", "turn a run's best model into a pretrained agent"
     ),
+    "compile": Command(
+        "tether_gym.agents.warm:main", "compile every numba kernel ahead of time (first run)"
+    ),
 }
 """The subcommands, in the order `--help` lists them."""
 MOVED_TO_ARGUMENTS = (

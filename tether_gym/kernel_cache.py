@@ -6,12 +6,14 @@ and the physics) would go on running the old machine code after that module chan
 edit, a checkout or a pull. `refresh`, run when the package is imported, drops every cached
 kernel when the package's sources below the training layer differ from those the caches were
 built from (their digest is kept beside the caches), so the kernels compile anew on first use.
+`announce` says so in one line when that first use comes.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import sys
 from pathlib import Path
 
 PACKAGE = Path(__file__).parent
@@ -61,4 +63,38 @@ def refresh(package: Path = PACKAGE) -> bool:
     return True
 
 
-__all__ = ["CACHE_SUFFIXES", "STAMP", "TRAINING", "refresh", "sources_digest"]
+def compiles(*kernels) -> bool:
+    """Whether calling these numba dispatchers will compile: one has neither a build in this
+    process nor an index in its on-disk cache."""
+    for kernel in kernels:
+        if kernel.signatures:
+            continue
+        try:
+            index = kernel._cache._cache_file._index_path  # numba's, as its caching notes name it
+        except AttributeError:  # a numba whose cache is laid out otherwise: say nothing
+            return False
+        if not os.path.exists(index):
+            return True
+    return False
+
+
+_ANNOUNCED: set[str] = set()
+
+
+def announce(what: str, *kernels) -> None:
+    """Say once per process, in one line on stderr, that `what` compiles, when the first call
+    of `kernels` will compile them (a first run: nothing else would tell a long first step
+    from a hang)."""
+    if what in _ANNOUNCED or not compiles(*kernels):
+        return
+    _ANNOUNCED.add(what)
+    print(
+        f"tether_gym: compiling {what} for this machine (first run only, cached after; "
+        "`tether compile` builds every kernel ahead of time)",
+        file=sys.stderr,
+    )
+
+
+__all__ = [
+    "CACHE_SUFFIXES", "STAMP", "TRAINING", "announce", "compiles", "refresh", "sources_digest",
+]  # fmt: skip

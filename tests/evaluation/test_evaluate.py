@@ -275,3 +275,25 @@ def test_the_direct_shot_plays_in_aim_control_and_reaches_across_an_open_table()
     (result,) = evaluate({"direct": make_agent("direct", {}, env_id="TetherNavigate_OpenReach-v2")},
                          {"coast": True}, 100, 5, env_id="TetherNavigate_OpenReach-v2")  # fmt: skip
     assert result.success_rate > 0.85
+
+
+@pytest.mark.parametrize("env_id", ["TetherBounce-v0", "TetherNavigate_OpenReach-v2"])
+def test_the_progress_bar_clock_starts_after_the_first_step(env_id):
+    """On a first run the first step compiles the kernels: the bar restarts its clock after
+    it (else its ETA freezes at hours), once, and counts every episode."""
+    from tether_gym.evaluation.runner import run_bounce, run_navigation
+
+    class Bar:
+        def __init__(self):
+            self.events = []
+
+        def reset(self):
+            self.events.append("reset")
+
+        def update(self, n):
+            self.events.append(n)
+
+    bar, run = Bar(), run_bounce if env_id == "TetherBounce-v0" else run_navigation
+    run(RandomAgent(0), env_id, {}, 5, 0, bar)
+    assert bar.events[0] == "reset" and bar.events.count("reset") == 1
+    assert sum(event for event in bar.events if event != "reset") == 5

@@ -12,6 +12,8 @@ arrays would cost more than the kernels.
 
 Each batch runs serially, or across `NUMBA_NUM_THREADS` threads once it is large enough
 (`PARALLEL_STATES`, `PARALLEL_MANEUVERS`; on the env kernels' threading layer, `physics.jit`).
+The row functions divide as numpy does (`error_model="numpy"`: a division by zero gives an
+infinity or NaN, as in the numpy planner, instead of raising), serial and parallel alike.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from tether_gym.envs.tether_navigate.config import (
     MAX_SPEED,
     STATE,
 )
-from tether_gym.envs.tether_navigate.controls import play
+from tether_gym.envs.tether_navigate.controls import PLAYS, build
 from tether_gym.envs.tether_navigate.controls.setup import ACTION
 from tether_gym.envs.tether_navigate.geometry import (
     flight_stretches,
@@ -38,8 +40,10 @@ from tether_gym.envs.tether_navigate.geometry import (
 )
 from tether_gym.envs.tether_navigate.kernel import finite_action
 from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION, OUT, OUTCOME
+from tether_gym.kernel_cache import announce
 from tether_gym.physics.impulse import impulse_change_row, impulse_restitution_row
 from tether_gym.physics.jit import choose_threading_layer, serial_and_parallel
+from tether_gym.physics.models import IMPULSE
 from tether_gym.tasks.navigate import GOAL_RADIUS
 
 SEGMENTS = 3
@@ -59,6 +63,8 @@ squared speed in its speed's order to about 1e-16."""
 LENGTH_LOW, LENGTH_HIGH = ACTION["tether_length"].low, ACTION["tether_length"].high
 BRAKE_LOW, BRAKE_HIGH = ACTION["restitution"].low, ACTION["restitution"].high
 ACTION_LOW, ACTION_HIGH = ACTION.low, ACTION.high
+_play = PLAYS[build("setup", IMPULSE)]
+"""The env's maneuver the planners predict with: set-up control, the impulse model."""
 FAIL = 1e6
 """The cost of an episode that ends without success."""
 AIM_RESTITUTIONS = np.array([1.0, 0.6])
@@ -86,7 +92,7 @@ MAX_CANDIDATES = (
 per peg."""
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _flight(s, wall_restitution):
     """One state's flight (`geometry.flight_stretches`, only crossings into posts counted):
     its `SEGMENTS` stretches' start points (S, 2), velocities (S, 2) and lengths (S,), and
@@ -110,7 +116,7 @@ def _observed_rows(obs, max_maneuvers, states):
         s.n_posts = _points(o, OBS.post0_present, s.x, s.y, s.posts)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _points(o, first, x, y, points):
     """The points present among the (present, dx, dy) slots from column `first`, relative to
     (x, y), into `points` (slots in place, the absent ones left zero): how many are present."""
@@ -130,7 +136,7 @@ def _cost_rows(before, after, success, ended, depth, planner, cost):
         cost[i] = _cost(before[i], after[i], success[i], ended[i], depth, planner)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _cost(b, a, success, ended, depth, planner):
     """The cost of one maneuver from state `b` to state `a` (`_cost_rows`)."""
     planner_depth, stop, spin_weight, wall_restitution = planner
@@ -147,7 +153,7 @@ def _cost(b, a, success, ended, depth, planner):
 def _predict_rows(states, candidates, params, planner, depth, actions, after, out, cost, ended):
     """`planners.GreedyPlanner.expand` past the candidates (rows, anchor, length, alpha, brake,
     kind), one loop: each one's action into actions (m, 4), its outcome (the env kernel's step
-    without the observation, `play`) into after (m,), out (m, k) and ended (m,), its cost into
+    without the observation, `_play`) into after (m,), out (m, k) and ended (m,), its cost into
     cost (m,); how many actions are not finite (then not played)."""
     rows, anchor, length, alpha, brake, _ = candidates
     bad = 0
@@ -160,13 +166,13 @@ def _predict_rows(states, candidates, params, planner, depth, actions, after, ou
         if not finite_action(actions[i]):
             bad += 1
             continue
-        play(actions[i], after[i], params[0], out[i])
+        _play(actions[i], after[i], params[0], out[i])
         ended[i] = out[i, OUT.terminated] != 0.0 or out[i, OUT.truncated] != 0.0
         cost[i] = _cost(s, after[i], out[i, OUT.is_success] != 0.0, ended[i], depth, planner)
     return bad
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _bearing(s, j):
     """`planners.Candidates.actions`' bearing of peg j from state `s`: its direction from the
     puck minus the velocity's heading, folded into (-pi, pi] as `physics.wrap_angle` folds."""
@@ -175,7 +181,7 @@ def _bearing(s, j):
     return math.pi - (math.pi - bearing) % (2.0 * math.pi)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _normalized(value, low, high):
     """`ACTION.normalize` of one entry, clipped to [-1, 1] (NaN kept) and rounded to float32."""
     unit = 2.0 * (value - low) / (high - low) - 1.0
@@ -195,7 +201,7 @@ def _candidate_rows(states, wall_restitution, stop, count, anchor, length, alpha
         count[i] = _candidates(states[i], wall_restitution, stop, out)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _candidates(s, wall_restitution, stop, out):
     """One state's candidates into `out` (anchor, length, alpha, brake, kind): how many."""
     start, velocity, duration, _ = _flight(s, wall_restitution)
@@ -219,20 +225,20 @@ def _candidates(s, wall_restitution, stop, out):
     return n
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _add(out, n, j, length, alpha, brake, kind):
     """Candidate n (peg j) into `out`; the next free slot."""
     out[0][n], out[1][n], out[2][n], out[3][n], out[4][n] = j, length, alpha, brake, kind
     return n + 1
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _sign(x):
     """numpy's sign: -1, 0 or 1 (NaN for NaN)."""
     return math.nan if math.isnan(x) else (1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _aims(s, start, velocity, t_low, t_high, out, n):
     """`planners._aims`: the roots bracketed on `ROOT_GRID` samples of each window."""
     for k in range(SEGMENTS):
@@ -259,7 +265,7 @@ def _aims(s, start, velocity, t_low, t_high, out, n):
     return n
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _dumps(s, start, velocity, duration, t_low, t_high, out, n):
     """`planners._dumps`: the least-speed bounce at each window's instant nearest the goal."""
     for k in range(SEGMENTS):
@@ -277,7 +283,7 @@ def _dumps(s, start, velocity, duration, t_low, t_high, out, n):
     return n
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _line_ups(s, start, velocity, duration, shortest, out, n):
     """`planners._line_ups`: bounces onto the lines through the goal passing each usable peg at
     +-`LINE_UP_OFFSET`, where each segment crosses them, off the first peg with an offset angle
@@ -307,7 +313,7 @@ def _line_ups(s, start, velocity, duration, shortest, out, n):
     return n
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _line_up(s, x, y, vx, vy, wx, wy, q, shortest, out, n):
     """The line-up off peg q at (x, y) turning (vx, vy) along (wx, wy), if an offset angle of
     `LINE_UP_ALPHAS` makes it: v' = v - dv u, dv = cross(v, w) / cross(u, w)."""
@@ -329,7 +335,7 @@ def _line_up(s, x, y, vx, vy, wx, wy, q, shortest, out, n):
     return n
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _running(s, stop, spin_weight, wall_restitution):
     """(tier, value) of an episode still running in state `s` (`GreedyPlanner.costs`)."""
     start, velocity, duration, blocked = _flight(s, wall_restitution)
@@ -349,7 +355,7 @@ def _running(s, stop, spin_weight, wall_restitution):
     return tier, value
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _nearest(start, velocity, duration, x, y):
     """`planners.Flight.nearest`: the segment's instant nearest to (x, y)."""
     v2 = velocity[0] ** 2 + velocity[1] ** 2
@@ -358,7 +364,7 @@ def _nearest(start, velocity, duration, x, y):
     return min(max(t, 0.0), duration)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _speed_left(s, start, velocity, duration):
     """`planners._speed_left` of one state: the least speed a dump on the goal disc leaves on
     its flight (inf if none)."""
@@ -382,7 +388,7 @@ def _speed_left(s, start, velocity, duration):
     return left
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _window(start, velocity, duration, k, s, j, low):
     """`planners.Flight.windows` of segment k and peg j (`geometry.tautening_window`): where a
     tether of length in [low, the longest] goes taut pulling."""
@@ -391,7 +397,7 @@ def _window(start, velocity, duration, k, s, j, low):
     return tautening_window(x, y, vx, vy, ax, ay, low + ARM, LENGTH_HIGH + ARM, duration[k])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _least_speed(px, py, vx, vy, spin, ax, ay):
     """`planners.least_speed_bounce` of one tautening at (px, py) moving at (vx, vy) with
     `spin`, hooked to the peg (ax, ay): (offset angle, brake, tether length, speed left)."""
@@ -407,7 +413,7 @@ def _least_speed(px, py, vx, vy, spin, ax, ay):
     return FINE_ALPHAS[best, k], e, length, left
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _first_least(sin, cos, rx, ry, radius, vx, vy, spin, squares):
     """The first of the offset angles (their `sin`, `cos`) whose `_bounce` leaves the least
     speed (0 if none is finite), comparing the speeds only where their `_squares` come near
@@ -469,7 +475,7 @@ MAX_ROOT_STEPS = 2046
 the tolerance long before (a root left unconverged there counts as not found)."""
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _aim_root(lo, hi, args):
     """(root, found) of `aim`'s sin (its `args` after t) bracketed in [lo, hi]: Chandrupatla's
     method (inverse quadratic interpolation where it fits, else bisection), as scipy's
@@ -507,7 +513,7 @@ def _aim_root(lo, hi, args):
     return math.nan, False
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _bounce(sin, cos, rx, ry, radius, vx, vy, spin):
     """(brake, tether length, speed left) of the least-speed bounce at the offset angle whose
     sine and cosine are `sin`, `cos`, the centre of mass at (rx, ry) from the peg, `radius`
@@ -526,7 +532,7 @@ def _bounce(sin, cos, rx, ry, radius, vx, vy, spin):
     return e, length, speed
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _sines(alphas):
     """(sin, cos) of `alphas` as numba's `math` computes them: `_least_speed` reads its finer
     search's from this table."""
@@ -542,6 +548,8 @@ _observed = numba.njit(cache=True)(_observed_rows)
 _costs_serial, _costs_parallel = serial_and_parallel(_cost_rows)
 _candidates_serial, _candidates_parallel = serial_and_parallel(_candidate_rows)
 _predict_serial, _predict_parallel = serial_and_parallel(_predict_rows)
+COMPILING = "the planners' kernels"
+"""What `kernel_cache.announce` says compiles on a first run."""
 PARALLEL_STATES, PARALLEL_MANEUVERS = 16, 256
 """The batches split across threads: from this many states for the candidates (a state's
 search costs as much as tens of maneuvers' costs), this many maneuvers for their predictions
@@ -584,11 +592,13 @@ def candidates(states: np.ndarray, wall_restitution: float, stop: bool) -> tuple
     anchor, kind = np.empty((n, MAX_CANDIDATES), np.int64), np.empty((n, MAX_CANDIDATES), np.int64)
     length, alpha, brake = (np.empty((n, MAX_CANDIDATES)) for _ in range(3))
     kernel = _candidates_parallel if _parallel(n, PARALLEL_STATES) else _candidates_serial
+    if not kernel.overloads:
+        announce(COMPILING, kernel)
     kernel(states, float(wall_restitution), bool(stop), count, anchor, length, alpha, brake, kind)
     return _gathered(count, anchor, length, alpha, brake, kind)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _gathered(count, anchor, length, alpha, brake, kind):
     """Each state's first `count` candidates of (n, `MAX_CANDIDATES`) slots, kind by kind, then
     state by state: (rows, anchor, length, alpha, brake, kind), each (m,)."""
@@ -621,6 +631,8 @@ def predict(
     actions, after = np.empty((m, len(ACTION)), np.float32), np.empty(m, STATE)
     out, cost, ended = OUTCOME.empty(m), np.empty(m), np.empty(m, np.bool_)
     kernel = _predict_parallel if _parallel(m, PARALLEL_MANEUVERS) else _predict_serial
+    if not kernel.overloads:
+        announce(COMPILING, kernel)
     planner = (int(planner[0]), bool(planner[1]), float(planner[2]), float(planner[3]))
     args = (actions, after, out, cost, ended)
     if kernel(states, candidates, params, planner, float(depth), *args):
@@ -637,7 +649,7 @@ def observed_states(obs: np.ndarray, max_maneuvers: int) -> np.ndarray:
     return states
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def beam(root, cost, ended, leaf, lead, width, best_cost, best_action):
     """`planners._beam`: over the nodes (m,) expanded at one depth, each leaf whose cost betters
     its root's `best_cost` (the first of equal ones) sets it and the root's `best_action` to its

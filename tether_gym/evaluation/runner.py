@@ -22,6 +22,16 @@ BATCH = EVALUATION_BATCH
 """Episodes per vector-env step (the progress bar's granularity)."""
 
 
+def _count(bar, episodes: int, first: bool) -> None:
+    """Count `episodes` on the progress bar, if any. Its clock restarts after the first step:
+    on a first run that step compiles the kernels, and counting its minutes would freeze the
+    ETA at hours."""
+    if bar is not None:
+        if first:
+            bar.reset()
+        bar.update(episodes)
+
+
 def run_bounce(
     agent, env_id: str, env_kwargs: dict, episodes: int, seed: int, bar
 ) -> dict[str, np.ndarray]:
@@ -45,8 +55,7 @@ def run_bounce(
         rows["reward"].append(reward)
         for key in keys:
             rows[key].append(info[key])
-        if bar is not None:
-            bar.update(min(len(obs), episodes - done))
+        _count(bar, min(len(obs), episodes - done), first=done == 0)
         done += len(obs)
         obs = next_obs
     env.close()
@@ -79,7 +88,7 @@ def run_navigation(
     start, goal = obs["achieved_goal"].copy(), obs["desired_goal"].copy()
     played, maneuvers = np.zeros(copies, dtype=np.int64), np.zeros(copies, dtype=np.int64)
     returns, length = np.zeros(copies), np.zeros(copies)
-    rows, elapsed = [], 0.0
+    rows, elapsed, first = [], 0.0, True
     while np.any(played < quota):
         clock = time.perf_counter()
         action, _ = agent.predict(obs, deterministic=True)
@@ -94,8 +103,8 @@ def run_navigation(
             distance = np.linalg.norm(info["position"][i] - goal[i])
             rows.append((played[i], i, start[i].copy(), goal[i].copy(), info["is_success"][i],
                          maneuvers[i], distance, length[i], returns[i]))  # fmt: skip
-        if bar is not None:
-            bar.update(len(counted))
+        _count(bar, len(counted), first)
+        first = False
         played += ended
         start[ended], goal[ended] = obs["achieved_goal"][ended], obs["desired_goal"][ended]
         returns[ended], maneuvers[ended], length[ended] = 0.0, 0, 0.0

@@ -1,5 +1,5 @@
-"""numba plumbing: which threading layer the parallel kernels use, and compiling one batch
-kernel twice, on one thread and across threads."""
+"""numba plumbing: which threading layer the parallel kernels use, and the twins of a kernel:
+one per configuration it is built for, and its parallel build."""
 
 from __future__ import annotations
 
@@ -51,16 +51,28 @@ def choose_threading_layer() -> str:
     return "tbb" if tbb else "workqueue"
 
 
-def serial_and_parallel(kernel):
-    """`kernel` (a loop over `numba.prange`) compiled serially and in parallel, both cached.
+def twin(function, suffix: str, **rebound):
+    """A copy of the plain Python `function`, named `<name>_<suffix>`, whose module globals named
+    in `rebound` are replaced: compiled, it is a kernel of its own with its own cache entry.
 
-    numba's cache names an entry after the function, not after its compile flags: two
-    dispatchers of one function share one entry, and whichever compiles first is what both run.
-    The parallel build is therefore made from a twin of `kernel` under its own name.
+    numba's cache names an entry after the function, not after its compile flags or the
+    callees its globals held: two builds of one function would share one entry. A twin is how a
+    kernel is built for one configuration (a control mode, a dynamics) without compiling the
+    callees of the others, or twice (serially and in parallel) under two names.
     """
-    twin = types.FunctionType(
-        kernel.__code__, kernel.__globals__, kernel.__name__ + "_parallel",
-        kernel.__defaults__, kernel.__closure__,
+    namespace = {**function.__globals__, **rebound} if rebound else function.__globals__
+    copy = types.FunctionType(
+        function.__code__, namespace, f"{function.__name__}_{suffix}", function.__defaults__,
+        function.__closure__,
     )  # fmt: skip
-    twin.__qualname__ = kernel.__qualname__ + "_parallel"
-    return numba.njit(cache=True)(kernel), numba.njit(cache=True, parallel=True)(twin)
+    copy.__qualname__ = f"{function.__qualname__}_{suffix}"
+    copy.__doc__ = function.__doc__
+    return copy
+
+
+def serial_and_parallel(kernel):
+    """`kernel` (a loop over `numba.prange`) compiled serially and, as its `twin`, in parallel,
+    both cached."""
+    return numba.njit(cache=True)(kernel), numba.njit(cache=True, parallel=True)(
+        twin(kernel, "parallel")
+    )

@@ -47,7 +47,7 @@ def segment_distance(px, py, ax, ay, bx, by):
     return math.hypot(px - ax - s * dx, py - ay - s * dy)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def path_distance(path, gx, gy):
     """The least distance from (gx, gy) to a polyline `path` (k, 2), padded by repeating its
     last point."""
@@ -58,7 +58,7 @@ def path_distance(path, gx, gy):
     return best
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def success(task, path, gx, gy, at_rest):
     """Whether the maneuver whose path is `path` (ending at the achieved goal) met the goal."""
     if task == REACH:
@@ -67,7 +67,7 @@ def success(task, path, gx, gy, at_rest):
     return at_rest and math.hypot(path[end, 0] - gx, path[end, 1] - gy) < GOAL_RADIUS
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def terms(task, reward_type, path, gx, gy, at_rest, hit_post):
     """(reward, success, and the terms progress, success, maneuver, post): the reward is their
     sum for "dense", 0 on success else -1 for "sparse" (whose terms are all 0 but success)."""

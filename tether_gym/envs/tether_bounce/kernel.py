@@ -33,6 +33,7 @@ from tether_gym.envs.kernels import (
     parallel_chunk,
     tether_stiffness,
 )
+from tether_gym.kernel_cache import announce
 from tether_gym.physics import bounce
 from tether_gym.physics.checks import check_float
 from tether_gym.physics.geometry import stiffness_for_rho
@@ -407,6 +408,8 @@ def _step_autoreset_parallel(actions, params, state, out, uniforms, next_state, 
 
 STEP_KERNELS = {HYBRID: _step_hybrid, IMPULSE: _step_impulse}
 PARALLEL_CHUNK = {HYBRID: parallel_chunk(4, 32), IMPULSE: parallel_chunk(256, 2048)}
+COMPILING = "TetherBounce's kernels"
+"""What `kernel_cache.announce` says compiles on a first run."""
 """Rows per parallel task, by dynamics (`envs.kernels.parallel_chunk`). A batch of fewer than
 two chunks runs serially."""
 
@@ -431,6 +434,8 @@ class TetherBounceKernel(Kernel):
     def reset(self, uniforms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         n = uniforms.shape[0]
         state, obs = STATE.empty(n), OBSERVATION.empty(n)
+        if not _reset.overloads:
+            announce(COMPILING, _reset)
         _reset(uniforms, self.params, state, obs)
         return state, obs
 
@@ -441,7 +446,10 @@ class TetherBounceKernel(Kernel):
         obs, out = OBSERVATION.empty(n), OUTCOME.empty(n)
         _observe_all(state, obs)
         if self.dynamics != PYMUNK:
-            check_finite(STEP_KERNELS[self.dynamics](actions, self.params, state, out), actions)
+            kernel = STEP_KERNELS[self.dynamics]
+            if not kernel.overloads:
+                announce(COMPILING, kernel)
+            check_finite(kernel(actions, self.params, state, out), actions)
             return state, obs, out
         check_finite(_decode_all(actions, out), actions)
         result = bounce(
@@ -467,6 +475,8 @@ class TetherBounceKernel(Kernel):
             return (*self.reset(uniforms), obs, out)
         actions = self.as_actions(actions, n)
         out, next_state, next_obs = OUTCOME.empty(n), STATE.empty(n), OBSERVATION.empty(n)
+        if not _step_autoreset.overloads:
+            announce(COMPILING, _step_autoreset)
         fused_autoreset(
             _step_autoreset, _step_autoreset_parallel, PARALLEL_CHUNK[self.dynamics], actions,
             self.params, state, out, uniforms, next_state, next_obs,

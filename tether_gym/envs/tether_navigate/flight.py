@@ -70,7 +70,7 @@ def path_point(out, n, x, y):
     return n + 1
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def wheel_crossing(puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clearance):
     """Where the wheel can meet the offset angle `alpha` on one straight stretch of the flight
     (`puck` there, `elapsed` seconds after the decision, the stretch `t_end` long): the centre
@@ -114,7 +114,7 @@ def wheel_crossing(puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clea
     return t, rate
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _wheel_target(puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clearance):
     """(t, rate, target): the wheel's target on one stretch of the flight (`wheel_crossing`),
     the commanded offset angle if the wheel meets it there, else the one nearest to it that
@@ -151,7 +151,7 @@ def _wheel_target(puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clear
     return t, rate, reachable
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def contact_clearance(s, p):
     """m: how far the puck can travel during a contact: at the speed
     its energy bounds, for `CONTACT_PERIODS` periods of the tether's spring with the puck's
@@ -162,7 +162,7 @@ def contact_clearance(s, p):
     return speed * CONTACT_PERIODS * 2.0 * math.pi * math.sqrt(PUCK_MASS / p.stiffness)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _wheel_plan(s, p, ax, ay, length, alpha):
     """The wheel's plan for this flight, stretch by stretch between wall bounces: on the first
     stretch where it has a target (`_wheel_target`), (that stretch's index, the target's time
@@ -185,7 +185,7 @@ def _wheel_plan(s, p, ax, ay, length, alpha):
         hits += 1
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def fly(s, p, ax, ay, length, alpha, out):
     """Free flight from the decision to the tautening, bouncing off walls, stopped by a post:
     (puck, tautened, offset angle met, flight time, wall hits, hit post, path points); the
@@ -235,7 +235,7 @@ def fly(s, p, ax, ay, length, alpha, out):
         n = path_point(out, n, puck.x, puck.y)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _offset_angle(puck, ax, ay):
     """The paper's alpha at tautening: from the tether's direction (anchor to attachment
     point) to the line from the attachment point to the centre of mass."""

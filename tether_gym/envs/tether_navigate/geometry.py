@@ -27,7 +27,7 @@ from tether_gym.physics.events import free_flight_row, time_to_wall_row, wall_bo
 from tether_gym.physics.state import PuckState
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def first_post_hit(puck, posts, n_posts, t_end, touching=True):
     """When the puck's rim first touches a post within [0, t_end] (inf if never). With
     `touching`, the env's physics: 0 for a puck that touches one or is inside one at the start,
@@ -53,7 +53,7 @@ def first_post_hit(puck, posts, n_posts, t_end, touching=True):
     return first
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def stretch_end(puck, s, elapsed, touching=True):
     """(t_end, t_wall, wall, t_post): the end of the flight's current straight stretch (`puck`
     at its start, `elapsed` s after the decision, among state `s`'s posts), at the next wall,
@@ -64,7 +64,7 @@ def stretch_end(puck, s, elapsed, touching=True):
     return min(t_end, t_post), t_wall, wall, t_post
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def flight_stretches(s, wall_restitution, starts, elapsed, lengths, touching=True):
     """The first len(lengths) straight stretches of the flight from state `s`, wall bounces
     between them: their start states into `starts` (k, 6) (`PuckState`'s fields), their start
@@ -98,7 +98,7 @@ def leaving(b, c, v2, radius):
     return (math.sqrt(discriminant) - b) / v2 if discriminant >= 0.0 else math.nan
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def tautening_window(x, y, vx, vy, ax, ay, r_low, r_high, t_end):
     """(t_low, t_high): where on a straight stretch (the centre of mass at (x, y) moving at
     (vx, vy), `t_end` long) it is between `r_low` and `r_high` from the peg (ax, ay) and moving

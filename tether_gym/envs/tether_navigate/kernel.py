@@ -14,7 +14,8 @@ by `sampling`; what the agent sees is `spaces`. The world-frame physics is
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -34,7 +35,7 @@ from tether_gym.envs.tether_navigate.config import (
     NavigateConfig,
     table_breach,
 )
-from tether_gym.envs.tether_navigate.controls import control_mode, play
+from tether_gym.envs.tether_navigate.controls import PLAYS, build, control_mode
 from tether_gym.envs.tether_navigate.sampling import reset_rows, sample
 from tether_gym.envs.tether_navigate.spaces import (
     GOAL_KEYS,
@@ -46,10 +47,13 @@ from tether_gym.envs.tether_navigate.spaces import (
     observe,
     observe_all,
 )
+from tether_gym.kernel_cache import announce
 from tether_gym.physics.checks import as_finite, check_float
+from tether_gym.physics.jit import twin
+from tether_gym.physics.models import DYNAMICS, IMPULSE
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def finite_action(action):
     """Whether every entry of `action` is finite (a maneuver refuses the others)."""
     for j in range(action.shape[0]):
@@ -58,37 +62,36 @@ def finite_action(action):
     return True
 
 
-@numba.njit(cache=True, inline="always")
-def _maneuver(action, s, p, out):
-    """One step of one episode, advancing `s`: 1 if the action holds NaN or infinity (then
-    nothing is done), else 0."""
-    if not finite_action(action):
-        return 1
-    play(action, s, p, out)
-    return 0
+_play = PLAYS[build("setup", IMPULSE)]
+"""The maneuver the steps play: each build in `STEPS` rebinds it (`controls.PLAYS`)."""
 
 
-@numba.njit(cache=True)
 def _step(actions, params, state, new_state, obs, out):
     """Every row's maneuver from `state` into `new_state` (numpy's copy of records with array
-    fields is slow: they are copied here); the number of rows whose action was not finite."""
+    fields is slow: they are copied here), none where the action holds NaN or infinity; the
+    number of such rows."""
     p = params[0]
     bad = 0
     for i in range(state.shape[0]):
         new_state[i] = state[i]
-        bad += _maneuver(actions[i], new_state[i], p, out[i])
+        if finite_action(actions[i]):
+            _play(actions[i], new_state[i], p, out[i])
+        else:
+            bad += 1
         observe(new_state[i], p.max_maneuvers, obs[i])
     return bad
 
 
-@numba.njit(cache=True)
 def _step_autoreset(actions, params, old_state, state, final_obs, out, uniforms, obs):
     """`_step`, then the rows whose episode ended start anew from their uniforms."""
     p = params[0]
     bad = 0
     for i in range(state.shape[0]):
         state[i] = old_state[i]
-        bad += _maneuver(actions[i], state[i], p, out[i])
+        if finite_action(actions[i]):
+            _play(actions[i], state[i], p, out[i])
+        else:
+            bad += 1
         observe(state[i], p.max_maneuvers, final_obs[i])
         if out[i, OUT.terminated] != 0.0 or out[i, OUT.truncated] != 0.0:
             sample(uniforms[i], p, state[i])
@@ -98,7 +101,6 @@ def _step_autoreset(actions, params, old_state, state, final_obs, out, uniforms,
     return bad
 
 
-@numba.njit(cache=True, parallel=True)
 def _step_autoreset_parallel(
     actions, params, old_state, state, final_obs, out, uniforms, obs, chunk
 ):
@@ -112,6 +114,27 @@ def _step_autoreset_parallel(
             uniforms[rows], obs[rows],
         )  # fmt: skip
     return bad
+
+
+class Steps(NamedTuple):
+    """The step kernels built for one control mode's set-up and one dynamics."""
+
+    step: Callable
+    autoreset: Callable
+    autoreset_parallel: Callable
+
+
+def _steps(key: tuple[str, int]) -> Steps:
+    name = f"{key[0]}_{DYNAMICS[key[1]]}"
+    step = numba.njit(cache=True)(twin(_step, name, _play=PLAYS[key]))
+    autoreset = numba.njit(cache=True)(twin(_step_autoreset, name, _play=PLAYS[key]))
+    parallel = twin(_step_autoreset_parallel, name, _step_autoreset=autoreset)
+    return Steps(step, autoreset, numba.njit(cache=True, parallel=True)(parallel))
+
+
+STEPS = {key: _steps(key) for key in PLAYS}
+"""`controls.PLAYS`' key -> the step kernels playing it (`physics.jit.twin`): a first step
+compiles what its env plays, not every control mode and dynamics."""
 
 
 PARALLEL_CHUNK = parallel_chunk(4, 16)
@@ -130,6 +153,12 @@ class NavigateKernel(Kernel):
         self.n_uniforms = config.n_uniforms()
         self.mode = control_mode(config.control)
         """The control mode (`controls.ControlMode`)."""
+        self.steps = STEPS[build(config.control, int(self.params[0]["dynamics"]))]
+        """The step kernels built for the mode and the dynamics (`STEPS`)."""
+        self.compiling = (
+            f"TetherNavigate's kernels ({config.control} control, {config.dynamics} dynamics)"
+        )
+        """What `kernel_cache.announce` says compiles on a first run."""
 
     @property
     def action(self):
@@ -143,6 +172,8 @@ class NavigateKernel(Kernel):
     def reset(self, uniforms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         n = uniforms.shape[0]
         state, obs = np.empty(n, STATE), OBSERVATION.empty(n)
+        if not reset_rows.overloads:
+            announce(self.compiling, reset_rows)
         reset_rows(uniforms, self.params, state, obs)
         return state, obs
 
@@ -150,7 +181,9 @@ class NavigateKernel(Kernel):
         n = state.shape[0]
         actions = self.as_actions(actions, n)
         new_state, obs, out = np.empty(n, STATE), OBSERVATION.empty(n), OUTCOME.empty(n)
-        check_finite(_step(actions, self.params, state, new_state, obs, out), actions)
+        if not self.steps.step.overloads:
+            announce(self.compiling, self.steps.step)
+        check_finite(self.steps.step(actions, self.params, state, new_state, obs, out), actions)
         return new_state, obs, out
 
     def step_autoreset(self, state, obs, actions, uniforms):
@@ -160,9 +193,11 @@ class NavigateKernel(Kernel):
         actions = self.as_actions(actions, n)
         new_state = np.empty(n, STATE)
         final_obs, obs, out = OBSERVATION.empty(n), OBSERVATION.empty(n), OUTCOME.empty(n)
+        if not self.steps.autoreset.overloads:
+            announce(self.compiling, self.steps.autoreset)
         fused_autoreset(
-            _step_autoreset, _step_autoreset_parallel, PARALLEL_CHUNK, actions, self.params,
-            state, new_state, final_obs, out, uniforms, obs,
+            self.steps.autoreset, self.steps.autoreset_parallel, PARALLEL_CHUNK, actions,
+            self.params, state, new_state, final_obs, out, uniforms, obs,
         )  # fmt: skip
         return new_state, obs, final_obs, out
 

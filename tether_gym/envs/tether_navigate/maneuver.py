@@ -1,6 +1,7 @@
 """One maneuver of one episode, from its set-up: hook the peg, fly (`flight`), bounce with the
 configured dynamics, release the tether at its slack instant and score it with the episode's
-task (`tasks.navigate`). The control modes (`controls`) turn an action into the set-up."""
+task (`tasks.navigate`). The control modes (`controls`) turn an action into the set-up.
+`MANEUVERS` holds the maneuver compiled for each dynamics."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import numba
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     CONTACT_POINTS,
+    HYBRID,
     IMPULSE,
     INERTIA_RATIO,
     OFFSET,
@@ -28,11 +30,41 @@ from tether_gym.envs.tether_navigate.spaces import OUT
 from tether_gym.physics.geometry import fold_angle
 from tether_gym.physics.hybrid import damping_ratio, hybrid_contact_among_row
 from tether_gym.physics.impulse import impulse_contact_row
+from tether_gym.physics.jit import twin
 from tether_gym.physics.obstacles import on_table
 from tether_gym.tasks import navigate as task
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
+def impulse_contact(puck, s, p, ax, ay, length, e, out, n):
+    """The contact of `puck` on the tether from peg (ax, ay) in the impulse model, instantaneous:
+    (puck after, bounced, completed, hit a post, wall hits, path points drawn)."""
+    puck, bounced, completed, _ = impulse_contact_row(
+        puck, ax, ay, PUCK_RADIUS, INERTIA_RATIO, OFFSET, e
+    )
+    return puck, bounced, completed, False, 0, 0
+
+
+@numba.njit(cache=True)
+def hybrid_contact(puck, s, p, ax, ay, length, e, out, n):
+    """`impulse_contact` integrated in the hybrid model among the table's walls and posts, its
+    arc drawn into the path of outcome row `out` from point n."""
+    table = on_table(
+        ax, ay, TABLE_WIDTH, TABLE_HEIGHT, PUCK_RADIUS, p.wall_restitution, s.posts, s.n_posts,
+        POST_RADIUS,
+    )  # fmt: skip
+    arc = out[OUT.path + 2 * n : OUT.path + 2 * (n + CONTACT_POINTS)].reshape(CONTACT_POINTS, 2)
+    puck, bounced, completed, _, hit_post, hits, drawn = hybrid_contact_among_row(
+        puck, ax, ay, PUCK_MASS, PUCK_RADIUS, INERTIA_RATIO, OFFSET, length, p.stiffness,
+        damping_ratio(e), table, arc, PATH_TOLERANCE,
+    )  # fmt: skip
+    return puck, bounced, completed, hit_post, hits, drawn
+
+
+_contact = impulse_contact
+"""The contact `maneuver` plays: each build in `MANEUVERS` rebinds it to its dynamics'."""
+
+
 def maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out):
     """Play the set-up (peg `anchor`, tether `length` in m, offset angle `alpha` to meet at
     tautening, restitution `e`) from episode state `s`, advancing it, into outcome row
@@ -53,23 +85,11 @@ def maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out):
         heading = math.atan2(puck.vy, puck.vx)
         rx, ry = ARM * math.cos(puck.angle), ARM * math.sin(puck.angle)
         beta = fold_angle(math.atan2(puck.y + ry - ay, puck.x + rx - ax) - heading + 0.5 * math.pi)
-        if p.dynamics == IMPULSE:
-            puck, bounced, completed, _ = impulse_contact_row(
-                puck, ax, ay, PUCK_RADIUS, INERTIA_RATIO, OFFSET, e
-            )
-        else:
-            table = on_table(
-                ax, ay, TABLE_WIDTH, TABLE_HEIGHT, PUCK_RADIUS, p.wall_restitution, s.posts,
-                s.n_posts, POST_RADIUS,
-            )  # fmt: skip
-            arc = out[OUT.path + 2 * n : OUT.path + 2 * (n + CONTACT_POINTS)]
-            arc = arc.reshape(CONTACT_POINTS, 2)
-            puck, bounced, completed, _, hit_post, contact_hits, drawn = hybrid_contact_among_row(
-                puck, ax, ay, PUCK_MASS, PUCK_RADIUS, INERTIA_RATIO, OFFSET, length,
-                p.stiffness, damping_ratio(e), table, arc, PATH_TOLERANCE,
-            )  # fmt: skip
-            hits += contact_hits
-            n += drawn
+        puck, bounced, completed, hit_post, contact_hits, drawn = _contact(
+            puck, s, p, ax, ay, length, e, out, n
+        )
+        hits += contact_hits
+        n += drawn
     out[OUT.release_position], out[OUT.release_position + 1] = puck.x, puck.y
     if taut:
         n = path_point(out, n, puck.x, puck.y)
@@ -100,3 +120,11 @@ def maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out):
     out[OUT.maneuvers_left] = s.maneuvers_left
     out[OUT.term_progress], out[OUT.term_success] = progress, term_success
     out[OUT.term_maneuver], out[OUT.term_post] = term_maneuver, term_post
+
+
+MANEUVERS = {
+    IMPULSE: numba.njit(cache=True)(twin(maneuver, "impulse", _contact=impulse_contact)),
+    HYBRID: numba.njit(cache=True)(twin(maneuver, "hybrid", _contact=hybrid_contact)),
+}
+"""dynamics code -> `maneuver` compiled for it (`physics.jit.twin`): a first step compiles the
+contact its env plays, not both."""

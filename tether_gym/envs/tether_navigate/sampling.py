@@ -35,13 +35,21 @@ def _cell_point(cell, ux, uy):
     )
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
+def _copy(source, target):
+    """`target[:] = source` for two (k, 2) arrays of one shape, in a loop: numba's slice copy
+    compiles a shape check that formats its error message, which costs seconds."""
+    for j in range(source.shape[0]):
+        target[j, 0], target[j, 1] = source[j, 0], source[j, 1]
+
+
+@numba.njit(cache=True)
 def sample(u, p, s):
     """Draw one episode into state record `s` from its uniforms `u`."""
     if p.layout:
         s.n_anchors, s.n_posts = p.n_anchors, p.n_posts
-        s.anchors[:] = p.anchors
-        s.posts[:] = p.posts
+        _copy(p.anchors, s.anchors)
+        _copy(p.posts, s.posts)
         goal = min(int(u[0] * p.n_goals), p.n_goals - 1)
         start = min(int(u[1] * p.n_starts), p.n_starts - 1)
         s.goal_x, s.goal_y = p.goals[goal, 0], p.goals[goal, 1]

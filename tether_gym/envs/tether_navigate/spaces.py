@@ -142,7 +142,7 @@ OUTCOME = Fields(
 OUT = OUTCOME.columns
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _sorted_relative(points, n, x, y, out, first):
     """`n` points relative to (x, y), nearest first, into out[first:] as (present, dx, dy)
     triples; the rest of the slots padded with zeros."""
@@ -165,7 +165,7 @@ def _sorted_relative(points, n, x, y, out, first):
             out[c], out[c + 1], out[c + 2] = 0.0, 0.0, 0.0
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def observe(s, max_maneuvers, obs):
     obs[OBS.vx], obs[OBS.vy] = s.vx / MAX_SPEED, s.vy / MAX_SPEED
     obs[OBS.angle_cos], obs[OBS.angle_sin] = math.cos(s.angle), math.sin(s.angle)

@@ -11,8 +11,8 @@ wheel; whether `coast` applies, `env_kwargs`). `control_mode(name)` is the facto
   the bounce (`controls.velocity`).
 - `aim`: the motion after the bounce alone; the peg is the environment's choice too.
 
-Inside the compiled step (`play`) the configured mode is its code (`config.CONTROLS`' index):
-a kernel that took the mode's `solve` as an argument could not be cached (`envs.kernels`).
+The compiled step (`play`) is built per set-up and dynamics (`PLAYS`): a kernel that took the
+mode's `solve` as an argument could not be cached (`envs.kernels`).
 """
 
 from __future__ import annotations
@@ -25,9 +25,11 @@ import numpy as np
 from gymnasium import spaces
 
 from tether_gym.envs.fields import Fields
-from tether_gym.envs.tether_navigate.config import AIMED, CONTROLS, SETUP
+from tether_gym.envs.tether_navigate.config import AIMED, CONTROLS
 from tether_gym.envs.tether_navigate.controls import setup, velocity
-from tether_gym.envs.tether_navigate.maneuver import maneuver
+from tether_gym.envs.tether_navigate.maneuver import MANEUVERS
+from tether_gym.physics.jit import twin
+from tether_gym.physics.models import DYNAMICS, IMPULSE
 
 
 @dataclass(frozen=True)
@@ -106,15 +108,44 @@ def control_mode(control: str | ControlMode) -> ControlMode:
     return CONTROL_MODES[control]
 
 
-@numba.njit(cache=True, inline="always")
+_solve, _maneuver = setup.solve, MANEUVERS[IMPULSE]
+"""The set-up and the maneuver `play` plays: each build in `PLAYS` rebinds them to its control
+mode's `solve` and its dynamics' maneuver (`physics.jit.twin`)."""
+
+
 def play(action, s, p, out):
-    """One maneuver of episode `s` from a normalized action: the configured mode's `solve`,
-    then `maneuver`."""
-    if p.control == SETUP:
-        anchor, length, alpha, e, aim_x, aim_y = setup.solve(action, s, p, out)
-    else:  # velocity and aim
-        anchor, length, alpha, e, aim_x, aim_y = velocity.solve(action, s, p, out)
-    maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out)
+    """One maneuver of episode `s` from a normalized action: the control mode's `solve`, then
+    the maneuver."""
+    anchor, length, alpha, e, aim_x, aim_y = _solve(action, s, p, out)
+    _maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out)
 
 
-__all__ = ["ACTIONS", "CONTROLS", "CONTROL_MODES", "ControlMode", "control_mode", "play"]
+SOLVERS = {"setup": setup.solve, "velocity": velocity.solve}
+"""The compiled set-ups: velocity and aim control share theirs."""
+PLAYS = {
+    (solver, dynamics): numba.njit(cache=True)(
+        twin(play, f"{solver}_{DYNAMICS[dynamics]}", _solve=solve, _maneuver=maneuver)
+    )
+    for solver, solve in SOLVERS.items()
+    for dynamics, maneuver in MANEUVERS.items()
+}
+"""(solver, dynamics code) -> `play` compiled for them: a first step compiles the set-up and
+the contact its env plays, not every mode's."""
+
+
+def build(control: str, dynamics: int) -> tuple[str, int]:
+    """The key of `PLAYS` (and of the kernels built on it) for a control mode and a dynamics
+    code."""
+    return ("setup" if control == "setup" else "velocity", dynamics)
+
+
+__all__ = [
+    "ACTIONS",
+    "CONTROLS",
+    "CONTROL_MODES",
+    "PLAYS",
+    "ControlMode",
+    "build",
+    "control_mode",
+    "play",
+]

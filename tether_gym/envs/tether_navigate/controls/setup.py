@@ -21,7 +21,7 @@ ACTION = Fields(
 ACTION_LOW, ACTION_HIGH = ACTION.low, ACTION.high
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def hook(s, bearing):
     """The peg whose bearing from the puck, measured from its velocity (from +x at rest), is
     nearest to `bearing`."""
@@ -35,7 +35,7 @@ def hook(s, bearing):
     return best
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def decode(action, s):
     """(peg, tether length, offset angle, restitution) of a normalized action (clipped)."""
     a = np.empty(4)
@@ -46,7 +46,7 @@ def decode(action, s):
     return hook(s, a[0]), a[1], a[2], a[3]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def solve(action, s, p, out):
     """The mode's `ControlMode.solve`: the set-up `decode`s, the command met (it is the set-up
     itself), no aim."""

@@ -220,7 +220,7 @@ def _miss(px, py, ox, oy, gx, gy, speed, weight, table):
     return nearest + error, blocked
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _change_towards(px, py, vx, vy, ux, uy, gx, gy, restitution, j):
     """The change k along u that points the puck at (px, py) at the aim (j = 0) or at its image
     in wall j - 1 (left, right, bottom, top: mirrored in the line the centre bounces at, its
