@@ -17,6 +17,7 @@ from tether_gym.arguments import ArgumentParser, env_epilog
 from tether_gym.training.cluster import ClusterError
 from tether_gym.training.folders import prepare_folder
 from tether_gym.training.sweep.spec import (
+    EXAMPLES,
     HYPERPARAMS,
     Sweep,
     describe_example,
@@ -142,8 +143,7 @@ def list_examples() -> str:
                       subsequent_indent=indent)
         for name, path in examples.items()
     ]  # fmt: skip
-    folder = next(iter(examples.values())).parent
-    return "\n".join([*lines, f"(in {folder}; run one with: tether-sweep NAME --out DIR)"])
+    return "\n".join([*lines, f"(in {EXAMPLES}; run one with: tether-sweep NAME --out DIR)"])
 
 
 def interrupted_note(out: Path) -> str:
