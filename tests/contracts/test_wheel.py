@@ -30,6 +30,8 @@ PACKAGED = [
     "tether_gym/training/hyperparams/ppo.yml",
     "tether_gym/training/hyperparams/sac.yml",
     "tether_gym/training/sweep/cli.py",
+    *(f"tether_gym/training/sweeps/{path.name}" for path in (ROOT / "sweeps").glob("*.yml")),
+    "tether_gym/training/sweeps/hyperparams/previous_ppo.yml",
     "tether_gym/agents/record.py",
     "tether_gym/envs/tether_navigate/kernel.py",
     "tether_gym/envs/tether_navigate/controls/setup.py",
@@ -128,6 +130,15 @@ def test_tether_gym_comes_from_the_fresh_venv(fresh_venv, outside):
 def test_console_script_help(fresh_venv, outside, script):
     bin_dir, _ = fresh_venv
     assert f"usage: {script}" in run([bin_dir / script, "--help"], outside).stdout
+
+
+def test_tether_sweep_lists_the_packaged_sweeps(fresh_venv, outside):
+    """The example sweep files come with the package: `tether-sweep NAME` runs one anywhere."""
+    bin_dir, site = fresh_venv
+    listed = run([bin_dir / "tether-sweep", "--list"], outside).stdout
+    names = sorted(path.stem for path in (ROOT / "sweeps").glob("*.yml"))
+    assert [line.split()[0] for line in listed.splitlines() if line[:1].isalpha()] == names
+    assert f"(in {(site / 'tether_gym' / 'training' / 'sweeps').resolve()};" in listed
 
 
 def test_tether_evaluate_runs_the_oracle_and_random_from_any_folder(fresh_venv, outside):

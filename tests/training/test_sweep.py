@@ -27,11 +27,13 @@ import yaml
 
 pytest.importorskip("ray.tune")
 
+from ray import tune
+
 from tests.helpers import ROOT
 from tether_gym.evaluation.statistics import t_interval
-from tether_gym.training import cluster, sweep, sweep_main
+from tether_gym.training import cluster, folders, sweep, sweep_main
 
-SWEEPS = ROOT / "sweeps"
+SWEEPS = ROOT / "sweeps"  # the clone's link to the packaged examples, `sweep.EXAMPLES`
 SMOKE = SWEEPS / "smoke.yml"
 
 pytestmark = pytest.mark.slow
@@ -153,6 +155,92 @@ def test_the_example_sweeps_are_valid():
         assert ladder_sweep.num_trials() == 6 * modes * 5
 
 
+def test_the_example_sweeps_are_packaged_and_listed(capsys):
+    assert SWEEPS.resolve() == sweep.EXAMPLES and sweep.EXAMPLES.is_relative_to(ROOT / "tether_gym")
+    names = sorted(sweep.example_sweeps())
+    assert "smoke" in names and "seeds" in names
+    assert sweep.main(["--list"]) == 0
+    listed = capsys.readouterr().out
+    for name in names:
+        assert re.search(rf"^{name} +\S", listed, re.MULTILINE), name
+    assert "smoke" in listed and "A tiny sweep" in listed
+    assert (
+        sweep.find_sweep("smoke") == sweep.find_sweep("smoke.yml") == sweep.EXAMPLES / "smoke.yml"
+    )
+    assert sweep.find_sweep(str(SMOKE)) == SMOKE  # a path is a path
+
+
+def test_an_unknown_sweep_name_suggests_a_packaged_one(tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        sweep_main(["smok", "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert "SWEEP 'smok': no such file, nor a packaged sweep (did you mean 'smoke'?)" in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_set_overrides_keys_of_the_sweep_file():
+    data = yaml.safe_load(SMOKE.read_text())
+    overrides = [
+        "timesteps=1024",
+        "base.eval_freq=512",
+        "hyperparams.n_steps=32",
+        "seeds=[3, 4, 5]",
+        "grid.hyperparams.gamma=[0.9, 0.99]",
+        "resources.cpu=2",
+        "env_kwargs.task=heading",
+    ]
+    changed = sweep.apply_overrides(data, overrides)
+    assert changed["base"]["timesteps"] == 1024 and changed["base"]["eval_freq"] == 512
+    assert changed["base"]["hyperparams"] == {**data["base"]["hyperparams"], "n_steps": 32}
+    assert changed["base"]["env_kwargs"] == {"task": "heading"}
+    assert changed["grid"] == {"hyperparams.gamma": [0.9, 0.99]} and changed["resources"] == {
+        "cpu": 2
+    }
+    assert changed["seeds"] == [3, 4, 5] and data == yaml.safe_load(SMOKE.read_text())
+    sized = sweep.load_sweep(SMOKE, ["timesteps=1024", "seeds=3", "grid.n_envs=[4, 8]"])
+    assert sized.base["timesteps"] == 1024 and sized.seeds == [0, 1, 2]
+    assert sized.num_trials() == 6 and sized.saved()["grid"] == {"n_envs": [4, 8]}
+
+
+@pytest.mark.parametrize(
+    ("item", "message"),
+    [
+        ("timestep=1024", "--set timestep: unknown key; allowed: base, seeds,"),
+        ("base.timestep=1024", "--set base.timestep: unknown key; allowed: algo,"),
+        ("seed=3", "--set seed: unknown key; allowed:"),
+        ("seeds.first=3", "--set seeds.first: seeds has no entries"),
+        ("timesteps", "--set 'timesteps': give KEY=VALUE"),
+        ("grid.timesteps=[1024,", "--set grid.timesteps: cannot read '[1024,' as a YAML value"),
+        ("timesteps=many", "base.timesteps: must be a number, got 'many'"),
+        ("seeds=0", "seeds: must be at least 1, got 0"),
+        ("grid.timesteps=1024", "grid.timesteps: a grid takes a non-empty list of values"),
+        ("hyperparams.n_stepz=3", "base: unknown PPO hyperparameters ['n_stepz']"),
+    ],
+)
+def test_a_bad_set_is_one_line_naming_the_key(tmp_path, capsys, item, message):
+    with pytest.raises(SystemExit):
+        sweep_main(["smoke", "--out", str(tmp_path / "out"), "--set", item])
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_misspelt_set_key_gets_the_closest_one(tmp_path, capsys):
+    for item, closest in (("timestep=1", "timesteps"), ("base.eval_frq=1", "eval_freq")):
+        with pytest.raises(SystemExit):
+            sweep_main(["smoke", "--out", str(tmp_path / "out"), "--set", item])
+        assert f"(did you mean {closest!r}?)" in capsys.readouterr().err
+
+
+def test_setup_is_the_deprecated_name_of_sweep_from_args():
+    from tether_gym.training.sweep import cli
+
+    for module in (sweep, cli):
+        with pytest.warns(DeprecationWarning, match="use sweep_from_args"):
+            assert module.setup is sweep.sweep_from_args
+    assert "setup" not in sweep.__all__
+
+
 def test_the_interval_over_seeds():
     assert all(math.isnan(end) for end in t_interval(np.array([0.5])))
     assert t_interval(np.array([0.9, 0.9])) == (0.9, 0.9)
@@ -182,27 +270,51 @@ def snapshot(folder: Path) -> dict[str, tuple[int, bytes]]:
     return {str(path): (path.stat().st_mtime_ns, path.read_bytes()) for path in files}
 
 
-def test_resume_continues_an_interrupted_sweep_without_redoing_finished_trials(tmp_path):
-    """One trial at a time, a short one then a long one; Ctrl-C once the second has started."""
-    data = yaml.safe_load(SMOKE.read_text())
-    data["base"]["eval_freq"] = 4096
-    data.update(seeds=1, max_concurrent=1, grid={"timesteps": [1024, 16384]})
-    path = tmp_path / "two.yml"
-    path.write_text(yaml.safe_dump(data))
+def test_resume_continues_an_interrupted_sweep_without_redoing_finished_trials(tmp_path, capfd):
+    """One trial at a time, a short one then a long one; Ctrl-C once the second has evaluated
+    twice. The console says how to continue once (Ray's resume hint and its token notice go to
+    sweep.log); the resumed trial starts from the checkpoint Tune kept, which may be before its
+    last evaluation, and evaluations.csv and the plotted history still hold each once."""
     out = tmp_path / "out"
     runs = out / "runs"
-    watcher = interrupt_when(lambda: runs.is_dir() and len(list(runs.iterdir())) == 2)
-    assert sweep.main([str(path), "--out", str(out)]) == 130
+    overrides = ["seeds=1", "max_concurrent=1", "eval_freq=4096", "grid.timesteps=[1024, 16384]"]
+
+    def second_evaluated_twice() -> bool:
+        files = runs.glob("*/evaluations.csv") if runs.is_dir() else []
+        return any(len(path.read_text().splitlines()) > 2 for path in files)
+
+    watcher = interrupt_when(second_evaluated_twice)
+    command = [str(SMOKE), "--out", str(out), *(f"--set={item}" for item in overrides)]
+    assert sweep.main(command) == 130
     watcher.join()
+    err = capfd.readouterr().err
+    assert err.count("--resume") == 1 and f"continue with tether-sweep --resume {out}" in err
+    assert "Tuner.restore" not in err and "Token authentication" not in err, err
+    assert "Tuner.restore" in (out / "sweep.log").read_text()
     (first,) = [run for run in runs.iterdir() if (run / "results.md").is_file()]
     (second,) = [run for run in runs.iterdir() if run != first]
     before = snapshot(first)
     assert sweep.main(["--resume", str(out)]) == 0
     assert snapshot(first) == before, "the finished trial was not redone"
     assert yaml.safe_load((second / "last" / "config.yaml").read_text())["num_timesteps"] == 16384
+    evaluations = pd.read_csv(second / "evaluations.csv")
+    assert list(evaluations["timesteps"]) == [4096, 8192, 12288, 16384]
     summary = pd.read_csv(out / "summary.csv")
     assert sorted(summary["timesteps"]) == [1024, 16384]
     assert list(summary["n_seeds"]) == [1, 1] and summary["success_ci_low"].isna().all()
+    results = tune.ResultGrid(tune.ExperimentAnalysis(str(out / "tune")))
+    histories = [trial.history for trial in sweep.finished_trials(results, [0])]
+    assert sorted(len(history) for history in histories) == [1, 4]
+    assert all(history["timesteps"].is_unique for history in histories)
+
+
+def test_drop_rows_after_keeps_the_evaluations_up_to_the_checkpoint(tmp_path):
+    path = tmp_path / "evaluations.csv"
+    for timesteps in (4096, 8192, 12288):
+        folders.append_row(path, {"timesteps": timesteps, "success_rate": 0.5})
+    folders.drop_rows_after(path, 8192)
+    assert path.read_text().splitlines() == ["timesteps,success_rate", "4096,0.5", "8192,0.5"]
+    folders.drop_rows_after(tmp_path / "absent.csv", 0)  # a run that never evaluated
 
 
 def test_resume_refuses_a_folder_without_a_sweep(tmp_path, capsys):
@@ -269,7 +381,7 @@ def test_ctrl_c_while_ray_starts_stops_every_ray_process_and_the_folder_starts_a
     shutil.copytree(out, again)
     sweep.prepare_out(again, overwrite=False)  # the same command reuses the folder
     assert not any(again.iterdir())
-    resumed, folder, tune_resumes = sweep.setup(
+    resumed, folder, tune_resumes = sweep.sweep_from_args(
         sweep.build_parser().parse_args(["--resume", str(out)])
     )
     assert folder == out and not tune_resumes and resumed.seeds == [0, 1]

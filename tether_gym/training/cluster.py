@@ -5,8 +5,8 @@ half-started without leaving its processes behind, so a Ctrl-C while it starts i
 acted on once it has started (`ray.shutdown` then stops every process it started). A cluster
 that refuses the connection, most often for Ray's token authentication (`RAY_AUTH_MODE=token`
 and the cluster's token, the same on every node and for every client), ends in one line saying
-what to do (`ClusterError`). `ray_log_to` keeps Ray's and Tune's log in a file, and only
-warnings and errors on the console.
+what to do (`ClusterError`). `ray_log_to` keeps Ray's and Tune's log in a file, and off the
+console for a local Ray (only warnings and errors of a cluster's).
 """
 
 from __future__ import annotations
@@ -98,15 +98,24 @@ def start_ray(address: str | None, runtime_env: dict[str, Any]) -> None:
         raise KeyboardInterrupt
 
 
+def _not_tune_resume_hint(record: logging.LogRecord) -> bool:
+    """False for Tune's "Resume experiment with: Tuner.restore(...)": the command says how to
+    continue a sweep itself (`tether-sweep --resume DIR`)."""
+    return "Tuner.restore(" not in record.getMessage()
+
+
 @contextmanager
-def ray_log_to(path: Path) -> Iterator[TextIO]:
+def ray_log_to(path: Path, local: bool) -> Iterator[TextIO]:
     """Ray's and Tune's log (the "ray" logger, from INFO) appended to `path`, whose stream the
-    block gets (for Tune's console report); on the console the logger's handlers show only
-    warnings and errors meanwhile."""
+    block gets (for Tune's console report). Meanwhile the logger's console handlers show
+    nothing for a `local` Ray (its token-authentication notice included: the command prints
+    what matters), and only warnings and errors of a cluster's; never Tune's resume hint."""
     logger = logging.getLogger("ray")
     console = [(handler, handler.level) for handler in logger.handlers]
+    quiet = logging.CRITICAL + 1 if local else logging.WARNING
     for handler, _ in console:
-        handler.setLevel(max(handler.level, logging.WARNING))
+        handler.setLevel(max(handler.level, quiet))
+        handler.addFilter(_not_tune_resume_hint)
     with path.open("a") as stream:
         log_file = logging.StreamHandler(stream)
         log_file.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
@@ -117,3 +126,4 @@ def ray_log_to(path: Path) -> Iterator[TextIO]:
             logger.removeHandler(log_file)
             for handler, level in console:
                 handler.setLevel(level)
+                handler.removeFilter(_not_tune_resume_hint)

@@ -28,7 +28,13 @@ from tether_gym.evaluation.runner import evaluate
 from tether_gym.seeds import EVAL_SEED, TEST_SEED
 from tether_gym.training.callbacks import Report, YardstickEvalCallback
 from tether_gym.training.config import RunConfig
-from tether_gym.training.folders import REPLAY_BUFFER, Checkpoints, check_resumable
+from tether_gym.training.folders import (
+    EVALUATIONS,
+    REPLAY_BUFFER,
+    Checkpoints,
+    check_resumable,
+    drop_rows_after,
+)
 from tether_gym.training.sb3 import make_sb3_vec_env
 from tether_gym.training.summary import RESULTS
 from tether_gym.training.variants import VARIANTS, asked, label
@@ -181,8 +187,9 @@ def train(
 
     A new run writes `run_dir/config.yaml` (into an existing folder too: the caller decides
     what may be overwritten); `resume` continues from `run_dir/last/` up to the config's
-    `timesteps` in total. Periodic evaluations save `last/`, keep the best model in `best/`
-    and hand their numbers to `report`; at the end `last/` is saved and the final table of the
+    `timesteps` in total (evaluations.csv's rows past `last/` dropped: they run again).
+    Periodic evaluations save `last/`, keep the best model in `best/` and hand their numbers
+    to `report`; at the end `last/` is saved and the final table of the
     policy and the `baselines` is written to `results.md` (and `results.json`, which
     `tether_gym.training.summary` reads). On KeyboardInterrupt `last/` is saved and the
     interrupt propagates. Runs on one torch thread, so that a seed gives one result.
@@ -207,6 +214,8 @@ def train(
         (run_dir / "config.yaml").write_text(yaml.safe_dump(config.as_dict(), sort_keys=False))
     model = make_model(config, run_dir, resume)
     start_timesteps = model.num_timesteps
+    if resume:  # the evaluations past the checkpoint run again: no row twice
+        drop_rows_after(run_dir / EVALUATIONS, start_timesteps)
     checkpoints = Checkpoints(run_dir, config)
     callback = YardstickEvalCallback(checkpoints, best, report)
     remaining = config.timesteps - start_timesteps

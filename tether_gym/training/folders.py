@@ -135,3 +135,20 @@ def append_row(path: Path, numbers: dict[str, float]) -> None:
         if new:
             writer.writeheader()
         writer.writerow(numbers)
+
+
+def drop_rows_after(path: Path, timesteps: int) -> None:
+    """Drop the rows of the CSV file `path` (evaluations.csv) past `timesteps`: a run resumed
+    from an earlier checkpoint than its last evaluation (a sweep's trial resumes from the one
+    Ray Tune kept) evaluates those timesteps again."""
+    if not path.is_file():
+        return
+    with path.open(newline="") as file:
+        reader = csv.DictReader(file)
+        rows, columns = list(reader), reader.fieldnames or []
+    kept = [row for row in rows if float(row["timesteps"]) <= timesteps]
+    if len(kept) < len(rows):
+        with path.open("w", newline="") as file:
+            writer = csv.DictWriter(file, fieldnames=columns)
+            writer.writeheader()
+            writer.writerows(kept)

@@ -1,17 +1,26 @@
 """Sweep `tether-train` runs over seeds, hyperparameters and env arguments on Ray Tune.
 
-    tether-sweep sweeps/seeds.yml --out runs/sweep-seeds      # the default run, 5 seeds
-    tether-sweep sweeps/tune_ppo.yml --out DIR --address auto  # on a running Ray cluster
-    tether-sweep --resume DIR                                  # continue an interrupted sweep
+    tether-sweep --list                                 # the packaged sweep files
+    tether-sweep seeds --out runs/sweep-seeds           # the default run, 5 seeds
+    tether-sweep seeds --out DIR --set seeds=2 --set timesteps=100000   # smaller
+    tether-sweep my_sweep.yml --out DIR --address auto  # a file of yours, on a Ray cluster
+    tether-sweep --resume DIR                           # continue an interrupted sweep
 
-(`python -m tether_gym.training.sweep ...` is the same command.) Every trial is
-`train(config, run_dir)`, the run behind `tether-train`: the same config (`make_config`'s
-schema), checks, run folder and evaluations. Ray Tune schedules the trials (one CPU each by
-default), retries a failed one from its last checkpoint (the run folder's `last/`, saved at
-every periodic evaluation) and keeps the experiment's state, so that `--resume` runs only what
-is unfinished. Each trial's worker starts with `NUMBA_NUM_THREADS` and `OMP_NUM_THREADS` set
-to its CPUs, before numba or torch is imported (numba reads its thread count, which its TBB
-layer follows, once at import, and ignores `OMP_NUM_THREADS`).
+(`python -m tether_gym.training.sweep ...` is the same command.) SWEEP is a sweep file or the
+name of a packaged one (`--list`; the clone's `sweeps/` holds the same files). `--set KEY=VALUE`
+changes one key of it without editing the file, the value in YAML: `timesteps=100000` (any key
+of `base`, with or without `base.`), `seeds=2`, `hyperparams.n_steps=64`,
+`grid.timesteps=[1024, 2048]` (a search's dotted key whole), `max_concurrent=1`; the result is
+checked as a file is and saved as DIR/sweep.yml.
+
+Every trial is `train(config, run_dir)`, the run behind `tether-train`: the same config
+(`make_config`'s schema), checks, run folder and evaluations. Ray Tune schedules the trials
+(one CPU each by default), retries a failed one from its last checkpoint (the run folder's
+`last/`, saved at every periodic evaluation) and keeps the experiment's state, so that
+`--resume` runs only what is unfinished (a resumed trial's evaluations past its checkpoint run
+again, each kept once). Each trial's worker starts with `NUMBA_NUM_THREADS` and
+`OMP_NUM_THREADS` set to its CPUs, before numba or torch is imported (numba reads its thread
+count, which its TBB layer follows, once at import, and ignores `OMP_NUM_THREADS`).
 
 The sweep file (YAML; every key optional, unknown keys refused):
 
@@ -51,8 +60,8 @@ The output folder DIR (an existing non-empty one only with --resume or --overwri
                                 (`tensorboard --logdir DIR` shows every trial)
     tune/                       Ray Tune's experiment: its state, each trial's reported results
                                 and latest checkpoint
-    sweep.log                   Ray's and Ray Tune's log and report (the console shows one line
-                                per trial)
+    sweep.log                   Ray's and Ray Tune's log, report and warnings (the console
+                                shows one line per trial; a cluster's warnings too)
     summary.csv, summary.md     one row per configuration, over its seeds (`SUMMARY_COLUMNS`)
     success.png                 periodic evaluations: success against timesteps, the mean and
                                 95% band over seeds for each configuration
@@ -60,14 +69,19 @@ The output folder DIR (an existing non-empty one only with --resume or --overwri
 
 from __future__ import annotations
 
+import warnings
+from typing import Any
+
 from tether_gym.training.sweep.cli import (
     NOT_STARTED,
+    RENAMED,
     build_parser,
     interrupted_note,
+    list_examples,
     main,
     never_started,
     prepare_out,
-    setup,
+    sweep_from_args,
 )
 from tether_gym.training.sweep.report import (
     FINAL,
@@ -86,14 +100,21 @@ from tether_gym.training.sweep.report import (
 from tether_gym.training.sweep.spec import (
     BASE_KEYS,
     DISTRIBUTIONS,
+    EXAMPLES,
     HYPERPARAMS,
     METRICS,
+    NESTED_KEYS,
     SEARCHES,
     SPACE_OPTIONS,
     SPACE_PREFIXES,
     SWEEP_KEYS,
     Sweep,
+    apply_overrides,
+    describe_example,
+    example_sweeps,
+    find_sweep,
     load_sweep,
+    override_path,
     parse_base,
     parse_distribution,
     parse_space,
@@ -121,10 +142,12 @@ from tether_gym.training.sweep.tuner import (
 __all__ = [
     "BASE_KEYS",
     "DISTRIBUTIONS",
+    "EXAMPLES",
     "FINAL",
     "HYPERPARAMS",
     "LOG",
     "METRICS",
+    "NESTED_KEYS",
     "NOT_STARTED",
     "SEARCHES",
     "SEED_KEYS",
@@ -138,17 +161,23 @@ __all__ = [
     "Sweep",
     "Trial",
     "TrialLines",
+    "apply_overrides",
     "build_parser",
     "describe",
+    "describe_example",
+    "example_sweeps",
+    "find_sweep",
     "finished_trials",
     "format_summary",
     "group",
     "interrupted_note",
+    "list_examples",
     "load_sweep",
     "main",
     "make_trainable",
     "make_tuner",
     "never_started",
+    "override_path",
     "parse_base",
     "parse_distribution",
     "parse_space",
@@ -160,10 +189,20 @@ __all__ = [
     "run_trial",
     "save_sweep",
     "set_key",
-    "setup",
     "summarize",
+    "sweep_from_args",
     "thread_env",
     "trial_config",
     "trial_seed",
     "write_results",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """The former names of `RENAMED`, with a DeprecationWarning naming the new one."""
+    if name not in RENAMED:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    warnings.warn(
+        f"{__name__}.{name} is deprecated: use {RENAMED[name]}", DeprecationWarning, stacklevel=2
+    )
+    return globals()[RENAMED[name]]

@@ -6,14 +6,25 @@ from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
+import warnings
 from pathlib import Path
+from typing import Any
 
 from ray import tune
 
 from tether_gym.arguments import ArgumentParser, env_epilog
 from tether_gym.training.cluster import ClusterError
 from tether_gym.training.folders import prepare_folder
-from tether_gym.training.sweep.spec import HYPERPARAMS, Sweep, load_sweep
+from tether_gym.training.sweep.spec import (
+    EXAMPLES,
+    HYPERPARAMS,
+    Sweep,
+    describe_example,
+    example_sweeps,
+    find_sweep,
+    load_sweep,
+)
 from tether_gym.training.sweep.tuner import LOG, run
 
 NOT_STARTED = {"sweep.yml", HYPERPARAMS, LOG, "tune", "runs"}
@@ -53,8 +64,25 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=env_epilog(),  # what base.env_kwargs and env_kwargs.<name> may set
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("sweep_file", nargs="?", type=Path, metavar="SWEEP.yml")
+    parser.add_argument(
+        "sweep_file",
+        nargs="?",
+        metavar="SWEEP",
+        help="a sweep file, or the name of a packaged one (smoke, seeds, ...: --list)",
+    )
     parser.add_argument("--out", type=Path, metavar="DIR", help="the sweep's output folder")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        dest="overrides",
+        help="override a key of the sweep file (repeatable), the value YAML: timesteps=20000, "
+        "seeds=2, hyperparams.n_steps=64, grid.timesteps=[1024,2048], max_concurrent=1",
+    )
+    parser.add_argument(
+        "--list", action="store_true", help="list the packaged sweep files and exit"
+    )
     parser.add_argument(
         "--resume", type=Path, metavar="DIR", help="continue the interrupted sweep in DIR"
     )
@@ -66,11 +94,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def setup(args: argparse.Namespace) -> tuple[Sweep, Path, bool]:
+def sweep_from_args(args: argparse.Namespace) -> tuple[Sweep, Path, bool]:
     """The sweep, its folder and whether Tune resumes it, from the command line, checked
     (ValueError). `--resume` of a sweep that never started starts it."""
     if args.resume is not None:
-        given = [flag for flag, value in [("SWEEP.yml", args.sweep_file), ("--out", args.out),
+        given = [flag for flag, value in [("SWEEP", args.sweep_file), ("--out", args.out),
+                                          ("--set", args.overrides),
                                           ("--overwrite", args.overwrite)] if value]  # fmt: skip
         if given:
             raise ValueError(f"--resume takes the sweep saved in {args.resume}: drop {given[0]}")
@@ -82,10 +111,39 @@ def setup(args: argparse.Namespace) -> tuple[Sweep, Path, bool]:
             raise ValueError(f"cannot resume {str(args.resume)!r}: it holds no Ray Tune sweep")
         return load_sweep(args.resume / "sweep.yml"), args.resume, True
     if args.sweep_file is None or args.out is None:
-        raise ValueError("give a sweep file and --out DIR, or --resume DIR")
-    sweep = load_sweep(args.sweep_file)
+        raise ValueError(
+            "give a sweep file (or a packaged one's name) and --out DIR, or --resume DIR"
+        )
+    sweep = load_sweep(find_sweep(args.sweep_file), args.overrides)
     prepare_out(args.out, args.overwrite)
     return sweep, args.out, False
+
+
+RENAMED = {"setup": "sweep_from_args"}
+"""Former names of this module's functions, and their names now."""
+
+
+def __getattr__(name: str) -> Any:
+    """The names of `RENAMED`, with a DeprecationWarning naming the new one."""
+    if name not in RENAMED:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    warnings.warn(
+        f"{__name__}.{name} is deprecated: use {RENAMED[name]}", DeprecationWarning, stacklevel=2
+    )
+    return globals()[RENAMED[name]]
+
+
+def list_examples() -> str:
+    """The packaged sweep files: the name `tether-sweep` takes, and what each runs."""
+    examples = example_sweeps()
+    width = max(map(len, examples))
+    indent = " " * (width + 2)
+    lines = [
+        textwrap.fill(describe_example(path), 96, initial_indent=f"{name:<{width}}  ",
+                      subsequent_indent=indent)
+        for name, path in examples.items()
+    ]  # fmt: skip
+    return "\n".join([*lines, f"(in {EXAMPLES}; run one with: tether-sweep NAME --out DIR)"])
 
 
 def interrupted_note(out: Path) -> str:
@@ -100,8 +158,11 @@ def main(argv: list[str] | None = None) -> int:
     finished, 1 if some failed or Ray could not start, 130 if interrupted."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.list:
+        print(list_examples())
+        return 0
     try:
-        sweep, out, resume = setup(args)
+        sweep, out, resume = sweep_from_args(args)
     except ValueError as error:
         parser.error(str(error))
     try:

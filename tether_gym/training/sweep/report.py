@@ -53,13 +53,15 @@ class Trial:
 
 
 def finished_trials(results: tune.ResultGrid, seeds: list[int]) -> list[Trial]:
-    """The trials that reported their final results."""
+    """The trials that reported their final results, each evaluation once."""
     trials = []
     for result in results:
         if result.error is None and "test_success" in result.metrics:
             params = {k: v for k, v in result.config.items() if k not in SEED_KEYS}
             seed = trial_seed(result.config, seeds)
             periodic = result.metrics_dataframe[result.metrics_dataframe["test_success"].isna()]
+            # a resumed trial reports again the evaluations past the checkpoint it resumed from
+            periodic = periodic.drop_duplicates("timesteps", keep="last")
             trials.append(Trial(params, seed, result.metrics, periodic))
     return trials
 

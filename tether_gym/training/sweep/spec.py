@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -17,7 +18,7 @@ from ray.tune.search import BasicVariantGenerator, ConcurrencyLimiter, Repeater,
 from ray.tune.search.optuna import OptunaSearch
 from ray.tune.search.sample import Categorical, Domain
 
-from tether_gym.arguments import DEFAULT_ENV_ID
+from tether_gym.arguments import DEFAULT_ENV_ID, did_you_mean
 from tether_gym.training.config import make_config
 from tether_gym.training.experiment import check_config
 from tether_gym.training.zoo import ALGOS, default_conf, load_hyperparams
@@ -46,6 +47,10 @@ METRICS = {"success_rate": "max", "reward_mean": "max", "heading_error_mean_deg"
 """Numbers of every periodic evaluation that a search may optimize, with their direction."""
 HYPERPARAMS = "hyperparams.yml"
 """The hyperparameters a sweep read, saved in DIR (`save_sweep`) for --resume."""
+EXAMPLES = Path(__file__).resolve().parents[1] / "sweeps"
+"""The example sweep files, shipped in the package (the clone's `sweeps/` links here)."""
+NESTED_KEYS = ("hyperparams", "env_kwargs", "resources", *SEARCHES)
+"""Keys whose values are mappings that `--set KEY.NAME=VALUE` may set one entry of."""
 
 
 @dataclass(frozen=True)
@@ -293,12 +298,97 @@ def parse_sweep(data: Any, folder: Path) -> Sweep:
     )
 
 
-def load_sweep(path: Path) -> Sweep:
-    """The sweep file at `path`, checked (ValueError naming the file or the key)."""
+def override_path(key: str) -> list[str]:
+    """Where `--set KEY=...` goes in the sweep file: a top-level key (`seeds`), a key of
+    `base` with or without `base.` (`timesteps`, `hyperparams.n_steps`), or one entry of a
+    mapping (`resources.cpu`, `grid.hyperparams.gamma`: a search's whole dotted key).
+    ValueError naming the key, with the closest valid one."""
+    head, _, rest = key.partition(".")
+    if head == "base":
+        if not rest:
+            return ["base"]
+        head, _, rest = rest.partition(".")
+        if head not in BASE_KEYS:
+            raise _fail(f"--set base.{head}", f"unknown key; allowed: {', '.join(BASE_KEYS)}"
+                        f"{did_you_mean(head, BASE_KEYS)}")  # fmt: skip
+    allowed = (*SWEEP_KEYS, *(k for k in BASE_KEYS if k not in SWEEP_KEYS))
+    if head not in allowed:
+        raise _fail(f"--set {head}", f"unknown key; allowed: {', '.join(allowed)}"
+                    f"{did_you_mean(head, allowed)}")  # fmt: skip
+    if rest and head not in NESTED_KEYS:
+        raise _fail(f"--set {key}", f"{head} has no entries; nested keys: {', '.join(NESTED_KEYS)}")
+    prefix = ["base", head] if head in BASE_KEYS else [head]
+    if not rest:
+        return prefix
+    return [*prefix, rest] if head in SEARCHES else [*prefix, *rest.split(".")]
+
+
+def apply_overrides(data: dict[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
+    """A copy of the sweep file's data with each `KEY=VALUE` of `--set` applied in order (the
+    key as `override_path` reads it, the value YAML as in the file: `[1024, 2048]`, `2.0e6`);
+    the whole is then checked as a file is. ValueError naming the key."""
+    data = copy.deepcopy(data)
+    for item in overrides:
+        key, equals, text = item.partition("=")
+        key = key.strip()
+        if not equals or not key:
+            raise _fail(f"--set {item!r}", "give KEY=VALUE, e.g. --set timesteps=20000")
+        *parents, name = override_path(key)
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError:
+            raise _fail(f"--set {key}", f"cannot read {text!r} as a YAML value") from None
+        node = data
+        for depth, parent in enumerate(parents):
+            if node.get(parent) is None:
+                node[parent] = {}
+            node = node[parent]
+            if not isinstance(node, dict):
+                where = ".".join(parents[: depth + 1])
+                raise _fail(f"--set {key}", f"{where} is {node!r} in the file, not a mapping")
+        node[name] = value
+    return data
+
+
+def example_sweeps() -> dict[str, Path]:
+    """The packaged example sweep files by name (`smoke` for smoke.yml)."""
+    return {path.stem: path for path in sorted(EXAMPLES.glob("*.yml"))}
+
+
+def find_sweep(name: str) -> Path:
+    """The sweep file `name`: a path, else the packaged example of that name (`smoke`,
+    `smoke.yml`). ValueError naming the closest example."""
+    path = Path(name)
+    if path.is_file():
+        return path
+    examples = example_sweeps()
+    stem = path.name.removesuffix(".yml")
+    if path.parent == Path(".") and stem in examples:
+        return examples[stem]
+    hint = did_you_mean(stem, list(examples))
+    raise _fail(f"SWEEP {name!r}", f"no such file, nor a packaged sweep{hint}; --list lists those")
+
+
+def describe_example(path: Path) -> str:
+    """The first sentence of a sweep file's leading comment."""
+    lines = []
+    for line in path.read_text().splitlines():
+        if not line.startswith("#"):
+            break
+        lines.append(line.lstrip("#").strip())
+    text = " ".join(lines)
+    return text.split(". ")[0].removesuffix(".")
+
+
+def load_sweep(path: Path, overrides: Sequence[str] = ()) -> Sweep:
+    """The sweep file at `path` with the `--set` `overrides` applied, checked (ValueError
+    naming the file or the key)."""
     try:
         data = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as error:
         raise ValueError(f"cannot read the sweep file {str(path)!r}: {error}") from None
+    if overrides:
+        data = apply_overrides(_mapping("sweep file", data), overrides)
     return parse_sweep(data, path.parent)
 
 

@@ -83,8 +83,9 @@ def thread_env(cpus: float) -> dict[str, str]:
 def run(sweep: Sweep, out: Path, address: str | None = None, resume: bool = False) -> Outcome:
     """Run (or, with `resume`, continue) the sweep into `out` and write its results (the
     command refuses a non-empty `out` first: `prepare_out`). Ray starts locally unless
-    `address` names a cluster to join (`start_ray`), logs into out/sweep.log, and is shut down
-    at the end, after Ctrl-C too.
+    `address` names a cluster to join (`start_ray`), logs into out/sweep.log (a local one's
+    warnings too, off the console: `ray_log_to`), and is shut down at the end, after Ctrl-C
+    too.
 
     Raises:
         ClusterError: Ray could not be started or the cluster refused (one line).
@@ -100,7 +101,7 @@ def run(sweep: Sweep, out: Path, address: str | None = None, resume: bool = Fals
           f"trial's output: {out}/runs/<trial>/{TRIAL_LOG}", file=sys.stderr)  # fmt: skip
     # a checkpoint per periodic evaluation is the design, not a bottleneck to warn about
     os.environ.setdefault("TUNE_WARN_EXCESSIVE_EXPERIMENT_CHECKPOINT_SYNC_THRESHOLD_S", "0")
-    with ray_log_to(out / LOG) as log:
+    with ray_log_to(out / LOG, local=address is None) as log:
         start_ray(address, runtime_env)
         try:
             tuner = make_tuner(sweep, out, resume)
