@@ -21,6 +21,7 @@ from tether_gym.envs.tether_navigate.controls.velocity import (
     ACTION,
     COMMAND_TOLERANCE,
     PATH_TIME,
+    Command,
     _change_towards,
     speed_weight,
 )
@@ -199,8 +200,8 @@ def test_the_inverse_tries_the_path_off_a_wall():
     other candidates left, miss it by centimetres."""
     table = (np.empty((0, 2)), 0.5)
     start, velocity, tether, aim = (0.5, 0.5), (1.0, 0.0), (0.0, -1.0), (1.2, 0.7)
-    k, miss, blocked = velocity_wanted(*start, *velocity, *tether, *aim, 0.0, 0.0, 0.5, 3.0, table,
-                                       np.inf)  # fmt: skip
+    command = Command(*aim, 0.0, 0.0)
+    k, miss, blocked = velocity_wanted(*start, *velocity, *tether, command, 0.5, 3.0, table, np.inf)
     assert k == pytest.approx(1.4) and miss == pytest.approx(0.0, abs=1e-9) and not blocked
     for end in (0.5, 3.0):
         assert velocity_miss(*start, 1.0, end, *aim, 0.0, 0.0, table)[0] > 0.05

@@ -251,13 +251,14 @@ def speed_weight(fraction):
 
 
 @numba.njit(cache=True)
-def _wanted(px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, table, cutoff):
+def _wanted(px, py, vx, vy, ux, uy, command, k_low, k_high, table, cutoff):
     """(k, its miss, whether a post stops its path): the change k in [k_low, k_high] along the
-    tether u at (px, py) that misses the command least, `POST_PENALTY` counted: towards the
+    tether u at (px, py) that misses the `Command` least, `POST_PENALTY` counted: towards the
     aim straight or off a wall (`_change_towards`), or at the commanded speed (either root, or the
     least speed), or a limit. Candidates whose speed error alone reaches `cutoff` are not
     walked; if any was cut and nothing walked beats the cutoff, the miss is inf (and k
     meaningless)."""
+    gx, gy, speed, weight = command
     along = vx * ux + vy * uy
     disc = along * along - (vx * vx + vy * vy) + speed * speed
     root = math.sqrt(disc) if disc > 0.0 else 0.0
@@ -295,7 +296,7 @@ def _bounce_at(px, py, vx, vy, spin, peg, command, table, bound):
     """The impulse bounce at tautening point (px, py) for the `Command`, the tether from the
     `Peg`: (score, miss, tether length, moment arm R sin(alpha), brake e); a score of at least
     `bound` may come back inf (the set-up then meaningless)."""
-    gx, gy, speed, weight = command
+    gx, gy, speed, _ = command
     rx, ry = px - peg.x, py - peg.y
     radius = _norm(rx, ry)
     dx, dy = gx - px, gy - py
@@ -315,9 +316,7 @@ def _bounce_at(px, py, vx, vy, spin, peg, command, table, bound):
     # a candidate whose speed error alone passes the cutoff scores over the bound (with room
     # for rounding): it need not be walked
     cutoff = bound - ARM_WEIGHT * abs(arm) + BOUND_SLACK * max(1.0, abs(bound))
-    k, miss, blocked = _wanted(
-        px, py, vx, vy, ux, uy, gx, gy, speed, weight, k_low, k_high, table, cutoff
-    )
+    k, miss, blocked = _wanted(px, py, vx, vy, ux, uy, command, k_low, k_high, table, cutoff)
     e = impulse_restitution_row(k, pull, arm, GYRATION2) if pull > 0.0 else BRAKE_HIGH
     score = miss + ARM_WEIGHT * abs(arm) + (POST_PENALTY if blocked else 0.0)
     return score, miss, length, arm, e
