@@ -65,7 +65,7 @@ def maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out):
             arc = out[OUT.path + 2 * n : OUT.path + 2 * (n + CONTACT_POINTS)]
             arc = arc.reshape(CONTACT_POINTS, 2)
             puck, bounced, completed, _, hit_post, contact_hits, drawn = hybrid_contact_among_row(
-                puck, ax, ay, PUCK_MASS, PUCK_RADIUS, INERTIA_RATIO, OFFSET, length,
+                puck, ax, ay, PUCK_RADIUS, INERTIA_RATIO, OFFSET, PUCK_MASS, length,
                 p.stiffness, damping_ratio(e), table, arc, PATH_TOLERANCE,
             )  # fmt: skip
             hits += contact_hits
