@@ -133,10 +133,16 @@ def env_config(env_id: str, env_kwargs: Mapping[str, Any] | None = None) -> Any:
     """The env's arguments parsed once: its family's config of `env_kwargs` over those its
     registration fixes (a ladder id's task and table), with the env's own defaults and checks
     (ValueError naming a bad argument). Arguments that are not the config's (`render_mode`)
-    are left out."""
-    config = load(family(env_id).config)
+    are left out (`config_arguments`)."""
+    return load(family(env_id).config)(**config_arguments(env_id, env_kwargs))
+
+
+def config_arguments(env_id: str, env_kwargs: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The arguments `env_config` parses, as given: `env_kwargs` over those the registration of
+    `env_id` fixes, less those that are not its family's config's (`render_mode`)."""
+    names = load(family(env_id).config).names()
     given = {**gym.spec(env_id).kwargs, **(env_kwargs or {})}
-    return config(**{key: value for key, value in given.items() if key in config.names()})
+    return {key: value for key, value in given.items() if key in names}
 
 
 def check_agent(agent: str, env_id: str) -> None:

@@ -40,7 +40,7 @@ def contact(
     table = on_table(*ANCHOR, 2.0, height, RADIUS, wall_restitution, posts_array, len(posts), 0.05)
     arc = np.zeros((points, 2))
     after, _, completed, time, hit_post, hits, n = hybrid_contact_among_row(
-        start, *ANCHOR, MASS, RADIUS, KAPPA, OFFSET, LENGTH, STIFFNESS, zeta, table, arc, tolerance
+        start, *ANCHOR, RADIUS, KAPPA, OFFSET, MASS, LENGTH, STIFFNESS, zeta, table, arc, tolerance
     )
     return after, completed, hit_post, hits, arc[:n], table, time
 
@@ -53,7 +53,7 @@ def test_far_obstacles_change_nothing():
     """Among walls and posts out of reach the contact is the open one, bit for bit."""
     after, completed, hit_post, hits, *_ = contact(height=50.0, posts=[(10.0, 10.0)])
     open_after, _, open_completed, _ = hybrid_contact_row(
-        START, *ANCHOR, MASS, RADIUS, KAPPA, OFFSET, LENGTH, STIFFNESS, 0.0
+        START, *ANCHOR, RADIUS, KAPPA, OFFSET, MASS, LENGTH, STIFFNESS, 0.0
     )
     assert tuple(after) == tuple(open_after)
     assert completed == open_completed and not hit_post and hits == 0

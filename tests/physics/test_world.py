@@ -133,7 +133,7 @@ def test_time_to_taut_after_a_contact_matches_a_brute_force_scan():
         taut = free_flight(state, t)[()]
         zeta = damping_ratio(0.6)
         after, bounced, completed, _ = hybrid_contact_row(
-            taut, 0.0, 0.0, 1.0, 1.0, 0.5, arm, length, 1e4, zeta
+            taut, 0.0, 0.0, 1.0, 0.5, arm, 1.0, length, 1e4, zeta
         )
         assert bounced and completed
         expected = tautening_by_scan(after, (0.0, 0.0), length, arm, 4.0)

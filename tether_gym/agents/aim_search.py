@@ -18,11 +18,11 @@ import numpy as np
 
 from tether_gym.agents import planner_kernels as compiled
 from tether_gym.agents.direct import aim_actions
-from tether_gym.agents.planners import OBSERVED_KEYS, env_arguments
-from tether_gym.envs.tether_navigate.config import NavigateConfig
+from tether_gym.agents.planners import OBSERVED_KEYS
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OUT
+from tether_gym.families import NAVIGATE, env_config
 
 RADII = (0.2, 0.4, 0.7)
 """m: the rings of waypoints about the goal."""
@@ -34,8 +34,9 @@ STOP_SPEEDS = (0.0, 0.25, 0.5, 0.75, 1.0)
 
 class AimSearch:
     """Two maneuvers ahead over aims (see the module docstring), SB3's `predict`. `env_kwargs`:
-    the env's arguments, over those its registered `env_id` fixes; the search predicts with
-    that env in `control="aim"` (its dynamics, `coast` as given)."""
+    the env's arguments, over those its registered `env_id` fixes (`TetherNavigate-v2` when
+    None); the search predicts with that env in `control="aim"` (its dynamics, `coast` as
+    given), its config parsed as training parses it (`families.env_config`)."""
 
     control_mode = CONTROL_MODES["aim"]
     """The control mode the agent acts in."""
@@ -43,7 +44,9 @@ class AimSearch:
     """The mode's name (the older attribute)."""
 
     def __init__(self, env_kwargs: dict | None = None, env_id: str | None = None):
-        self.config = NavigateConfig(**{**env_arguments(env_kwargs, env_id), "control": "aim"})
+        self.config = env_config(
+            env_id or NAVIGATE.env_id, {**(env_kwargs or {}), "control": "aim"}
+        )
         self.kernel = NavigateKernel(self.config)
         stop = self.config.task == "stop"
         self.speeds = np.array(STOP_SPEEDS if stop else (1.0,))

@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
-import gymnasium as gym
 import numpy as np
 from scipy.optimize import elementwise
 
@@ -63,6 +62,7 @@ from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.controls.setup import ACTION
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OUT, decode_observation
+from tether_gym.families import NAVIGATE, config_arguments, env_config
 from tether_gym.physics import PUCK_STATE, free_flight, time_to_wall, wall_bounce, wrap_angle
 from tether_gym.physics.impulse import impulse_change, impulse_restitution
 from tether_gym.tasks.navigate import GOAL_RADIUS, STOP, TASKS
@@ -90,13 +90,6 @@ def observed_states(obs, config: NavigateConfig) -> np.ndarray:
         states[name] = np.where(mask[..., None], o[name].reshape(n, -1, 2), 0.0)
         states["n_" + name] = mask.sum(axis=1)  # present slots come first
     return states
-
-
-def env_arguments(env_kwargs: dict | None, env_id: str | None) -> dict:
-    """The `NavigateConfig` arguments of the env `env_id` with `env_kwargs` over the ones its
-    registration fixes (the ladder's tasks and tables): what a navigation agent plans with."""
-    given = {**(gym.spec(env_id).kwargs if env_id else {}), **(env_kwargs or {})}
-    return {k: v for k, v in given.items() if k in NavigateConfig.names()}
 
 
 def _xy(states: np.ndarray, x: str = "x", y: str = "y") -> np.ndarray:
@@ -468,21 +461,22 @@ class GreedyPlanner:
         implementation: str = "compiled",
     ):
         """`env_kwargs`: the env's arguments, over those its registered `env_id` fixes (the
-        ladder's tasks and tables); `implementation`: one of `IMPLEMENTATIONS`."""
+        ladder's tasks and tables; `TetherNavigate-v2` when None), parsed as training parses
+        them (`families.env_config`); `implementation`: one of `IMPLEMENTATIONS`."""
         if implementation not in IMPLEMENTATIONS:
             raise ValueError(
                 f"implementation must be one of {IMPLEMENTATIONS}, got {implementation!r}"
             )
         self.implementation = implementation
-        kwargs = env_arguments(env_kwargs, env_id)
-        self.config = NavigateConfig(
-            **{**kwargs, "dynamics": "impulse", "control": "setup", "coast": False}
-        )
+        env_id = env_id or NAVIGATE.env_id
+        planned = {**(env_kwargs or {}), "dynamics": "impulse", "control": "setup", "coast": False}
+        self.config = env_config(env_id, planned)
         self.kernel = NavigateKernel(self.config)
         self.stop = TASKS.index(self.config.task) == STOP
         # a finite-stiffness tether turns a spinning puck during the contact: unless the env
         # is the impulse model itself, a dump counts the spin it starts with as speed left
-        self.spin_weight = 0.0 if kwargs.get("dynamics") == "impulse" else 1.0
+        dynamics = config_arguments(env_id, env_kwargs).get("dynamics")
+        self.spin_weight = 0.0 if dynamics == "impulse" else 1.0
         self.depth = 1
 
     def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):

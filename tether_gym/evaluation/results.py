@@ -15,24 +15,58 @@ from tether_gym.envs.tether_bounce import decode_observation
 from tether_gym.evaluation.statistics import wilson_interval
 from tether_gym.tasks.bounce import DEADSPIN
 
-SUMMARY_FIELDS = (
-    "name", "episodes", "success_rate", "success_ci", "heading_error_mean_deg",
-    "heading_error_p95_deg", "deadspin_residual_mean", "reward_mean", "episodes_per_second",
-)  # fmt: skip
-NAVIGATION_FIELDS = (
-    "name", "episodes", "success_rate", "success_ci", "maneuvers_mean", "final_distance_mean",
-    "path_length_mean", "reward_mean", "episodes_per_second",
-)  # fmt: skip
+
+def _summary_fields(*own: str) -> tuple[str, ...]:
+    """A family's summary fields in the order its files write them: the agent, its episodes and
+    its success (`_Result`'s), the family's `own`, then its reward and speed (`_Result`'s)."""
+    return ("name", "episodes", "success_rate", "success_ci", *own, "reward_mean",
+            "episodes_per_second")  # fmt: skip
+
+
+SUMMARY_FIELDS = _summary_fields(
+    "heading_error_mean_deg", "heading_error_p95_deg", "deadspin_residual_mean"
+)
+NAVIGATION_FIELDS = _summary_fields("maneuvers_mean", "final_distance_mean", "path_length_mean")
 
 
 def _cell(attribute: str, spec: str) -> Callable[[Any], str]:
     return lambda result: format(getattr(result, attribute), spec)
 
 
-class _Summary:
+@dataclass
+class _Result:
+    """What every family's result holds: the agent, its episodes, its success and reward (the
+    summary and the per-episode arrays) and its speed; a family's result type adds its own."""
+
     summary_fields: ClassVar[tuple[str, ...]]
+    """Its summary's fields, in the order its files write them (`_summary_fields`)."""
     columns: ClassVar[tuple[tuple[str, Callable[[Any], str]], ...]]
     """The table's columns after the agent, its episodes and its success: (header, cell)."""
+    name: str
+    episodes: int
+    success_rate: float
+    success_ci: tuple[float, float]
+    reward_mean: float
+    """The episodes' mean return."""
+    episodes_per_second: float
+    success: np.ndarray = field(repr=False)
+    reward: np.ndarray = field(repr=False)
+    """(episodes,) each episode's return."""
+
+    @staticmethod
+    def _shared(name: str, episodes: int, success: np.ndarray, run: dict) -> dict[str, Any]:
+        """The fields every result takes from its runner's arrays (`run`, with `reward` and
+        `elapsed`), of the episodes' `success` (bool)."""
+        return {
+            "name": name,
+            "episodes": episodes,
+            "success_rate": float(success.mean()),
+            "success_ci": wilson_interval(int(success.sum()), episodes),
+            "reward_mean": float(run["reward"].mean()),
+            "episodes_per_second": episodes / run["elapsed"],
+            "success": success,
+            "reward": run["reward"],
+        }
 
     @classmethod
     def table(cls, results: list) -> str:
@@ -53,7 +87,7 @@ class _Summary:
 
 
 @dataclass
-class EvalResult(_Summary):
+class EvalResult(_Result):
     """One agent's evaluation: the summary and the per-episode arrays behind it."""
 
     summary_fields: ClassVar[tuple[str, ...]] = SUMMARY_FIELDS
@@ -64,25 +98,17 @@ class EvalResult(_Summary):
         ("reward", _cell("reward_mean", ".3f")),
         ("episodes/s", _cell("episodes_per_second", ",.0f")),
     )
-    name: str
-    episodes: int
-    success_rate: float
-    success_ci: tuple[float, float]
     heading_error_mean_deg: float
     """Over the heading and velocity episodes (NaN if none)."""
     heading_error_p95_deg: float
     deadspin_residual_mean: float
     """Mean |v'| / launch speed over the deadspin episodes (NaN if none)."""
-    reward_mean: float
-    episodes_per_second: float
     task: np.ndarray = field(repr=False)
     target_heading: np.ndarray = field(repr=False)
     rho: np.ndarray = field(repr=False)
     heading_error: np.ndarray = field(repr=False)
     """|heading error|, rad (0 for deadspin episodes)."""
     residual_speed: np.ndarray = field(repr=False)
-    success: np.ndarray = field(repr=False)
-    reward: np.ndarray = field(repr=False)
 
     @classmethod
     def from_run(cls, name: str, episodes: int, run: dict[str, np.ndarray]) -> EvalResult:
@@ -93,27 +119,20 @@ class EvalResult(_Summary):
         error = np.abs(run["heading_error"])
         aimed = np.degrees(error[task != DEADSPIN])
         return cls(
-            name=name,
-            episodes=episodes,
-            success_rate=float(success.mean()),
-            success_ci=wilson_interval(int(success.sum()), episodes),
+            **cls._shared(name, episodes, success, run),
             heading_error_mean_deg=_mean(aimed),
             heading_error_p95_deg=float(np.percentile(aimed, 95)) if aimed.size else math.nan,
             deadspin_residual_mean=_mean(run["residual_speed"][task == DEADSPIN]),
-            reward_mean=float(run["reward"].mean()),
-            episodes_per_second=episodes / run["elapsed"],
             task=task,
             target_heading=context["target_heading"],
             rho=context["rho"],
             heading_error=error,
             residual_speed=run["residual_speed"],
-            success=success,
-            reward=run["reward"],
         )
 
 
 @dataclass
-class NavigationResult(_Summary):
+class NavigationResult(_Result):
     """One agent's evaluation on TetherNavigate: the summary and the per-episode arrays."""
 
     summary_fields: ClassVar[tuple[str, ...]] = NAVIGATION_FIELDS
@@ -128,49 +147,33 @@ class NavigationResult(_Summary):
         ("reward", _cell("reward_mean", ".3f")),
         ("episodes/s", _cell("episodes_per_second", ",.1f")),
     )
-    name: str
-    episodes: int
-    success_rate: float
-    success_ci: tuple[float, float]
     maneuvers_mean: float
     """Maneuvers to the goal, over the successes (NaN if none)."""
     final_distance_mean: float
     """m, from the puck's last position to the goal's centre."""
     path_length_mean: float
     """m, the puck's path over the episode."""
-    reward_mean: float
-    """The episode's return."""
-    episodes_per_second: float
     start: np.ndarray = field(repr=False)
     """(episodes, 2) m: where each episode started."""
     goal: np.ndarray = field(repr=False)
-    success: np.ndarray = field(repr=False)
     maneuvers: np.ndarray = field(repr=False)
     final_distance: np.ndarray = field(repr=False)
     path_length: np.ndarray = field(repr=False)
-    reward: np.ndarray = field(repr=False)
 
     @classmethod
     def from_run(cls, name: str, episodes: int, run: dict[str, np.ndarray]) -> NavigationResult:
         """The result of `run_navigation`'s per-episode arrays."""
         success = run["success"].astype(bool)
         return cls(
-            name=name,
-            episodes=episodes,
-            success_rate=float(success.mean()),
-            success_ci=wilson_interval(int(success.sum()), episodes),
+            **cls._shared(name, episodes, success, run),
             maneuvers_mean=_mean(run["maneuvers"][success]),
             final_distance_mean=float(run["final_distance"].mean()),
             path_length_mean=float(run["path_length"].mean()),
-            reward_mean=float(run["reward"].mean()),
-            episodes_per_second=episodes / run["elapsed"],
             start=run["start"],
             goal=run["goal"],
-            success=success,
             maneuvers=run["maneuvers"],
             final_distance=run["final_distance"],
             path_length=run["path_length"],
-            reward=run["reward"],
         )
 
 

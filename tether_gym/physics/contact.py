@@ -2,10 +2,13 @@
 at tautening and returns the full world states after the contact.
 
 The rows are the models' own (`impulse.impulse_contact_row`, `hybrid.hybrid_contact_row`,
-`pymunk_backend.pymunk_contact_row`, for numba kernels); this module broadcasts and checks their
-inputs. Every model runs its contact in coordinates relative to the anchor, so a contact in the
-world is the launch-frame `bounce` turned and shifted (`frames`). The impulse contact leaves the
-pose as it is; the spring models' contacts last a finite time and move it.
+`pymunk_backend.pymunk_contact_row`, for numba kernels), one argument order for all: the state
+at tautening, the anchor (anchor_x, anchor_y), the puck (radius, kappa, offset), then the
+model's own (the impulse: the restitution e; the spring models: mass, rest_length, the
+stiffness k and the damping ratio zeta). This module broadcasts and checks their inputs. Every
+model runs its contact in coordinates relative to the anchor, so a contact in the world is the
+launch-frame `bounce` turned and shifted (`frames`). The impulse contact leaves the pose as it
+is; the spring models' contacts last a finite time and move it.
 """
 
 from __future__ import annotations
@@ -109,8 +112,8 @@ def _contact_kernel(hybrid, states, anchor_x, anchor_y, puck, tether, out):
     for i in range(states.shape[0]):
         if hybrid:
             after, bounced, completed, t = hybrid_contact_row(
-                states[i], anchor_x[i], anchor_y[i], puck.mass, puck.radius,
-                puck.inertia_ratio, puck.offset, tether.length[i], tether.stiffness[i],
+                states[i], anchor_x[i], anchor_y[i], puck.radius, puck.inertia_ratio,
+                puck.offset, puck.mass, tether.length[i], tether.stiffness[i],
                 tether.damping_ratio[i],
             )  # fmt: skip
         else:
@@ -138,8 +141,8 @@ def _run(model, states, anchor, puck, tether_length, restitution, stiffness) -> 
 
         for i in range(n):
             after, out.bounced[i], out.completed[i], out.contact_time[i] = pymunk_contact_row(
-                PuckState.from_record(states[i]), anchor_x[i], anchor_y[i], *puck.params,
-                length[i], stiffness[i], zeta[i],
+                PuckState.from_record(states[i]), anchor_x[i], anchor_y[i], puck.radius,
+                puck.inertia_ratio, puck.offset, puck.mass, length[i], stiffness[i], zeta[i],
             )  # fmt: skip
             out.states[i] = tuple(after)
     else:

@@ -409,14 +409,14 @@ def hybrid_bounce(beta, alpha, offset, kappa, speed, spin, e, radius, mass, rest
 
 @numba.njit(cache=True)
 def hybrid_contact_row(
-    state, anchor_x, anchor_y, mass, radius, kappa, offset, rest_length, k, zeta
+    state, anchor_x, anchor_y, radius, kappa, offset, mass, rest_length, k, zeta
 ):
     """The hybrid contact of a world state at tautening with the tether anchored at
     (anchor_x, anchor_y), in the open: (state, bounced, completed, contact_time), the state the
     `PuckState` at the slack instant. `zeta` is the damper's ratio (`damping_ratio` of the
     restitution)."""
     after, bounced, completed, t, _, _, _ = hybrid_contact_among_row(
-        state, anchor_x, anchor_y, mass, radius, kappa, offset, rest_length, k, zeta,
+        state, anchor_x, anchor_y, radius, kappa, offset, mass, rest_length, k, zeta,
         open_space(), np.empty((0, 2)), 0.0,
     )  # fmt: skip
     return after, bounced, completed, t
@@ -424,7 +424,7 @@ def hybrid_contact_row(
 
 @numba.njit(cache=True)
 def hybrid_contact_among_row(
-    state, anchor_x, anchor_y, mass, radius, kappa, offset, rest_length, k, zeta, obstacles,
+    state, anchor_x, anchor_y, radius, kappa, offset, mass, rest_length, k, zeta, obstacles,
     points, tolerance,
 ):  # fmt: skip
     """`hybrid_contact_row` among `obstacles` (`obstacles.on_table`, their origin the anchor):

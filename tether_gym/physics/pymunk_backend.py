@@ -74,7 +74,7 @@ def pymunk_bounce(beta, alpha, offset, kappa, speed, spin, e, radius, mass, rest
 
 
 def pymunk_contact_row(
-    state: PuckState, anchor_x, anchor_y, mass, radius, kappa, offset, rest_length, k, zeta
+    state: PuckState, anchor_x, anchor_y, radius, kappa, offset, mass, rest_length, k, zeta
 ) -> tuple[PuckState, bool, bool, float]:
     """`hybrid.hybrid_contact_row` (same arguments and results) in the pymunk engine."""
     rx, ry = attachment_offset(state, offset * radius)

@@ -240,7 +240,7 @@ def kernel_verdict(episode: KernelEpisode, j: int, config: NavigateConfig = DEFA
         post_rows(episode.posts), len(episode.posts), POST_RADIUS,
     )  # fmt: skip
     after, _, _, _, hit_post, _, _ = hybrid_contact_among_row(
-        at, *plan.anchor, PUCK_MASS, PUCK_RADIUS, INERTIA_RATIO, OFFSET, plan.tether_length,
+        at, *plan.anchor, PUCK_RADIUS, INERTIA_RATIO, OFFSET, PUCK_MASS, plan.tether_length,
         config.stiffness, damping_ratio(plan.restitution), table, np.zeros((CONTACT_POINTS, 2)),
         PATH_TOLERANCE,
     )  # fmt: skip
@@ -396,7 +396,7 @@ def kernel_contact(peg: tuple[float, float], posts=()) -> tuple:
     obstacles = on_table(*peg, TABLE_WIDTH, TABLE_HEIGHT, PUCK_RADIUS, 0.9, post_rows(posts),
                          len(posts), POST_RADIUS)  # fmt: skip
     return hybrid_contact_among_row(
-        swing_start(peg), *peg, PUCK_MASS, PUCK_RADIUS, INERTIA_RATIO, OFFSET,
+        swing_start(peg), *peg, PUCK_RADIUS, INERTIA_RATIO, OFFSET, PUCK_MASS,
         SWING["tether_length"], SWING["stiffness"], damping_ratio(SWING["restitution"]),
         obstacles, np.zeros((CONTACT_POINTS, 2)), PATH_TOLERANCE,
     )  # fmt: skip

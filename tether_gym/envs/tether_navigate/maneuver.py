@@ -55,7 +55,7 @@ def hybrid_contact(puck, s, p, ax, ay, length, e, out, n):
     )  # fmt: skip
     arc = out[OUT.path + 2 * n : OUT.path + 2 * (n + CONTACT_POINTS)].reshape(CONTACT_POINTS, 2)
     puck, bounced, completed, _, hit_post, hits, drawn = hybrid_contact_among_row(
-        puck, ax, ay, PUCK_MASS, PUCK_RADIUS, INERTIA_RATIO, OFFSET, length, p.stiffness,
+        puck, ax, ay, PUCK_RADIUS, INERTIA_RATIO, OFFSET, PUCK_MASS, length, p.stiffness,
         damping_ratio(e), table, arc, PATH_TOLERANCE,
     )  # fmt: skip
     return puck, bounced, completed, hit_post, hits, drawn
