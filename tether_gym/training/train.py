@@ -51,7 +51,7 @@ from tether_gym.seeds import TEST_SEED
 from tether_gym.training.config import RunConfig, make_config
 from tether_gym.training.experiment import check_config, check_run, train
 from tether_gym.training.folders import prepare_run_dir
-from tether_gym.training.zoo import ALGOS, default_conf, load_hyperparams, parse_overrides
+from tether_gym.training.zoo import ALGOS, default_conf, parse_overrides, run_entry
 
 __all__ = [
     "RunConfig",
@@ -114,7 +114,10 @@ def default_name(env_id: str, env_kwargs: dict[str, Any], seed: int, algo: str =
     for key, value in env_kwargs.items():
         if key not in ("task", "dynamics"):
             values = value if isinstance(value, list) else [value]
-            text = "-".join(f"{v:g}" if isinstance(v, (int, float)) else str(v) for v in values)
+            text = "-".join(
+                str(v) if isinstance(v, bool) or not isinstance(v, (int, float)) else f"{v:g}"
+                for v in values
+            )
             parts.append(f"{key.replace('_', '')}{text}")
     return "_".join([*parts, f"seed{seed}"])
 
@@ -190,10 +193,13 @@ def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
         return config, args.resume
     env_id, env_kwargs = env_from_args(args)
     conf_file = args.conf_file or default_conf(args.algo or "ppo")
-    params = load_hyperparams(conf_file, parse_overrides(args.hyperparams), env_id)
+    params, notice = run_entry(conf_file, env_id, env_kwargs)
+    if notice:
+        print(f"tether-train: {notice}", file=sys.stderr)
+    params = {**params, **parse_overrides(args.hyperparams)}
     config = make_config(env_id, env_kwargs, params, **given)
     check_config(config)
-    name = args.name or default_name(env_id, env_kwargs, config.seed, config.algo)
+    name = args.name or default_name(env_id, config.env_kwargs, config.seed, config.algo)
     run_dir = args.runs_dir / name
     prepare_run_dir(run_dir, args.overwrite)
     return config, run_dir
