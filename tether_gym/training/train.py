@@ -47,6 +47,7 @@ from tether_gym.arguments import (
     env_from_args,
     given_env_options,
 )
+from tether_gym.families import env_config, family
 from tether_gym.seeds import TEST_SEED
 from tether_gym.training.config import RunConfig, make_config
 from tether_gym.training.experiment import check_config, check_run, train
@@ -176,16 +177,37 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def check_resumed_env(args: argparse.Namespace, config: RunConfig) -> None:
+    """A resumed run trains on the env of its config: a one-line warning where the command
+    line's env differs (it is ignored), ValueError naming both for an env of another family."""
+    env_id = args.env or config.env_id
+    if family(env_id) is not family(config.env_id):
+        raise ValueError(
+            f"--resume {args.resume} trains on {config.env_id}, a {family(config.env_id).name} "
+            f"env: it cannot continue on {env_id}, a {family(env_id).name} env"
+        )
+    env_id, env_kwargs = env_from_args(argparse.Namespace(**{**vars(args), "env": env_id}))
+    asked = env_config(env_id, {**config.env_kwargs, **env_kwargs})
+    if env_id != config.env_id or asked != env_config(config.env_id, config.env_kwargs):
+        print(
+            f"tether-train: warning: --resume {args.resume} continues on its own env, "
+            f"{config.env_id} with {config.env_kwargs or 'its defaults'}: ignoring "
+            f"{', '.join(given_env_options(args))}",
+            file=sys.stderr,
+        )
+
+
 def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
     """The run's config and folder from the command line, checked (ValueError)."""
     given = {key: getattr(args, key) for key in RUN_OPTIONS if getattr(args, key) is not None}
     if args.resume is not None:
-        fixed = given_env_options(args)
-        fixed += [f"--{key.replace('_', '-')}" for key in given if key not in RESUME_OPTIONS]
+        fixed = [f"--{key.replace('_', '-')}" for key in given if key not in RESUME_OPTIONS]
         fixed += [f"--{key}" for key in ("name", "hyperparams") if getattr(args, key)]
         if fixed:
             raise ValueError(f"--resume takes the config of {args.resume}: drop {', '.join(fixed)}")
         config = RunConfig.from_dict(read_config(args.resume / "config.yaml"))
+        if given_env_options(args):
+            check_resumed_env(args, config)
         config = config.replace(
             **{k: v if isinstance(v, bool) else int(v) for k, v in given.items()}
         )
