@@ -69,9 +69,11 @@ ENTRIES: dict[str, str] = {
         env_id=NAVIGATE, kwargs="", agent="lookahead", agent_kwargs={}
     ),
     "aim-search planner decision": _DECISION.format(
-        env_id=NAVIGATE, kwargs=", control='aim', coast=True", agent="aim-search",
+        env_id=NAVIGATE,
+        kwargs=", control='aim', coast=True",
+        agent="aim-search",
         agent_kwargs={"coast": True},
-    ),  # fmt: skip
+    ),
     "tether evaluate greedy lookahead, 2 episodes": (
         "import sys\nfrom tether_gym.cli import main\n"
         f"sys.argv = ['tether', 'evaluate', '--env', {NAVIGATE!r}, '--agents', 'greedy',"

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pytest
+import yaml
 
 import tether_gym  # noqa: F401
 from tests.helpers import ROOT
@@ -297,3 +300,77 @@ def test_the_progress_bar_clock_starts_after_the_first_step(env_id):
     run(RandomAgent(0), env_id, {}, 5, 0, bar)
     assert bar.events[0] == "reset" and bar.events.count("reset") == 1
     assert sum(event for event in bar.events if event != "reset") == 5
+
+
+AIM_ENV = ("TetherNavigate_PostsReach-v2", {"control": "aim", "coast": True})
+
+
+@pytest.fixture(scope="module")
+def aim_model(tmp_path_factory) -> Path:
+    """An untrained PPO `AimPolicy` saved as a run's best model (runs/<name>/best/model.zip),
+    trained in aim control with coast as the run's config.yaml says."""
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3 import PPO
+
+    from tether_gym.agents.networks import AimPolicy, NavigateExtractor
+
+    run = tmp_path_factory.mktemp("runs") / "ppo_aim_posts"
+    env_id, env_kwargs = AIM_ENV
+    kwargs = dict(features_extractor_class=NavigateExtractor, net_arch=[16], control="aim",
+                  start_speed=1.0)  # fmt: skip
+    model = PPO(AimPolicy, gym.make(env_id, **env_kwargs), policy_kwargs=kwargs, n_steps=32,
+                batch_size=32, device="cpu")  # fmt: skip
+    (run / "best").mkdir(parents=True)
+    model.save(run / "best" / "model.zip")
+    config = {"algo": "ppo", "env_id": env_id, "env_kwargs": env_kwargs,
+              "hyperparams": {"policy": "AimPolicy"}}  # fmt: skip
+    (run / "config.yaml").write_text(yaml.safe_dump(config))
+    return run / "best" / "model.zip"
+
+
+def evaluate_model(*argv: str, tmp_path: Path) -> dict:
+    out = tmp_path / "table.json"
+    main([*argv, "--episodes", "4", "--no-progress-bar", "--json", str(out), "--overwrite"])
+    return json.loads(out.read_text())
+
+
+@pytest.mark.parametrize("env", [[], ["--env", AIM_ENV[0]]])
+def test_a_saved_model_plays_the_env_of_its_run(aim_model, tmp_path, capsys, env):
+    payload = evaluate_model(*env, "--agents", str(aim_model), tmp_path=tmp_path)
+    assert (payload["env_id"], payload["env_kwargs"]) == AIM_ENV
+    assert payload["results"][0]["episodes"] == 4
+    assert capsys.readouterr().err == ""
+
+
+def test_a_saved_model_plays_in_its_own_control_mode_where_the_command_line_differs(
+    aim_model, tmp_path, capsys
+):
+    argv = ["--env", AIM_ENV[0], "--env-kwargs", "control:setup", "--agents", str(aim_model)]
+    payload = evaluate_model(*argv, tmp_path=tmp_path)
+    assert payload["env_kwargs"] == {"control": "setup"}
+    (warning,) = capsys.readouterr().err.splitlines()
+    config = aim_model.parent.parent / "config.yaml"
+    assert warning == (
+        f"tether-evaluate: warning: {aim_model} was trained on {AIM_ENV[0]} with control='aim', "
+        f"coast=True ({config}); the command line's {AIM_ENV[0]} has control='setup', "
+        "coast=False: it plays in its own control mode, on the command line's episodes"
+    )
+
+
+def test_a_saved_model_is_refused_in_one_line_on_an_env_it_cannot_play(aim_model, tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        main(["--env", "TetherBounce-v0", "--agents", str(aim_model), "--episodes", "4"])
+    (error,) = capsys.readouterr().err.splitlines()
+    assert (
+        f"{aim_model} was trained on {AIM_ENV[0]} ({aim_model.parent.parent / 'config.yaml'}), "
+        "a TetherNavigate env: it cannot play TetherBounce-v0, a TetherBounce env" in error
+    )
+    bare = tmp_path / "bare" / "model.zip"  # no run's config: the spaces tell
+    bare.parent.mkdir()
+    shutil.copy(aim_model, bare)
+    with pytest.raises(SystemExit):
+        main(["--env", AIM_ENV[0], "--agents", str(bare), "--episodes", "4"])
+    (error,) = capsys.readouterr().err.splitlines()
+    assert f"{bare} (no config.yaml of its run found) observes Dict(" in error
+    assert f"acts in Box(3,); {AIM_ENV[0]} observes Dict(" in error
+    assert error.endswith("acts in Box(4,) (`tether-evaluate --help` lists the options)")

@@ -17,6 +17,7 @@ import torch
 from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.torch_layers import CombinedExtractor
 
+from tests.helpers import ROOT
 from tests.helpers.envs import vector_env
 from tests.helpers.training import TINY_NAVIGATE_NET, TINY_PPO, TINY_SAC, saved_timesteps
 from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtractor, ProposalPolicy
@@ -36,7 +37,7 @@ from tether_gym.training import (
     train,
     zoo,
 )
-from tether_gym.training.config import RunConfig
+from tether_gym.training.config import RunConfig, make_config
 from tether_gym.training.her import PathHerReplayBuffer
 from tether_gym.training.sb3 import make_sb3_vec_env
 
@@ -465,3 +466,51 @@ def test_tether_train_gives_an_aim_policy_the_env_s_control_mode(tmp_path):
     assert train.main(argv) == 0
     model = load_agent(tmp_path / "run" / "last" / "model.zip").model
     assert isinstance(model.policy, AimPolicy) and model.policy.control == "velocity"
+
+
+RUNGS = ("OpenReach", "OpenStop", "PostsReach", "PostsStop", "WallReach", "WallStop")
+
+
+@pytest.mark.parametrize("rung", RUNGS)
+def test_a_ladder_id_trains_the_recipe_of_its_results_by_default(tmp_path, rung):
+    """`tether-train --env <rung>` alone resolves to the command behind the rung's row of the
+    Results page (results/baselines/), without training."""
+    env_id = f"TetherNavigate_{rung}-v2"
+    args = train.build_parser().parse_args(["--env", env_id, "--runs-dir", str(tmp_path)])
+    config, run_dir = train.run_from_args(args)
+    results = ROOT / "results" / "baselines" / f"ppo_{env_id}_control-aim_coast-True.json"
+    documented = json.loads(results.read_text())
+    assert config.env_kwargs == documented["env_kwargs"] == {"control": "aim", "coast": True}
+    assert config.hyperparams.items() >= documented["hyperparams"].items()
+    assert config.hyperparams["policy"] == "AimPolicy" and "env_kwargs" not in config.hyperparams
+    assert config.timesteps == documented["timesteps"]
+    task = "reach" if rung.endswith("Reach") else "stop"
+    assert run_dir.name == f"ppo_{env_id}_{task}_hybrid_controlaim_coastTrue_seed0"
+
+
+def test_control_setup_trains_a_ladder_id_in_the_hard_mode(tmp_path, capsys):
+    env_id = "TetherNavigate_PostsReach-v2"
+    argv = ["--env", env_id, "--env-kwargs", "control:setup", "--runs-dir", str(tmp_path)]
+    config, _ = train.run_from_args(train.build_parser().parse_args(argv))
+    assert config.env_kwargs == {"control": "setup"}
+    assert config.hyperparams == zoo.load_hyperparams(zoo.DEFAULT_CONF, env_id="TetherNavigate-v2")
+    (notice,) = capsys.readouterr().err.splitlines()
+    assert notice == (
+        f"tether-train: control 'setup' is not the {env_id} recipe's ('aim'): training with the "
+        "TetherNavigate-v2 entry, without the recipe's coast:True, n_timesteps, policy, "
+        "policy_kwargs"
+    )
+
+
+def test_the_command_line_overrides_a_recipe_s_env_kwargs_key_by_key(tmp_path):
+    """Another control mode takes the TetherNavigate-v2 entry; the same one keeps the
+    recipe's other arguments."""
+    argv = ["--env", "TetherNavigate_PostsStop-v2", "--env-kwargs", "control:velocity",
+            "n_obstacles:1", "--runs-dir", str(tmp_path)]  # fmt: skip
+    config, _ = train.run_from_args(train.build_parser().parse_args(argv))
+    assert config.env_kwargs == {"control": "velocity", "n_obstacles": 1}
+    assert config.hyperparams["policy"] == "MultiInputPolicy"
+    entry = {"env_kwargs": {"control": "aim", "coast": True}, "n_steps": 32}
+    recipe = make_config("TetherNavigate_PostsStop-v2", {"coast": False}, entry)
+    assert recipe.env_kwargs == {"control": "aim", "coast": False}
+    assert recipe.hyperparams == {"n_steps": 32}

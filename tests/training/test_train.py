@@ -166,8 +166,31 @@ def test_env_kwargs_and_named_flags_make_one_config(tmp_path):
 def test_resume_refuses_a_new_config(tmp_path, capsys):
     (tmp_path / "config.yaml").write_text("{}")
     with pytest.raises(SystemExit):
-        train.main(["--resume", str(tmp_path), "--rho", "5", "--env-kwargs", "task:heading"])
-    assert "drop --env-kwargs, --rho" in capsys.readouterr().err
+        train.main(["--resume", str(tmp_path), "--seed", "3", "--hyperparams", "n_steps:8"])
+    assert "drop --seed, --hyperparams" in capsys.readouterr().err
+
+
+def test_resume_keeps_its_env_and_says_where_the_command_line_differs(tmp_path, capsys):
+    config = {"env_id": "TetherBounce-v0", "env_kwargs": {"task": "heading"}}
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
+    with pytest.raises(SystemExit):  # the run has no checkpoint: refused after the warning
+        train.main(["--resume", str(tmp_path), "--env", "TetherBounce-v0", "--task", "heading"])
+    assert "warning" not in capsys.readouterr().err, "the same env, said again"
+    with pytest.raises(SystemExit):
+        train.main(["--resume", str(tmp_path), "--rho", "5", "--env-kwargs", "task:mixed"])
+    warning, error = capsys.readouterr().err.splitlines()
+    assert warning == (
+        f"tether-train: warning: --resume {tmp_path} continues on its own env, TetherBounce-v0 "
+        "with {'task': 'heading'}: ignoring --env-kwargs, --rho"
+    )
+    assert "has no last/model.zip" in error
+    with pytest.raises(SystemExit):
+        train.main(["--resume", str(tmp_path), "--env", "TetherNavigate_PostsReach-v2"])
+    (error,) = capsys.readouterr().err.splitlines()
+    assert (
+        f"--resume {tmp_path} trains on TetherBounce-v0, a TetherBounce env: it cannot continue "
+        "on TetherNavigate_PostsReach-v2, a TetherNavigate env" in error
+    )
 
 
 def test_an_existing_run_is_never_overwritten_unless_asked(tmp_path, capsys):

@@ -1,6 +1,6 @@
 """A saved stable-baselines3 model as an agent: `load_agent` for a training run's zip,
 `SB3Agent` for a model or policy already loaded (the pretrained catalog's), `read_config` for
-the run's saved config.
+the run's saved config and `run_config` for the one of the run a model was saved in.
 
 Apart from the evaluation, so that the pretrained catalog builds its agents without importing
 the evaluation that plays them.
@@ -15,6 +15,10 @@ import numpy as np
 
 from tether_gym.agents.planned import BASE_KEY, PROPOSALS_KEY, with_planner
 
+CONFIG = "config.yaml"
+"""A training run's config, in the run folder and in each checkpoint folder beside its model."""
+CONFIG_DEPTH = 3
+"""How many folders up from a model `run_config` looks: the model's, its run's and one more."""
 INFERENCE_ONLY = {"replay_buffer_class": None, "replay_buffer_kwargs": {}, "buffer_size": 1}
 """Saved settings `load_agent` replaces: playing needs no replay buffer (a hindsight one would
 need the training env)."""
@@ -25,6 +29,9 @@ class SB3Agent:
 
     def __init__(self, model, normalizer=None):
         self.model, self.normalizer = model, normalizer
+        self.control_kwargs: dict = {}
+        """The env arguments that shape its action it plays with (its run's control mode and
+        coast, set by `tether-evaluate`); empty: the env's."""
 
     def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
         if self.normalizer is not None:  # VecNormalize takes arrays and dicts of arrays
@@ -48,6 +55,19 @@ def read_config(path: Path) -> dict:
     if not isinstance(data, dict):
         raise ValueError(f"{str(path)!r} does not hold a config mapping")
     return data
+
+
+def run_config(path: Path) -> tuple[Path, dict] | None:
+    """The config of the training run the model `path` was saved in, and its file: the nearest
+    `config.yaml` naming an env (`env_id`) in the model's folder or up to `CONFIG_DEPTH`
+    folders up (runs/<name>/best/model.zip: best/config.yaml); None if there is none."""
+    for folder in list(Path(path).parents)[:CONFIG_DEPTH]:
+        candidate = folder / CONFIG
+        if candidate.is_file():
+            config = read_config(candidate)
+            if "env_id" in config:
+                return candidate, config
+    return None
 
 
 def load_agent(path: str | Path):
@@ -85,7 +105,7 @@ def load_agent(path: str | Path):
             raise ValueError(f"cannot read VecNormalize stats {str(stats)!r}: {error}") from error
         normalizer.training = False
     agent = SB3Agent(model, normalizer)
-    config = path.parent / "config.yaml"
+    config = path.parent / CONFIG
     planned = {BASE_KEY, PROPOSALS_KEY} & set(getattr(model.observation_space, "spaces", {}))
     if planned and config.is_file():
         return with_planner(agent, read_config(config))

@@ -4,23 +4,162 @@
     tether-evaluate --env TetherNavigate-v2 --agents greedy lookahead random --episodes 1000
 
 Prints the results' table (and with `--paired` every agent against one, episode by episode);
-writes it as CSV or JSON and TetherBounce's heading errors as a PNG on request."""
+writes it as CSV or JSON and TetherBounce's heading errors as a PNG on request.
+
+A saved model knows its env: the `config.yaml` of its training run (beside it or a few folders
+up), like a pretrained agent's card, names the env id and arguments it was trained on. Without
+`--env` the episodes are that env's (with its arguments, unless `--env-kwargs` gives others);
+where the command line's env differs, a one-line warning says so and the model plays in its
+own control mode; an env of another family, or spaces that cannot match, is refused in one line
+naming both."""
 
 from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import json
+import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-from tether_gym.agents.registry import make_agent
-from tether_gym.arguments import ArgumentParser, add_env_arguments, chosen_env, env_from_args
+import gymnasium as gym
+
+from tether_gym.agents import pretrained
+from tether_gym.agents.registry import looks_like_path, make_agent
+from tether_gym.agents.saved import SB3Agent, run_config
+from tether_gym.arguments import (
+    ArgumentParser,
+    add_env_arguments,
+    check_env,
+    chosen_env,
+    env_from_args,
+    given_env_options,
+)
 from tether_gym.evaluation.reports import format_table, paired_table, plot
 from tether_gym.evaluation.runner import evaluate
-from tether_gym.families import family
+from tether_gym.families import env_config, family
 
 CHECKPOINTS = ("best", "last")
 """The folders of a training run that hold a model (`runs/<name>/best/model.zip`)."""
+CONTROL_KEYS = ("control", "coast")
+"""The env arguments that shape an agent's action: a saved model plays with its own."""
+
+
+@dataclass(frozen=True)
+class Trained:
+    """The env an agent was trained on, as its run's config or its card records it."""
+
+    env_id: str
+    env_kwargs: dict[str, Any]
+    source: str
+    """The file that says so."""
+
+
+def trained_env(
+    spec: str, env_id: str | None = None, env_kwargs: dict | None = None
+) -> Trained | None:
+    """The env the `--agents` entry `spec` was trained on (a `Trained`): a saved model's from
+    its run's `config.yaml` (`run_config`), a pretrained agent's from its card ("pretrained"
+    only given the env it plays, whose task picks it); None for the others."""
+    if spec in pretrained.AGENTS:
+        if spec == "pretrained" and env_id is None:
+            return None
+        name = spec if env_id is None else pretrained.for_env(spec, env_id, env_kwargs or {})
+        facts = pretrained.card(name)
+        return Trained(facts["env_id"], facts.get("env_kwargs") or {}, f"the card of {name}")
+    found = run_config(Path(spec)) if looks_like_path(spec) else None
+    if found is None:
+        return None
+    path, config = found
+    return Trained(config["env_id"], config.get("env_kwargs") or {}, str(path))
+
+
+def env_to_play(args: argparse.Namespace, specs: list[str]) -> tuple[str, dict[str, Any]]:
+    """The env id and arguments of the episodes: the command line's, validated; without
+    `--env`, those of the first agent that knows its env (`trained_env`), its arguments too
+    unless the command line gives some."""
+    first = next(filter(None, (trained_env(spec) for spec in specs)), None)
+    if first is None:
+        return env_from_args(args)
+    env_id, env_kwargs = env_from_args(
+        argparse.Namespace(**{**vars(args), "env": args.env or first.env_id})
+    )
+    if env_id == first.env_id and given_env_options(args) in ([], ["--env"]):
+        env_kwargs = dict(first.env_kwargs)
+        check_env(env_id, env_kwargs)
+    return env_id, env_kwargs
+
+
+def _plain(value: Any) -> Any:
+    """An env config's value comparable across its sources (a list read from YAML, a tuple)."""
+    return tuple(value) if isinstance(value, (list, tuple)) else value
+
+
+def _shapes(space: gym.Space) -> Any:
+    """What of a space a policy depends on: its type and shape, a Dict's per key (the bounds
+    may differ with the env's arguments)."""
+    if isinstance(space, gym.spaces.Dict):
+        return {key: _shapes(sub) for key, sub in space.spaces.items()}
+    return type(space).__name__, space.shape
+
+
+def _describe(space: gym.Space) -> str:
+    """A space in a one-line message: "Box(3,)", "Dict(key: (2,), ...)"."""
+    shapes = _shapes(space)
+    if isinstance(shapes, dict):
+        return "Dict(" + ", ".join(f"{key}: {shape}" for key, (_, shape) in shapes.items()) + ")"
+    return f"{shapes[0]}{shapes[1]}"
+
+
+def fit_agent(spec: str, agent, env_id: str, env_kwargs: dict[str, Any]) -> None:
+    """Make the agent `spec` play the env `env_id(**env_kwargs)` as it was trained: a saved
+    model in its run's control mode (`SB3Agent.control_kwargs`). Prints a one-line warning
+    where the env it was trained on differs; ValueError naming both for an env of another
+    family or spaces that cannot match."""
+    trained = trained_env(spec, env_id, env_kwargs)
+    if trained is not None:
+        own, given = family(trained.env_id), family(env_id)
+        if own is not given:
+            raise ValueError(
+                f"{spec} was trained on {trained.env_id} ({trained.source}), a {own.name} env: "
+                f"it cannot play {env_id}, a {given.name} env"
+            )
+        mine, ours = env_config(trained.env_id, trained.env_kwargs), env_config(env_id, env_kwargs)
+        if isinstance(agent, SB3Agent):
+            agent.control_kwargs = {k: getattr(mine, k) for k in CONTROL_KEYS if hasattr(mine, k)}
+        names = [f.name for f in dataclasses.fields(mine)]
+        differ = [n for n in names if _plain(getattr(mine, n)) != _plain(getattr(ours, n))]
+        if differ:
+            said = ", ".join(f"{n}={getattr(mine, n)!r}" for n in differ)
+            asked = ", ".join(f"{n}={getattr(ours, n)!r}" for n in differ)
+            own_control = any(n in CONTROL_KEYS for n in differ) and (
+                isinstance(agent, SB3Agent) or hasattr(agent, "control")
+            )
+            plays = "in its own control mode, " if own_control else ""
+            print(
+                f"tether-evaluate: warning: {spec} was trained on {trained.env_id} with {said} "
+                f"({trained.source}); the command line's {env_id} has {asked}: it plays "
+                f"{plays}on the command line's episodes",
+                file=sys.stderr,
+            )
+    if not isinstance(agent, SB3Agent):
+        return
+    env = gym.make(env_id, **{**env_kwargs, **agent.control_kwargs})
+    spaces = env.observation_space, env.action_space
+    env.close()
+    model = agent.model
+    if [_shapes(s) for s in spaces] != [
+        _shapes(model.observation_space),
+        _shapes(model.action_space),
+    ]:
+        where = f"trained on {trained.env_id}" if trained else "no config.yaml of its run found"
+        raise ValueError(
+            f"{spec} ({where}) observes {_describe(model.observation_space)} and acts in "
+            f"{_describe(model.action_space)}; {env_id} observes {_describe(spaces[0])} and acts "
+            f"in {_describe(spaces[1])}"
+        )
 
 
 def model_name(parts: tuple[str, ...], depth: int) -> str:
@@ -57,7 +196,9 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
     """The command line; `--help` ends with the arguments of `env_id` (else of both envs)."""
     parser = ArgumentParser(
         prog="tether-evaluate",
-        description="Evaluate agents on the same fixed, seeded episodes of an env.",
+        description="Evaluate agents on the same fixed, seeded episodes of an env. Without "
+        "--env, the env a saved model's run (its config.yaml) or a pretrained agent's card "
+        "names; a saved model plays in its own control mode.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add = parser.add_argument
@@ -97,7 +238,7 @@ def main(argv: list[str] | None = None) -> None:
         if path.exists() and not args.overwrite:
             parser.error(f"{path} exists; pass --overwrite to replace it")
     try:
-        env_id, env_kwargs = env_from_args(args)  # validated before any work
+        env_id, env_kwargs = env_to_play(args, args.agents or [])  # validated before any work
         env_family = family(env_id)
         if args.plot is not None and not env_family.plots:
             raise ValueError("--plot draws TetherBounce-v0's heading errors only")
@@ -110,6 +251,8 @@ def main(argv: list[str] | None = None) -> None:
             name: make_agent(spec, env_kwargs, env_id=env_id)
             for name, spec in zip(names, specs, strict=True)
         }
+        for spec, agent in zip(specs, agents.values(), strict=True):
+            fit_agent(spec, agent, env_id, env_kwargs)
         results = evaluate(
             agents, env_kwargs, args.episodes, args.seed, not args.no_progress_bar, env_id
         )

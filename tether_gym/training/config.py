@@ -80,11 +80,17 @@ def make_config(
     save_replay_buffer: bool = False,
 ) -> RunConfig:
     """A run's config from its zoo entry `hyperparams` for `algo`: `n_envs` and `timesteps`
-    default to the entry's `n_envs` and `n_timesteps`. Not checked (`check_config`)."""
+    default to the entry's `n_envs` and `n_timesteps`, the env's arguments are the entry's
+    `env_kwargs` overridden key by key by `env_kwargs` (the config records them, and keeps the
+    rest of the entry as `hyperparams`). Not checked (`check_config`)."""
+    recipe = hyperparams.get("env_kwargs") or {}
+    if not isinstance(recipe, Mapping):
+        raise ValueError(f"env_kwargs of the zoo entry must be a mapping, got {recipe!r}")
+    hyperparams = {key: value for key, value in hyperparams.items() if key != "env_kwargs"}
     return RunConfig(
         algo=algo,
         env_id=env_id,
-        env_kwargs=env_kwargs,
+        env_kwargs={**recipe, **env_kwargs},
         seed=seed,
         n_envs=int(hyperparams.get("n_envs", 8) if n_envs is None else n_envs),
         timesteps=int(hyperparams.get("n_timesteps", 1e6) if timesteps is None else timesteps),

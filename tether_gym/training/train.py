@@ -47,11 +47,12 @@ from tether_gym.arguments import (
     env_from_args,
     given_env_options,
 )
+from tether_gym.families import env_config, family
 from tether_gym.seeds import TEST_SEED
 from tether_gym.training.config import RunConfig, make_config
 from tether_gym.training.experiment import check_config, check_run, train
 from tether_gym.training.folders import prepare_run_dir
-from tether_gym.training.zoo import ALGOS, default_conf, load_hyperparams, parse_overrides
+from tether_gym.training.zoo import ALGOS, default_conf, parse_overrides, run_entry
 
 __all__ = [
     "RunConfig",
@@ -114,7 +115,10 @@ def default_name(env_id: str, env_kwargs: dict[str, Any], seed: int, algo: str =
     for key, value in env_kwargs.items():
         if key not in ("task", "dynamics"):
             values = value if isinstance(value, list) else [value]
-            text = "-".join(f"{v:g}" if isinstance(v, (int, float)) else str(v) for v in values)
+            text = "-".join(
+                str(v) if isinstance(v, bool) or not isinstance(v, (int, float)) else f"{v:g}"
+                for v in values
+            )
             parts.append(f"{key.replace('_', '')}{text}")
     return "_".join([*parts, f"seed{seed}"])
 
@@ -173,16 +177,37 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def check_resumed_env(args: argparse.Namespace, config: RunConfig) -> None:
+    """A resumed run trains on the env of its config: a one-line warning where the command
+    line's env differs (it is ignored), ValueError naming both for an env of another family."""
+    env_id = args.env or config.env_id
+    if family(env_id) is not family(config.env_id):
+        raise ValueError(
+            f"--resume {args.resume} trains on {config.env_id}, a {family(config.env_id).name} "
+            f"env: it cannot continue on {env_id}, a {family(env_id).name} env"
+        )
+    env_id, env_kwargs = env_from_args(argparse.Namespace(**{**vars(args), "env": env_id}))
+    asked = env_config(env_id, {**config.env_kwargs, **env_kwargs})
+    if env_id != config.env_id or asked != env_config(config.env_id, config.env_kwargs):
+        print(
+            f"tether-train: warning: --resume {args.resume} continues on its own env, "
+            f"{config.env_id} with {config.env_kwargs or 'its defaults'}: ignoring "
+            f"{', '.join(given_env_options(args))}",
+            file=sys.stderr,
+        )
+
+
 def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
     """The run's config and folder from the command line, checked (ValueError)."""
     given = {key: getattr(args, key) for key in RUN_OPTIONS if getattr(args, key) is not None}
     if args.resume is not None:
-        fixed = given_env_options(args)
-        fixed += [f"--{key.replace('_', '-')}" for key in given if key not in RESUME_OPTIONS]
+        fixed = [f"--{key.replace('_', '-')}" for key in given if key not in RESUME_OPTIONS]
         fixed += [f"--{key}" for key in ("name", "hyperparams") if getattr(args, key)]
         if fixed:
             raise ValueError(f"--resume takes the config of {args.resume}: drop {', '.join(fixed)}")
         config = RunConfig.from_dict(read_config(args.resume / "config.yaml"))
+        if given_env_options(args):
+            check_resumed_env(args, config)
         config = config.replace(
             **{k: v if isinstance(v, bool) else int(v) for k, v in given.items()}
         )
@@ -190,10 +215,13 @@ def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
         return config, args.resume
     env_id, env_kwargs = env_from_args(args)
     conf_file = args.conf_file or default_conf(args.algo or "ppo")
-    params = load_hyperparams(conf_file, parse_overrides(args.hyperparams), env_id)
+    params, notice = run_entry(conf_file, env_id, env_kwargs)
+    if notice:
+        print(f"tether-train: {notice}", file=sys.stderr)
+    params = {**params, **parse_overrides(args.hyperparams)}
     config = make_config(env_id, env_kwargs, params, **given)
     check_config(config)
-    name = args.name or default_name(env_id, env_kwargs, config.seed, config.algo)
+    name = args.name or default_name(env_id, config.env_kwargs, config.seed, config.algo)
     run_dir = args.runs_dir / name
     prepare_run_dir(run_dir, args.overwrite)
     return config, run_dir

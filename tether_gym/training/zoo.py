@@ -1,7 +1,12 @@
 """Hyperparameter files in rl-baselines3-zoo's format: a mapping per env id, `lin_<x>` for a
 linear schedule, `policy_kwargs` and `replay_buffer_kwargs` as Python expressions, the zoo's
-own keys (`n_timesteps`, `n_envs`, `policy`, `normalize`) beside the algorithm's arguments, and
-ours (`PLANNED_KEYS`: the planner-backed variants of `tether_gym.training.variants`)."""
+own keys (`n_timesteps`, `n_envs`, `policy`, `normalize`, `env_kwargs`) beside the algorithm's
+arguments, and ours (`PLANNED_KEYS`: the planner-backed variants of
+`tether_gym.training.variants`).
+
+An entry's `env_kwargs` are the env arguments its recipe was tuned with (a ladder rung's control
+mode and coast): the command line's override them key by key (`make_config`), and a control mode
+other than the recipe's trains with the entry of the family's main id instead (`run_entry`)."""
 
 from __future__ import annotations
 
@@ -17,6 +22,7 @@ from stable_baselines3.common.utils import LinearSchedule
 
 from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtractor, ProposalPolicy
 from tether_gym.arguments import DEFAULT_ENV_ID
+from tether_gym.families import family
 from tether_gym.training.her import PathHerReplayBuffer
 
 if TYPE_CHECKING:
@@ -30,7 +36,7 @@ PLANNED_KEYS = (
 """Our keys of a zoo entry, read by the planner-backed variants (`residual`, `residual_scale`:
 a residual policy on a TetherNavigate planner; `pretrain`: PPO cloned from a planner first;
 `proposals`, `proposals_k`, `proposals_depth`: PPO picking among a planner's proposals)."""
-ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", *PLANNED_KEYS)
+ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_kwargs", *PLANNED_KEYS)
 """Keys of a zoo entry that are not arguments of the algorithm."""
 REPLAY_BUFFERS = {"HerReplayBuffer": HerReplayBuffer, "PathHerReplayBuffer": PathHerReplayBuffer}
 """`replay_buffer_class` names a zoo entry may give (hindsight relabeling for goal envs)."""
@@ -65,6 +71,30 @@ def parse_overrides(items: list[str]) -> dict[str, Any]:
     return overrides
 
 
+def read_conf(path: Path | Traversable) -> dict[str, Any]:
+    """The hyperparameter file's mapping of env ids to entries; ValueError if unreadable."""
+    try:
+        conf = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as error:
+        raise ValueError(f"cannot parse the hyperparameter file {str(path)!r}: {error}") from None
+    if not isinstance(conf, dict):
+        raise ValueError(f"hyperparameter file {str(path)!r} holds no mapping of env ids")
+    return conf
+
+
+def entry(conf: dict[str, Any], path: Path | Traversable, env_id: str) -> dict[str, Any]:
+    """The entry for `env_id` of the file `path` read as `conf`; ValueError if it is missing or
+    its `env_kwargs` is not a mapping."""
+    if not isinstance(conf.get(env_id), dict):
+        raise ValueError(f"hyperparameter file {str(path)!r} has no mapping for {env_id!r}")
+    if not isinstance(conf[env_id].get("env_kwargs", {}), dict):
+        raise ValueError(
+            f"env_kwargs of {env_id!r} in {str(path)!r} must be a mapping of env arguments, "
+            f"got {conf[env_id]['env_kwargs']!r}"
+        )
+    return dict(conf[env_id])
+
+
 def load_hyperparams(
     path: Path | Traversable,
     overrides: dict[str, Any] | None = None,
@@ -73,15 +103,37 @@ def load_hyperparams(
     """The zoo entry for `env_id` in `path`, with `overrides` applied.
 
     Raises ValueError for an unreadable file or a missing entry; the values themselves are
-    checked by `RunConfig.check`.
+    checked by `tether_gym.training.experiment.check_config`.
     """
-    try:
-        conf = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as error:
-        raise ValueError(f"cannot parse the hyperparameter file {str(path)!r}: {error}") from None
-    if not isinstance(conf, dict) or not isinstance(conf.get(env_id), dict):
-        raise ValueError(f"hyperparameter file {str(path)!r} has no mapping for {env_id!r}")
-    return {**conf[env_id], **(overrides or {})}
+    return {**entry(read_conf(path), path, env_id), **(overrides or {})}
+
+
+def run_entry(
+    path: Path | Traversable, env_id: str, env_kwargs: dict[str, Any]
+) -> tuple[dict[str, Any], str | None]:
+    """The zoo entry a run of `env_id` with the command line's `env_kwargs` trains with, and a
+    notice if it is not the entry of `env_id`.
+
+    An entry whose `env_kwargs` give a control mode is a recipe for that mode: asked for
+    another (`--env-kwargs control:setup`, the hard mode), the run takes the entry of the env
+    family's main id (`TetherNavigate-v2`) instead, and the notice names the recipe's items it
+    leaves out. ValueError as `load_hyperparams`.
+    """
+    conf = read_conf(path)
+    params = entry(conf, path, env_id)
+    recipe = params.get("env_kwargs", {})
+    control = env_kwargs.get("control", recipe.get("control"))
+    if "control" not in recipe or control == recipe["control"]:
+        return params, None
+    main = family(env_id).env_id
+    base = entry(conf, path, main)
+    dropped = [f"{key}:{value}" for key, value in recipe.items() if key not in env_kwargs]
+    dropped += sorted(key for key in params if key != "env_kwargs" and params[key] != base.get(key))
+    notice = (
+        f"control {control!r} is not the {env_id} recipe's ({recipe['control']!r}): training "
+        f"with the {main} entry, without the recipe's {', '.join(dropped)}"
+    )
+    return base, notice
 
 
 def schedule(value: Any) -> Any:
