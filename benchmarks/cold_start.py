@@ -77,11 +77,11 @@ ENTRIES: dict[str, str] = {
     "tether evaluate greedy lookahead, 2 episodes": (
         "import sys\nfrom tether_gym.cli import main\n"
         f"sys.argv = ['tether', 'evaluate', '--env', {NAVIGATE!r}, '--agents', 'greedy',"
-        " 'lookahead', '--episodes', '2', '--out', OUT]\nmain()\n"
+        " 'lookahead', '--episodes', '2', '--json', OUT]\nmain()\n"
     ),
 }
 """name -> the Python code of the entry, run after `import tether_gym` (`OUT` is a scratch
-folder)."""
+file)."""
 
 _CHILD = """
 import time
@@ -99,7 +99,7 @@ def run_entry(tree: Path, code: str) -> dict[str, float]:
     the seconds of the import, of the entry, and of the whole process."""
     with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as out:
         env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": cache}
-        child = _CHILD.format(out=str(Path(out) / "evaluation"), code=code)
+        child = _CHILD.format(out=str(Path(out) / "evaluation.json"), code=code)
         start = time.perf_counter()
         run = subprocess.run(
             [sys.executable, "-c", child], cwd=out, env=env, capture_output=True, text=True
