@@ -422,6 +422,28 @@ def fuzz_table(sources: dict[str, str], root: Path = ROOT) -> str:
     return "\n".join(rows) + sources_line(sources)
 
 
+def cold_start_table(sources: dict[str, str], root: Path = ROOT) -> str:
+    """What a first run costs (`benchmarks/cold_start.py`): per entry point, the seconds of its
+    first call and of its whole process with an empty numba cache, on the revision measured and
+    on the one it was measured against in the same run, and their ratio."""
+    _check_sources(sources)
+    rows = []
+    for path in (path for p in sources for path in files_of(p, root)):
+        data = json.loads(path.read_text())
+        against = data["against"]
+        rows.append(
+            f"| entry | first call, s | process, s | first call at `{against}`, s | "
+            f"process at `{against}`, s | process, ratio |\n|---|---:|---:|---:|---:|---:|"
+        )
+        for name, trees in data["results"].items():
+            now, before = trees["this tree"], trees[against]
+            rows.append(
+                f"| {name} | {now['entry']:.1f} | {now['wall']:.1f} | {before['entry']:.1f} | "
+                f"{before['wall']:.1f} | {now['wall'] / before['wall']:.2f} |"
+            )
+    return "\n".join(rows) + sources_line(sources)
+
+
 def _rate_cell(rate: float | dict[str, Any]) -> str:
     """A rate as a percentage, or a mean over seeds with its 95% interval."""
     if not isinstance(rate, dict):
@@ -662,6 +684,7 @@ MACROS: dict[str, Callable[..., str]] = {
     "planner_table": planner_table,
     "imitation_table": imitation_table,
     "fuzz_table": fuzz_table,
+    "cold_start_table": cold_start_table,
     "cli_help": cli_help,
     "ladder_ids": ladder_ids,
 }
@@ -674,6 +697,7 @@ RESULTS_MACROS = (
     "planner_table",
     "imitation_table",
     "fuzz_table",
+    "cold_start_table",
 )
 
 

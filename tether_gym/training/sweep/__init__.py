@@ -69,12 +69,8 @@ The output folder DIR (an existing non-empty one only with --resume or --overwri
 
 from __future__ import annotations
 
-import warnings
-from typing import Any
-
 from tether_gym.training.sweep.cli import (
     NOT_STARTED,
-    RENAMED,
     build_parser,
     interrupted_note,
     list_examples,
@@ -83,6 +79,7 @@ from tether_gym.training.sweep.cli import (
     prepare_out,
     sweep_from_args,
 )
+from tether_gym.training.sweep.cli import __getattr__ as __getattr__  # the former names
 from tether_gym.training.sweep.report import (
     FINAL,
     SUMMARY_COLUMNS,
@@ -196,13 +193,3 @@ __all__ = [
     "trial_seed",
     "write_results",
 ]
-
-
-def __getattr__(name: str) -> Any:
-    """The former names of `RENAMED`, with a DeprecationWarning naming the new one."""
-    if name not in RENAMED:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    warnings.warn(
-        f"{__name__}.{name} is deprecated: use {RENAMED[name]}", DeprecationWarning, stacklevel=2
-    )
-    return globals()[RENAMED[name]]
