@@ -502,6 +502,17 @@ def test_control_setup_trains_a_ladder_id_in_the_hard_mode(tmp_path, capsys):
     )
 
 
+@pytest.mark.parametrize("variant", ["proposals:greedy", "residual:greedy"])
+def test_a_planner_backed_variant_trains_a_ladder_id_in_set_up_control(tmp_path, variant):
+    """The planners act in set-up control: asked for without a control mode, a variant takes
+    it (and the hard mode's entry), as the pretrained cards' commands do."""
+    argv = ["--env", "TetherNavigate_PostsStop-v2", "--hyperparams", variant,
+            "--runs-dir", str(tmp_path)]  # fmt: skip
+    config, _ = train.run_from_args(train.build_parser().parse_args(argv))
+    assert config.env_kwargs == {"control": "setup"}
+    assert config.hyperparams[variant.split(":")[0]] == "greedy"
+
+
 def test_the_command_line_overrides_a_recipe_s_env_kwargs_key_by_key(tmp_path):
     """Another control mode takes the TetherNavigate-v2 entry; the same one keeps the
     recipe's other arguments."""

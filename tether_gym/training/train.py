@@ -52,6 +52,7 @@ from tether_gym.seeds import TEST_SEED
 from tether_gym.training.config import RunConfig, make_config
 from tether_gym.training.experiment import check_config, check_run, train
 from tether_gym.training.folders import prepare_run_dir
+from tether_gym.training.variants import control_asked
 from tether_gym.training.zoo import ALGOS, default_conf, parse_overrides, run_entry
 
 __all__ = [
@@ -215,10 +216,14 @@ def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
         return config, args.resume
     env_id, env_kwargs = env_from_args(args)
     conf_file = args.conf_file or default_conf(args.algo or "ppo")
+    overrides = parse_overrides(args.hyperparams)
+    control = control_asked(overrides)
+    if control and "control" not in env_kwargs:  # a planner-backed variant plays in its mode
+        env_kwargs = {**env_kwargs, "control": control}
     params, notice = run_entry(conf_file, env_id, env_kwargs)
     if notice:
         print(f"tether-train: {notice}", file=sys.stderr)
-    params = {**params, **parse_overrides(args.hyperparams)}
+    params = {**params, **overrides}
     config = make_config(env_id, env_kwargs, params, **given)
     check_config(config)
     name = args.name or default_name(env_id, config.env_kwargs, config.seed, config.algo)

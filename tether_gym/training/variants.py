@@ -33,6 +33,8 @@ class Variant:
 
     key = ""
     """The zoo key that asks for it."""
+    control: str | None = None
+    """The control mode it plays in, where it fixes one (a run that gives none takes it)."""
 
     def asked(self, params: dict[str, Any]) -> bool:
         return params.get(self.key) is not None
@@ -70,6 +72,7 @@ class Residual(Variant):
     (`tether_gym.training.residual`)."""
 
     key = "residual"
+    control = "setup"
 
     def check(self, config: RunConfig) -> None:
         params = config.hyperparams
@@ -96,6 +99,7 @@ class Proposals(Variant):
     `policy: ProposalPolicy` scoring each proposal."""
 
     key = "proposals"
+    control = "setup"
 
     def check(self, config: RunConfig) -> None:
         params = config.hyperparams
@@ -182,6 +186,11 @@ class Aim(Variant):
 VARIANTS: tuple[Variant, ...] = (Residual(), Proposals(), Pretrain(), Aim())
 """Every variant, in the order they wrap the training env and name a run (the first asked
 names it)."""
+
+
+def control_asked(params: dict[str, Any]) -> str | None:
+    """The control mode the variants asked for in zoo `params` play in (None: any)."""
+    return next((v.control for v in VARIANTS if v.control and v.asked(params)), None)
 
 
 def asked(config: RunConfig) -> list[Variant]:
