@@ -218,7 +218,8 @@ def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
     conf_file = args.conf_file or default_conf(args.algo or "ppo")
     overrides = parse_overrides(args.hyperparams)
     control = control_asked(overrides)
-    if control and "control" not in env_kwargs:  # a planner-backed variant plays in its mode
+    if control and "control" not in env_kwargs and family(env_id).planners:
+        # a planner-backed variant plays in its planners' control mode
         env_kwargs = {**env_kwargs, "control": control}
     params, notice = run_entry(conf_file, env_id, env_kwargs)
     if notice:
