@@ -55,7 +55,6 @@ from tether_gym.physics.obstacles import (
     RESOLUTION,
     TOUCH,
     clearance,
-    open_space,
     speed_bound,
 )
 from tether_gym.physics.state import PuckState, attachment_offset, puck_state, stretch_rate
@@ -282,7 +281,8 @@ def _contact(
     """Integrate a contact from tautening, in coordinates relative to the anchor: the centre of
     mass (cx, cy) moving at (vx, vy) and `speed`, the attachment point at (rx, ry) from it, the
     spin w and the orientation `angle`, the damper c, among `obstacles` (their origin the
-    anchor): a wall bounces the puck, a post ends the contact. Returns (the anchor-relative
+    anchor; None in the open, which compiles without them): a wall bounces the puck, a post
+    ends the contact. Returns (the anchor-relative
     `PuckState` at the slack instant, at the post or at the budget's end, completed,
     contact_time, hit_post, wall_hits, points): `points` (k, 2) is filled in table coordinates
     with the arc drawn within `tolerance` m (`_sample`) and every wall bounce, up to its k
@@ -298,8 +298,12 @@ def _contact(
     steps = min(int(budget), MAX_STEPS)
     p = (k, c, rest_length, inv_m, inv_i)
     bound = speed_bound(vx, vy, w, kappa, radius)
-    gap = clearance(obstacles, cx, cy)[0]
-    safe = gap / bound if bound > 0.0 else math.inf  # no obstacle within reach before then
+    if obstacles is None:  # numba prunes the branches on it: no obstacle code in the open
+        origin_x, origin_y, safe = 0.0, 0.0, math.inf
+    else:
+        origin_x, origin_y = obstacles.origin_x, obstacles.origin_y
+        gap = clearance(obstacles, cx, cy)[0]
+        safe = gap / bound if bound > 0.0 else math.inf  # no obstacle within reach before then
     n_points, wall_hits = 0, 0
     sampled = points.shape[0] > 0
     ref = _tangent(cx, cy, vx, vy)
@@ -335,7 +339,7 @@ def _contact(
                 if abs(g) <= 1e-13 * peak or high - low <= 1e-15 * h:
                     break
             span = tau
-        if t + span > safe:  # an obstacle may be within reach in this step
+        if obstacles is not None and t + span > safe:  # an obstacle may be within reach
             gap0 = clearance(obstacles, cx, cy)[0]
             gap1 = clearance(obstacles, ncx, ncy)[0]
             touch, s, which = _first_touch(
@@ -353,8 +357,8 @@ def _contact(
                 vx, vy = bounced.vx, bounced.vy
                 wall_hits += 1
                 if sampled and n_points < points.shape[0]:  # the corner, and a new tangent
-                    points[n_points, 0] = cx + obstacles.origin_x
-                    points[n_points, 1] = cy + obstacles.origin_y
+                    points[n_points, 0] = cx + origin_x
+                    points[n_points, 1] = cy + origin_y
                     n_points += 1
                     ref = _tangent(cx, cy, vx, vy)
                 ax, ay, al, tension = _accel(cx, cy, vx, vy, rx, ry, w, *p)
@@ -368,8 +372,8 @@ def _contact(
             return after, True, t + tau, False, wall_hits, n_points
         if sampled:
             n_points, ref = _sample(
-                points, n_points, ref, cx, cy, vx, vy, ncx, ncy, nvx, nvy, tolerance,
-                obstacles.origin_x, obstacles.origin_y,
+                points, n_points, ref, cx, cy, vx, vy, ncx, ncy, nvx, nvy, tolerance, origin_x,
+                origin_y,
             )  # fmt: skip
         cx, cy, vx, vy, rx, ry, w = ncx, ncy, nvx, nvy, nrx, nry, nw
         angle += turn
@@ -391,7 +395,7 @@ def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, res
     c = 2.0 * zeta * math.sqrt(k * effective_mass(mass, kappa, offset * math.sin(alpha)))
     after, completed, t, _, _, _ = _contact(
         cx, cy, vx, vy, rx, ry, w, angle, c, offset, kappa, speed, radius, mass, rest_length, k,
-        open_space(), np.empty((0, 2)), 0.0,
+        None, np.empty((0, 2)), 0.0,
     )  # fmt: skip
     return after, True, completed, t
 
@@ -417,7 +421,7 @@ def hybrid_contact_row(
     restitution)."""
     after, bounced, completed, t, _, _, _ = hybrid_contact_among_row(
         state, anchor_x, anchor_y, radius, kappa, offset, mass, rest_length, k, zeta,
-        open_space(), np.empty((0, 2)), 0.0,
+        None, np.empty((0, 2)), 0.0,
     )  # fmt: skip
     return after, bounced, completed, t
 

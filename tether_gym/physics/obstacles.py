@@ -55,13 +55,6 @@ class Obstacles(NamedTuple):
 
 
 @numba.njit(cache=True, inline="always")
-def open_space():
-    """No wall and no post: a contact in the open (the launch-frame bounce)."""
-    no_posts = np.zeros((1, 2))  # of the same type as a table's: one compiled contact
-    return Obstacles(0.0, 0.0, -math.inf, math.inf, -math.inf, math.inf, 1.0, no_posts, 0, 0.0)
-
-
-@numba.njit(cache=True, inline="always")
 def on_table(origin_x, origin_y, width, height, radius, restitution, posts, n_posts, post_radius):
     """The walls of the table [0, width] x [0, height] (of `restitution`) and its posts, for a
     puck of `radius` in coordinates whose origin is (origin_x, origin_y)."""
