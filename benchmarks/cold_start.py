@@ -58,8 +58,8 @@ ENTRIES: dict[str, str] = {
     f"{NAVIGATE} step, aim control": _STEP.format(
         env_id=NAVIGATE, kwargs=", control='aim', coast=True"
     ),
-    f"{NAVIGATE} step, hybrid dynamics": _STEP.format(
-        env_id=NAVIGATE, kwargs=", dynamics='hybrid'"
+    f"{NAVIGATE} step, impulse dynamics": _STEP.format(
+        env_id=NAVIGATE, kwargs=", dynamics='impulse'"
     ),
     f"{NAVIGATE} vector step (16 copies)": _VECTOR.format(env_id=NAVIGATE),
     "greedy planner decision": _DECISION.format(

@@ -13,6 +13,7 @@ deterministic function of them.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 
 import numba
@@ -39,6 +40,7 @@ from tether_gym.physics.checks import check_float
 from tether_gym.physics.geometry import stiffness_for_rho
 from tether_gym.physics.hybrid import damping_ratio, hybrid_core
 from tether_gym.physics.impulse import impulse_core
+from tether_gym.physics.jit import twin
 from tether_gym.tasks import bounce as task
 from tether_gym.tasks.bounce import TARGET_SPEED, TASKS
 
@@ -380,19 +382,17 @@ def _observe_all(state, obs):
         _observe(state[i], obs[i])
 
 
-@numba.njit(cache=True)
+_step = _step_hybrid
+"""The step `_step_autoreset` takes: each build in `AUTORESET` rebinds it to its dynamics'."""
+
+
 def _step_autoreset(actions, params, state, out, uniforms, next_state, obs):
-    """The step kernel of the configured dynamics, then `_reset` (every episode ends at its
-    step)."""
-    if params[PA.dynamics] == IMPULSE:
-        bad = _step_impulse(actions, params, state, out)
-    else:
-        bad = _step_hybrid(actions, params, state, out)
+    """`_step`, then `_reset` (every episode ends at its step)."""
+    bad = _step(actions, params, state, out)
     _reset(uniforms, params, next_state, obs)
     return bad
 
 
-@numba.njit(cache=True, parallel=True)
 def _step_autoreset_parallel(actions, params, state, out, uniforms, next_state, obs, chunk):
     """`_step_autoreset` on chunks of `chunk` rows across threads (`envs.kernels`)."""
     n = state.shape[0]
@@ -406,12 +406,22 @@ def _step_autoreset_parallel(actions, params, state, out, uniforms, next_state, 
     return bad
 
 
+def _autoreset(dynamics: int) -> tuple[Callable, Callable]:
+    name, step = DYNAMICS[dynamics], STEP_KERNELS[dynamics]
+    serial = numba.njit(cache=True)(twin(_step_autoreset, name, _step=step))
+    parallel = twin(_step_autoreset_parallel, name, _step_autoreset=serial)
+    return serial, numba.njit(cache=True, parallel=True)(parallel)
+
+
 STEP_KERNELS = {HYBRID: _step_hybrid, IMPULSE: _step_impulse}
+AUTORESET = {dynamics: _autoreset(dynamics) for dynamics in STEP_KERNELS}
+"""Dynamics -> the fused step-and-reset kernels, serial and parallel, built for it
+(`physics.jit.twin`): a first vector step compiles its own dynamics' bounce only."""
 PARALLEL_CHUNK = {HYBRID: parallel_chunk(4, 32), IMPULSE: parallel_chunk(256, 2048)}
-COMPILING = "TetherBounce's kernels"
-"""What `kernel_cache.announce` says compiles on a first run."""
 """Rows per parallel task, by dynamics (`envs.kernels.parallel_chunk`). A batch of fewer than
 two chunks runs serially."""
+COMPILING = "TetherBounce's kernels"
+"""What `kernel_cache.announce` says compiles on a first run."""
 
 
 class TetherBounceKernel(Kernel):
@@ -475,10 +485,11 @@ class TetherBounceKernel(Kernel):
             return (*self.reset(uniforms), obs, out)
         actions = self.as_actions(actions, n)
         out, next_state, next_obs = OUTCOME.empty(n), STATE.empty(n), OBSERVATION.empty(n)
-        if not _step_autoreset.overloads:
-            announce(COMPILING, _step_autoreset)
+        serial, parallel = AUTORESET[self.dynamics]
+        if not serial.overloads:
+            announce(COMPILING, serial)
         fused_autoreset(
-            _step_autoreset, _step_autoreset_parallel, PARALLEL_CHUNK[self.dynamics], actions,
+            serial, parallel, PARALLEL_CHUNK[self.dynamics], actions,
             self.params, state, out, uniforms, next_state, next_obs,
         )  # fmt: skip
         return next_state, next_obs, obs, out
