@@ -47,8 +47,9 @@ docs: $(STAMP)
 docs-check: $(STAMP)
 	TETHER_REQUIRE_CHROMIUM=1 $(BIN)/python -m pytest -q tests/contracts/test_docs.py -k chromium
 
+# The default run on two torch threads: TetherBounce's gradient steps are large enough to share.
 train: $(TRAIN_STAMP)
-	$(BIN)/python train.py
+	$(BIN)/python train.py --num-threads 2
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

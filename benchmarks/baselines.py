@@ -1,11 +1,12 @@
-"""Learned baselines over seeds: `tether-train` runs of one configuration, one core each, then
-the policy's success on the held-out test episodes (mean, 95% t interval over seeds, worst
-seed) beside the planners' and random's on the same episodes, the train times and the learning
-curves (success on the evaluation episodes against timesteps). The planners (and a policy with
-a planner inside) are played anew when the summary is made, so it shows today's planners.
+"""Learned baselines over seeds: `tether-train` runs of one configuration, one core each (or
+`--num-threads`), then the policy's success on the held-out test episodes (mean, 95% t interval
+over seeds, worst seed) beside the planners' and random's on the same episodes, the train times
+and the learning curves (success on the evaluation episodes against timesteps). The planners
+(and a policy with a planner inside) are played anew when the summary is made, so it shows
+today's planners.
 
     python benchmarks/baselines.py --algo sac --env TetherNavigate_PostsReachSparse-v2 \
-        --env-kwargs control:aim --timesteps 200000 [--seeds 5] [--jobs 2] \
+        --env-kwargs control:aim --timesteps 200000 [--seeds 5] [--jobs 2] [--num-threads 1] \
         [--runs-dir runs/baselines] [--out results/baselines] [--overwrite]
     python benchmarks/baselines.py --plot results/baselines/A.json results/baselines/B.json \
         --figure results/baselines/curves.png
@@ -37,7 +38,10 @@ from tether_gym.training.folders import EVALUATIONS
 from tether_gym.training.summary import RESULTS
 from tether_gym.training.yardsticks import baselines
 
-ONE_CORE = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+def threads_env(threads: int) -> dict[str, str]:
+    """A run's numba, OpenMP and MKL threads: its share of the cores."""
+    return dict.fromkeys(("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"), str(threads))
 
 
 def config_name(args: argparse.Namespace) -> str:
@@ -50,7 +54,7 @@ def train_command(args: argparse.Namespace, seed: int, run_dir: Path) -> list[st
                "--env", args.env, "--seed", str(seed), "--timesteps", str(args.timesteps),
                "--eval-freq", str(args.eval_freq), "--eval-episodes", str(args.eval_episodes),
                "--runs-dir", str(run_dir.parent), "--name", run_dir.name,
-               "--no-progress-bar"]  # fmt: skip
+               "--num-threads", str(args.num_threads), "--no-progress-bar"]  # fmt: skip
     if args.env_kwargs:
         command += ["--env-kwargs", *args.env_kwargs]
     if args.hyperparams:
@@ -64,11 +68,12 @@ def run_seed(args: argparse.Namespace, seed: int, run_dir: Path) -> None:
         return
     command = train_command(args, seed, run_dir)
     if (run_dir / "last").is_dir():
-        command = [command[0], "--resume", str(run_dir), "--no-progress-bar"]
+        command = [command[0], "--resume", str(run_dir), "--num-threads", str(args.num_threads),
+                   "--no-progress-bar"]  # fmt: skip
     run_dir.parent.mkdir(parents=True, exist_ok=True)
     with (run_dir.parent / f"{run_dir.name}.log").open("w") as log:
         subprocess.run(command, check=True, stdout=log, stderr=subprocess.STDOUT,
-                       env={**os.environ, **ONE_CORE})  # fmt: skip
+                       env={**os.environ, **threads_env(args.num_threads)})  # fmt: skip
 
 
 def read_curve(run_dir: Path) -> list[list[float]]:
@@ -131,6 +136,7 @@ def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
         "timesteps": args.timesteps, "seeds": list(range(args.seeds)), "test_seed": TEST_SEED,
         "command": " ".join(["python benchmarks/baselines.py", *sys.argv[1:]]),
         "train_seconds": [round(run["train_seconds"], 1) for run in runs],
+        "jobs": args.jobs, "num_threads": args.num_threads,
         "results": results, "curves": [read_curve(run_dir) for run_dir in run_dirs],
     }  # fmt: skip
 
@@ -206,7 +212,10 @@ def main() -> None:
     parser.add_argument("--eval-freq", type=int, default=100_000)
     parser.add_argument("--eval-episodes", type=int, default=1000)
     parser.add_argument("--seeds", type=int, default=5)
-    parser.add_argument("--jobs", type=int, default=2, help="runs at once, one core each")
+    parser.add_argument("--jobs", type=int, default=2, help="runs at once")
+    parser.add_argument("--num-threads", type=int, default=1,
+                        help="each run's threads (tether-train --num-threads): jobs x threads "
+                        "should fit the cores")  # fmt: skip
     parser.add_argument("--runs-dir", type=Path, default=Path("runs/baselines"))
     parser.add_argument("--out", type=Path, default=Path("results/baselines"))
     parser.add_argument("--overwrite", action="store_true")

@@ -21,7 +21,7 @@ import time
 import numpy as np
 from stable_baselines3 import PPO
 
-from tether_gym.training.experiment import use_one_thread
+from tether_gym.training.experiment import use_threads
 from tether_gym.training.sb3 import make_sb3_vec_env
 from tether_gym.training.zoo import DEFAULT_CONF, algo_kwargs, load_hyperparams
 
@@ -74,7 +74,7 @@ def main() -> None:
     args = parser.parse_args()
     timesteps = 16_384 if args.quick else args.timesteps
     repeats = 1 if args.quick else args.repeats
-    use_one_thread()
+    use_threads()
     params = load_hyperparams(DEFAULT_CONF)
     n_envs = params["n_envs"]
     steps = max(timesteps // n_envs, 1)

@@ -252,7 +252,7 @@ def seeds_table(sources: dict[str, str], agents: list[str] | None = None, root: 
                 rows.append(
                     f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | "
                     f"{result['name']} | {len(data['seeds'])} | {data['timesteps']:,} | "
-                    f"{minutes:.0f} | {percent(result)} | {100 * result['worst']:.1f}% |"
+                    f"{minutes:.1f} | {percent(result)} | {100 * result['worst']:.1f}% |"
                 )
     header = (
         "| env | arguments | agent | seeds | timesteps | train min (median) | "

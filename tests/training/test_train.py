@@ -243,6 +243,7 @@ def test_a_bad_hyperparameter_file_fails_up_front(tmp_path, capsys, text, messag
         (["--env", "TetherBonce-v0"], "doesn't exist"),
         (["--hyperparams", "n_steps=32"], "key:value"),
         (["--n-envs", "0"], "n_envs must be at least 1"),
+        (["--num-threads", "0"], "--num-threads must be at least 1, got 0"),
         (["--algo", "a2c"], "invalid choice: 'a2c'"),
     ],
 )

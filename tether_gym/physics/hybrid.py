@@ -282,11 +282,10 @@ def _contact(
     mass (cx, cy) moving at (vx, vy) and `speed`, the attachment point at (rx, ry) from it, the
     spin w and the orientation `angle`, the damper c, among `obstacles` (their origin the
     anchor; None in the open, which compiles without them): a wall bounces the puck, a post
-    ends the contact. Returns (the anchor-relative
-    `PuckState` at the slack instant, at the post or at the budget's end, completed,
-    contact_time, hit_post, wall_hits, points): `points` (k, 2) is filled in table coordinates
-    with the arc drawn within `tolerance` m (`_sample`) and every wall bounce, up to its k
-    rows."""
+    ends the contact. Returns (the anchor-relative `PuckState` at the slack instant, at the
+    post or at the budget's end, completed, contact_time, hit_post, wall_hits, points):
+    `points` (k, 2) is filled in table coordinates with the arc drawn within `tolerance` m
+    (`_sample`) and every wall bounce, up to its k rows."""
     inertia = kappa * mass * radius * radius
     inv_m, inv_i = 1.0 / mass, 1.0 / inertia
     fastest = fastest_rate(k, c, mass, kappa, offset)

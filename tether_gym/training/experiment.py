@@ -171,9 +171,11 @@ def eval_success(model: BaseAlgorithm, config: RunConfig) -> float:
     return result.success_rate
 
 
-def use_one_thread() -> None:
-    """One torch thread: the gradient steps are small, a second thread does not help."""
-    torch.set_num_threads(1)
+def use_threads(threads: int = 1) -> None:
+    """Run torch's gradient steps on `threads` threads. One by default: a seed then gives one
+    result on any machine, and the small gradient steps of most entries gain little from a
+    second thread (TetherBounce's do: `make train` runs two)."""
+    torch.set_num_threads(threads)
 
 
 def train(
@@ -182,6 +184,7 @@ def train(
     resume: bool = False,
     progress_bar: bool = False,
     report: Report | None = None,
+    threads: int = 1,
 ) -> dict[str, Any]:
     """Train as `config` says into `run_dir`, then evaluate.
 
@@ -192,7 +195,7 @@ def train(
     to `report`; at the end `last/` is saved and the final table of the
     policy and the `baselines` is written to `results.md` (and `results.json`, which
     `tether_gym.training.summary` reads). On KeyboardInterrupt `last/` is saved and the
-    interrupt propagates. Runs on one torch thread, so that a seed gives one result.
+    interrupt propagates. Runs on `threads` torch threads (`use_threads`).
 
     Returns:
         The summary: `run_dir`, `timesteps`, `train_seconds`, `best_eval_success_rate`,
@@ -203,7 +206,7 @@ def train(
     """
     config = RunConfig.of(config)
     check_run(config, run_dir, resume)
-    use_one_thread()
+    use_threads(threads)
     best = -1.0
     if resume:
         best_file = run_dir / "best" / "config.yaml"

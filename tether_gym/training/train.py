@@ -91,7 +91,7 @@ MOVED = {
     "OracleEvalCallback": "tether_gym.training.callbacks",
 }  # fmt: skip
 """Names this module held before training was split into rooms, and where they live now."""
-RENAMED = {"OracleEvalCallback": "YardstickEvalCallback"}
+RENAMED = {"OracleEvalCallback": "YardstickEvalCallback", "use_one_thread": "use_threads"}
 
 
 def __getattr__(name: str) -> Any:
@@ -151,6 +151,13 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         default=[],
         metavar="KEY:VALUE",
         help="override hyperparameters, e.g. n_epochs:10 learning_rate:lin_1e-3",
+    )
+    run.add_argument(
+        "--num-threads",
+        type=int,
+        default=1,
+        help="torch threads (default 1: a seed gives one result on any machine; `make train` "
+        "runs 2)",
     )
     run.add_argument("--eval-episodes", type=int, help="episodes per evaluation (default 1000)")
     run.add_argument(
@@ -237,13 +244,17 @@ def main(argv: list[str] | None = None) -> int:
     """Train, evaluate, print the table; returns the exit status (130 after Ctrl-C)."""
     parser = build_parser(chosen_env(argv))
     args = parser.parse_args(argv)
+    if args.num_threads < 1:
+        parser.error(f"--num-threads must be at least 1, got {args.num_threads}")
     try:
         config, run_dir = run_from_args(args)
     except ValueError as error:
         parser.error(str(error))
     try:
         resume, progress_bar = args.resume is not None, not args.no_progress_bar
-        summary = train(config, run_dir, resume=resume, progress_bar=progress_bar)
+        summary = train(
+            config, run_dir, resume=resume, progress_bar=progress_bar, threads=args.num_threads
+        )
     except KeyboardInterrupt:
         if (run_dir / "last" / "model.zip").is_file():
             print(f"continue with: tether-train --resume {run_dir}", file=sys.stderr)
