@@ -64,9 +64,14 @@ def test_interruption_leaves_a_checkpoint_that_resume_continues(tmp_path, monkey
     assert 1024 <= interrupted < 2048
     assert "--resume" in capsys.readouterr().err
     monkeypatch.undo()
+    assert yaml.safe_load((folder / "last" / "config.yaml").read_text())["torch_threads"] == 1
     argv = ["--resume", str(folder), "--eval-episodes", "40", "--no-progress-bar"]
-    assert train.main(argv) == 0
+    try:
+        assert train.main([*argv, "--num-threads", "2"]) == 0
+    finally:
+        experiment.use_threads(1)
     assert saved_timesteps(folder / "last") == 2048
+    assert yaml.safe_load((folder / "last" / "config.yaml").read_text())["torch_threads"] == 2
     assert "training PPO for 1,024 timesteps" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         train.main(["--resume", str(folder), "--timesteps", "2048"])

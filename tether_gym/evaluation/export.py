@@ -104,12 +104,18 @@ def export(
         "timesteps": int(config["num_timesteps"]),
         "trained_timesteps": int(last["num_timesteps"]),
         "train_seconds": last.get("train_seconds"),
+        "torch_threads": last.get("torch_threads", 1),
         "command": command,
         "held_out": held,
         "hyperparams": config["hyperparams"],
     }
     card_file.write_text(_card_text(facts, note))
     return policy_file, card_file
+
+
+def _threads(threads: int) -> str:
+    """A card's words for its run's torch threads: "one CPU thread", "2 CPU threads"."""
+    return "one CPU thread" if threads == 1 else f"{threads} CPU threads"
 
 
 def _card_text(facts: dict[str, Any], note: str) -> str:
@@ -130,8 +136,8 @@ def _card_text(facts: dict[str, Any], note: str) -> str:
         f"{facts['algo'].upper()} ({facts['policy']}) on {facts['env_id']} ({env}), seed "
         f"{facts['seed']}: the model kept at {facts['timesteps']:,} timesteps (the best periodic "
         f"evaluation) of a {facts['trained_timesteps']:,}-timestep run that trained for "
-        f"{facts['train_seconds']:.0f} s on one CPU thread. The policy file holds the weights "
-        "and constructor arguments only (no optimizer state).",
+        f"{facts['train_seconds']:.0f} s on {_threads(facts.get('torch_threads', 1))}. The "
+        "policy file holds the weights and constructor arguments only (no optimizer state).",
     ]
     if planner:
         lines += [

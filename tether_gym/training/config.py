@@ -9,7 +9,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-CHECKPOINT_KEYS = ("num_timesteps", "train_seconds", "eval_success_rate")
+CHECKPOINT_KEYS = ("num_timesteps", "train_seconds", "eval_success_rate", "torch_threads")
 """What a checkpoint's `config.yaml` adds to the run's (`tether_gym.training.folders`)."""
 OLD_DEFAULTS = {"algo": "ppo", "save_replay_buffer": True}
 """Values of fields that older run folders do not record: they were PPO runs, and kept the

@@ -16,6 +16,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import torch
 import yaml
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
@@ -122,7 +123,12 @@ class Checkpoints:
                 model.save_replay_buffer(folder / REPLAY_BUFFER)
                 size = (folder / REPLAY_BUFFER).stat().st_size
                 print(f"saved the replay buffer ({size / 1e6:,.1f} MB) in {folder}", flush=True)
-        config = {**self.config.as_dict(), "num_timesteps": int(model.num_timesteps), **extra}
+        config = {
+            **self.config.as_dict(),
+            "num_timesteps": int(model.num_timesteps),
+            "torch_threads": torch.get_num_threads(),
+            **extra,
+        }
         (folder / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
         return folder / "model.zip"
 
