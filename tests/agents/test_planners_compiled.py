@@ -4,6 +4,8 @@ actions, outcomes and costs, the same beam (the choices: `test_planners_recorded
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -108,11 +110,12 @@ def test_the_compiled_predictions_are_the_kernel_s(task, source):
 
 def test_the_compiled_beam_is_numpy_s():
     """The same best costs and actions and the same nodes kept, in the same order, with ties of
-    costs and roots that already have a better plan."""
+    costs, NaN and infinite costs, roots that already have a better plan, and beams narrower
+    and wider than a root's nodes."""
     rng = np.random.default_rng(0)
-    for m, roots in ((1, 1), (40, 1), (300, 7), (500, 64)):
+    for (m, roots), width in itertools.product(((1, 1), (40, 1), (300, 7), (500, 64)), (1, 4, 99)):
         root = rng.integers(0, roots, m)
-        cost = rng.integers(0, 6, m) / 4.0
+        cost = rng.choice([0.0, 0.25, 0.5, 0.75, 1.0, np.inf, np.nan], m)
         ended = rng.random(m) < 0.3
         leaf = ended | (rng.random(m) < 0.5)
         lead = rng.uniform(-1, 1, (m, 4)).astype(np.float32)
@@ -120,7 +123,7 @@ def test_the_compiled_beam_is_numpy_s():
         results = []
         for select in (planner_kernels.beam, _beam):
             best_cost, best_action = best.copy(), np.zeros((roots, 4), np.float32)
-            keep = select(root, cost, ended, leaf, lead, 4, best_cost, best_action)
+            keep = select(root, cost, ended, leaf, lead, width, best_cost, best_action)
             results.append((keep, best_cost, best_action))
         for got, expected in zip(*results, strict=True):
             np.testing.assert_array_equal(got, expected)

@@ -10,6 +10,7 @@ import pytest
 import yaml
 
 from tether_gym.agents.saved import load_agent
+from tether_gym.agents.warm import env_kernels
 
 pytest.importorskip("stable_baselines3")
 
@@ -96,9 +97,13 @@ def test_interruption_before_the_first_checkpoint_leaves_a_reusable_folder(
 
 
 @pytest.mark.slow
-def test_train_runs_a_config_as_the_cli_does(tmp_path):
+def test_train_runs_a_config_as_the_cli_does(tmp_path, monkeypatch):
     """The seam for sweeps: `make_config` + `train()` give the CLI's run folder, periodic
-    evaluations (handed to `report`), summary and resume."""
+    evaluations (handed to `report`), summary and resume; the env's kernels are built first."""
+    built = []
+    monkeypatch.setattr(
+        experiment, "env_kernels", lambda *build: built.append(build) or env_kernels(*build)
+    )
     params = zoo.load_hyperparams(zoo.DEFAULT_CONF, zoo.parse_overrides(FAST_PARAMS))
     config = train.make_config(
         "TetherBounce-v0", {"rho": [20.0, 200.0]}, params,
@@ -107,6 +112,7 @@ def test_train_runs_a_config_as_the_cli_does(tmp_path):
     folder = tmp_path / "trial"
     reports: list[dict] = []
     summary = train.train(config, folder, report=reports.append)
+    assert built == [("TetherBounce-v0", {"rho": [20.0, 200.0]})]
     assert [r["timesteps"] for r in reports] == [512, 1024]
     assert summary["best_eval_success_rate"] == max(r["success_rate"] for r in reports)
     assert yaml.safe_load((folder / "config.yaml").read_text()) == config.as_dict()

@@ -397,7 +397,7 @@ def _window(start, velocity, duration, k, s, j, low):
     return tautening_window(x, y, vx, vy, ax, ay, low + ARM, LENGTH_HIGH + ARM, duration[k])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _least_speed(px, py, vx, vy, spin, ax, ay):
     """`planners.least_speed_bounce` of one tautening at (px, py) moving at (vx, vy) with
     `spin`, hooked to the peg (ax, ay): (offset angle, brake, tether length, speed left)."""
@@ -413,7 +413,7 @@ def _least_speed(px, py, vx, vy, spin, ax, ay):
     return FINE_ALPHAS[best, k], e, length, left
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _first_least(sin, cos, rx, ry, radius, vx, vy, spin, squares):
     """The first of the offset angles (their `sin`, `cos`) whose `_bounce` leaves the least
     speed (0 if none is finite), comparing the speeds only where their `_squares` come near
@@ -513,7 +513,7 @@ def _aim_root(lo, hi, args):
     return math.nan, False
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _bounce(sin, cos, rx, ry, radius, vx, vy, spin):
     """(brake, tether length, speed left) of the least-speed bounce at the offset angle whose
     sine and cosine are `sin`, `cos`, the centre of mass at (rx, ry) from the peg, `radius`
@@ -654,18 +654,37 @@ def beam(root, cost, ended, leaf, lead, width, best_cost, best_action):
     """`planners._beam`: over the nodes (m,) expanded at one depth, each leaf whose cost betters
     its root's `best_cost` (the first of equal ones) sets it and the root's `best_action` to its
     `lead`; the nodes to expand next, the `width` least costly running ones per root (by root,
-    then cost, then node)."""
+    then cost, then node). Each root's nodes are kept by insertion, element by element: no sort
+    and no array assignment, whose compiled code would cost a first decision seconds."""
     for i in range(root.shape[0]):
         if leaf[i] and cost[i] < best_cost[root[i]]:
-            best_cost[root[i]], best_action[root[i]] = cost[i], lead[i]
-    alive = np.flatnonzero(~ended)
-    order = alive[np.argsort(cost[alive], kind="mergesort")]
-    order = order[np.argsort(root[order], kind="mergesort")]
-    keep = np.empty(order.shape[0], np.int64)
-    kept, rank = 0, 0
-    for c in range(order.shape[0]):
-        rank = rank + 1 if c > 0 and root[order[c]] == root[order[c - 1]] else 0
-        if rank < width:
-            keep[kept] = order[c]
-            kept += 1
-    return keep[:kept]
+            best_cost[root[i]] = cost[i]
+            for j in range(lead.shape[1]):
+                best_action[root[i], j] = lead[i, j]
+    width = min(width, root.shape[0])
+    slots = np.empty((best_cost.shape[0], width), np.int64)
+    kept = np.zeros(best_cost.shape[0], np.int64)
+    for i in range(root.shape[0]):
+        if ended[i]:
+            continue
+        r, at = root[i], kept[root[i]]
+        while at > 0 and _ahead(cost[i], cost[slots[r, at - 1]]):
+            at -= 1
+        if at < width:
+            for q in range(min(kept[r], width - 1), at, -1):
+                slots[r, q] = slots[r, q - 1]
+            slots[r, at] = i
+            kept[r] = min(kept[r] + 1, width)
+    keep = np.empty(kept.sum(), np.int64)
+    n = 0
+    for r in range(kept.shape[0]):
+        for q in range(kept[r]):
+            keep[n] = slots[r, q]
+            n += 1
+    return keep
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _ahead(a, b):
+    """Whether cost `a` sorts strictly before `b`, NaN last (as numpy sorts)."""
+    return a < b or (b != b and a == a)

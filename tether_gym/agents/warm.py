@@ -48,6 +48,13 @@ def _steps(env_id: str, kwargs: dict, copies: int | None) -> dict:
     return obs
 
 
+def env_kernels(env_id: str, kwargs: dict) -> None:
+    """Compile (or load from the cache) every kernel one env build can run: its single step,
+    and its vector step with autoreset, serial and across threads."""
+    for copies in (None, 4, PARALLEL_COPIES):
+        _steps(env_id, kwargs, copies)
+
+
 def single() -> None:
     """The single envs' steps, and the planners' decisions one at a time."""
     for kwargs in BOUNCE_BUILDS:
@@ -92,4 +99,4 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-__all__ = ["NAVIGATE_BUILDS", "PARTS", "main"]
+__all__ = ["NAVIGATE_BUILDS", "PARTS", "env_kernels", "main"]

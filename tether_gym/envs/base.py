@@ -278,7 +278,9 @@ class KernelVectorEnv(VectorEnv):
         self._end = tuple(kernel.outcome.index[name] for name in EPISODE_END)
         self._block = int(block)
         self._generators: list[np.random.Generator] | None = None
-        self._buffer = np.empty((self.num_envs, self._block, kernel.n_uniforms))
+        self._buffer = np.empty((self._block, self.num_envs, kernel.n_uniforms))
+        """Each copy's next `block` episodes' uniforms, by episode then copy: a step's are then
+        a C-contiguous block, in step with the copies or not (one compiled kernel for both)."""
         self._cursor: int | np.ndarray = self._block
         """Where the copies' next uniforms are in their blocks: one int while every copy is at
         the same place (the next uniforms are then a view), one per copy once they part."""
@@ -290,16 +292,17 @@ class KernelVectorEnv(VectorEnv):
     def _uniforms(self) -> np.ndarray:
         """Every copy's next episode's uniforms, (num_envs, n_uniforms); they stay the next ones
         until `_advance` moves past them (after a step that did not raise)."""
+        block = self._buffer.shape[::2]
         if isinstance(self._cursor, int):
             if self._cursor == self._block:
-                for generator, block in zip(self._generators, self._buffer, strict=True):
-                    generator.random(out=block)
+                for i, generator in enumerate(self._generators):
+                    self._buffer[:, i] = generator.random(block)
                 self._cursor = 0
-            return self._buffer[:, self._cursor]
+            return self._buffer[self._cursor]
         for i in np.flatnonzero(self._cursor == self._block):
-            self._generators[i].random(out=self._buffer[i])
+            self._buffer[:, i] = self._generators[i].random(block)
             self._cursor[i] = 0
-        return self._buffer[self._rows, self._cursor]
+        return self._buffer[self._cursor, self._rows]
 
     def _advance(self, ended: np.ndarray | None) -> None:
         """Past the uniforms of the copies that started a new episode (all if None)."""

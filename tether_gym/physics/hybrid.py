@@ -382,7 +382,7 @@ def _contact(
     return PuckState(cx, cy, vx, vy, angle, w), False, t, False, wall_hits, n_points
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, rest_length, k):
     """One bounce from plain floats, in the launch frame: (state, bounced, completed,
     contact_time), the state the `PuckState` at the slack instant (or at tautening if the
@@ -425,7 +425,7 @@ def hybrid_contact_row(
     return after, bounced, completed, t
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def hybrid_contact_among_row(
     state, anchor_x, anchor_y, radius, kappa, offset, mass, rest_length, k, zeta, obstacles,
     points, tolerance,

@@ -1,5 +1,13 @@
 """numba plumbing: which threading layer the parallel kernels use, and the twins of a kernel:
-one per configuration it is built for, and its parallel build."""
+one per configuration it is built for, and its parallel build.
+
+Two conventions keep a first run's compile short. numba links every callee's machine code
+into its caller's and compiles it there again, so a layer of functions costs the whole tree
+under it once more: a wrapper each kernel calls from one place is inlined
+(`inline="always"`), a function called from several places is not (numba would type its body
+at each). And a callee compiles once per distinct argument types, an integer or boolean
+constant being a type of its own: a call passes a flag the same way everywhere, never through
+a default argument left out at some calls."""
 
 from __future__ import annotations
 

@@ -64,7 +64,7 @@ def on_table(origin_x, origin_y, width, height, radius, restitution, posts, n_po
     )  # fmt: skip
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def clearance(o, x, y):
     """(gap, which): how far (m) the centre of mass at (x, y) is from the nearest obstacle's
     reach (< 0 inside it), and which obstacle: a wall (0 to 3, `events.LEFT` ...) or POST + j."""

@@ -21,6 +21,7 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from tether_gym.agents.saved import read_config
+from tether_gym.agents.warm import env_kernels
 from tether_gym.arguments import check_env, did_you_mean
 from tether_gym.evaluation.reports import format_table
 from tether_gym.evaluation.results import EvalResult, NavigationResult
@@ -195,7 +196,8 @@ def train(
     to `report`; at the end `last/` is saved and the final table of the
     policy and the `baselines` is written to `results.md` (and `results.json`, which
     `tether_gym.training.summary` reads). On KeyboardInterrupt `last/` is saved and the
-    interrupt propagates. Runs on `threads` torch threads (`use_threads`).
+    interrupt propagates. Runs on `threads` torch threads (`use_threads`). The env's kernels
+    compile (`agents.warm.env_kernels`) before the clock starts: `train_seconds` is training.
 
     Returns:
         The summary: `run_dir`, `timesteps`, `train_seconds`, `best_eval_success_rate`,
@@ -222,6 +224,7 @@ def train(
     checkpoints = Checkpoints(run_dir, config)
     callback = YardstickEvalCallback(checkpoints, best, report)
     remaining = config.timesteps - start_timesteps
+    env_kernels(config.env_id, config.env_kwargs)  # a first run compiles them: not training
     print(f"training {label(config)} for {remaining:,} timesteps into {run_dir}", flush=True)
     start = time.perf_counter()
     if not resume:

@@ -54,6 +54,34 @@ class Countdown(Kernel):
         return state, self._observe(state), out
 
 
+class Recorded(Countdown):
+    """`Countdown` noting whether each batch of uniforms it is handed is C-contiguous."""
+
+    def __init__(self):
+        self.contiguous: list[bool] = []
+
+    def reset(self, uniforms):
+        self.contiguous.append(uniforms.flags.c_contiguous)
+        return super().reset(uniforms)
+
+    def step_autoreset(self, state, obs, actions, uniforms):
+        self.contiguous.append(uniforms.flags.c_contiguous)
+        return super().step_autoreset(state, obs, actions, uniforms)
+
+
+def test_the_copies_uniforms_come_c_contiguous_in_step_or_parted():
+    """A compiled kernel builds once per array layout: the vector env hands it one
+    C-contiguous block of uniforms while its copies are in step (a view) and once they part
+    (a gather)."""
+    kernel, rng = Recorded(), np.random.default_rng(0)
+    vector = KernelVectorEnv(kernel, 5, block=4)
+    vector.reset(seed=3)
+    for _ in range(30):
+        vector.step(rng.uniform(-1, 1, (5, 1)).astype(np.float32))
+    assert isinstance(vector._cursor, np.ndarray)  # the copies parted
+    assert len(kernel.contiguous) > 30 and all(kernel.contiguous)
+
+
 def test_vector_copies_see_the_single_envs_episodes_of_every_length():
     n, seed, steps = 5, 3, 60
     vector = KernelVectorEnv(Countdown(), n, block=4)  # blocks run out at different times

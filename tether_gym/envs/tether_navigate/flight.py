@@ -172,7 +172,7 @@ def _wheel_plan(s, p, ax, ay, length, alpha):
     clearance = contact_clearance(s, p)
     elapsed, hits = 0.0, 0
     while True:
-        t_end, t_wall, wall, t_post = stretch_end(puck, s, elapsed)
+        t_end, t_wall, wall, t_post = stretch_end(puck, s, elapsed, True)
         t, rate, target = _wheel_target(
             puck, ax, ay, length, alpha, elapsed, t_end, p.wheel_rate, clearance
         )
@@ -208,7 +208,7 @@ def fly(s, p, ax, ay, length, alpha, out):
     n = path_point(out, 0, puck.x, puck.y)
     elapsed, hits = 0.0, 0
     while True:
-        t_end, t_wall, wall, t_post = stretch_end(puck, s, elapsed)
+        t_end, t_wall, wall, t_post = stretch_end(puck, s, elapsed, True)
         on_target = hits == target_hits
         t = time_to_taut_row(puck, ax, ay, length, ARM, target_t if on_target else t_end)
         # the target itself, where the search lands on it within its refinement
@@ -256,7 +256,7 @@ def coast(puck, s, p, gx, gy, out, n):
     for k in range(COAST_STRETCHES):
         for j in range(6):
             starts[k, j] = puck[j]
-        t_end, t_wall, wall, t_post = stretch_end(puck, s, elapsed)
+        t_end, t_wall, wall, t_post = stretch_end(puck, s, elapsed, True)
         t_end = min(t_end, PATH_TIME - elapsed)
         v2 = puck.vx * puck.vx + puck.vy * puck.vy
         t = (gx - puck.x) * puck.vx + (gy - puck.y) * puck.vy

@@ -28,7 +28,7 @@ from tether_gym.physics.state import PuckState
 
 
 @numba.njit(cache=True)
-def first_post_hit(puck, posts, n_posts, t_end, touching=True):
+def first_post_hit(puck, posts, n_posts, t_end, touching):
     """When the puck's rim first touches a post within [0, t_end] (inf if never). With
     `touching`, the env's physics: 0 for a puck that touches one or is inside one at the start,
     whichever way it moves. Without, only a crossing into a post counts (the planners'
@@ -54,7 +54,7 @@ def first_post_hit(puck, posts, n_posts, t_end, touching=True):
 
 
 @numba.njit(cache=True)
-def stretch_end(puck, s, elapsed, touching=True):
+def stretch_end(puck, s, elapsed, touching):
     """(t_end, t_wall, wall, t_post): the end of the flight's current straight stretch (`puck`
     at its start, `elapsed` s after the decision, among state `s`'s posts), at the next wall,
     the flight horizon or a post (`first_post_hit`), whichever comes first."""
@@ -65,7 +65,7 @@ def stretch_end(puck, s, elapsed, touching=True):
 
 
 @numba.njit(cache=True)
-def flight_stretches(s, wall_restitution, starts, elapsed, lengths, touching=True):
+def flight_stretches(s, wall_restitution, starts, elapsed, lengths, touching):
     """The first len(lengths) straight stretches of the flight from state `s`, wall bounces
     between them: their start states into `starts` (k, 6) (`PuckState`'s fields), their start
     from the decision into `elapsed` and their lengths into `lengths`; (how many the flight

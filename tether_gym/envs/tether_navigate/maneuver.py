@@ -31,11 +31,12 @@ from tether_gym.physics.geometry import fold_angle
 from tether_gym.physics.hybrid import damping_ratio, hybrid_contact_among_row
 from tether_gym.physics.impulse import impulse_contact_row
 from tether_gym.physics.jit import twin
+from tether_gym.physics.models import DYNAMICS
 from tether_gym.physics.obstacles import on_table
 from tether_gym.tasks import navigate as task
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def impulse_contact(puck, s, p, ax, ay, length, e, out, n):
     """The contact of `puck` on the tether from peg (ax, ay) in the impulse model, instantaneous:
     (puck after, bounced, completed, hit a post, wall hits, path points drawn)."""
@@ -45,7 +46,7 @@ def impulse_contact(puck, s, p, ax, ay, length, e, out, n):
     return puck, bounced, completed, False, 0, 0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def hybrid_contact(puck, s, p, ax, ay, length, e, out, n):
     """`impulse_contact` integrated in the hybrid model among the table's walls and posts, its
     arc drawn into the path of outcome row `out` from point n."""
@@ -80,7 +81,7 @@ def maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out):
     out[OUT.taut_velocity], out[OUT.taut_velocity + 1] = puck.vx, puck.vy
     out[OUT.taut_angle], out[OUT.taut_spin] = puck.angle, puck.spin
     if taut:  # a tautening touching a post is a post hit: no contact
-        hit_post = first_post_hit(puck, s.posts, s.n_posts, 0.0) == 0.0
+        hit_post = first_post_hit(puck, s.posts, s.n_posts, 0.0, True) == 0.0
     if taut and not hit_post:
         heading = math.atan2(puck.vy, puck.vx)
         rx, ry = ARM * math.cos(puck.angle), ARM * math.sin(puck.angle)
@@ -123,8 +124,11 @@ def maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out):
 
 
 MANEUVERS = {
-    IMPULSE: numba.njit(cache=True)(twin(maneuver, "impulse", _contact=impulse_contact)),
-    HYBRID: numba.njit(cache=True)(twin(maneuver, "hybrid", _contact=hybrid_contact)),
+    dynamics: numba.njit(cache=True, inline="always")(
+        twin(maneuver, DYNAMICS[dynamics], _contact=contact)
+    )
+    for dynamics, contact in ((IMPULSE, impulse_contact), (HYBRID, hybrid_contact))
 }
 """dynamics code -> `maneuver` compiled for it (`physics.jit.twin`): a first step compiles the
-contact its env plays, not both."""
+contact its env plays, not both. Inlined into its one caller, as the contacts are
+(`physics.jit`)."""

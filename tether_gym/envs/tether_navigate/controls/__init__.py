@@ -123,7 +123,7 @@ def play(action, s, p, out):
 SOLVERS = {"setup": setup.solve, "velocity": velocity.solve}
 """The compiled set-ups: velocity and aim control share theirs."""
 PLAYS = {
-    (solver, dynamics): numba.njit(cache=True)(
+    (solver, dynamics): numba.njit(cache=True, inline="always")(
         twin(play, f"{solver}_{DYNAMICS[dynamics]}", _solve=solve, _maneuver=maneuver)
     )
     for solver, solve in SOLVERS.items()

@@ -209,7 +209,7 @@ def _miss(px, py, ox, oy, gx, gy, speed, weight, table):
             break
         dx, dy = gx - puck.x, gy - puck.y
         t = min(max((dx * puck.vx + dy * puck.vy) / v2, 0.0), t_end)
-        t_post = first_post_hit(puck, posts, len(posts), t_end)
+        t_post = first_post_hit(puck, posts, len(posts), t_end, True)
         d = _norm(dx - min(t, t_post) * puck.vx, dy - min(t, t_post) * puck.vy)
         if d < nearest:
             nearest, blocked = d, t_post <= t
@@ -334,7 +334,7 @@ def _longest_arm(radius, longest):
 
 
 @numba.njit(cache=True)
-def _bounce_on(puck, t, peg, aim, table, wheel, bound=math.inf):
+def _bounce_on(puck, t, peg, aim, table, wheel, bound):
     """`_bounce_at` `t` into the straight stretch starting at `puck`, the commanded speed the
     `Aim`'s fraction of the puck's there, and whether the reaction wheel can meet its offset
     angle there (`flight.wheel_crossing` with the stretch's `Wheel`); `WHEEL_PENALTY` on the
@@ -361,8 +361,8 @@ def _golden(puck, lo, hi, peg, aim, table, wheel):
     """(t, score): the least score in [lo, hi] by golden-section search, one new point a step
     (scored only as far as it decides against the point kept, `_bounce_on`'s bound)."""
     t1, t2 = hi - GOLDEN * (hi - lo), lo + GOLDEN * (hi - lo)
-    m1 = _bounce_on(puck, t1, peg, aim, table, wheel)[0]
-    m2 = _bounce_on(puck, t2, peg, aim, table, wheel)[0]
+    m1 = _bounce_on(puck, t1, peg, aim, table, wheel, math.inf)[0]
+    m2 = _bounce_on(puck, t2, peg, aim, table, wheel, math.inf)[0]
     for _ in range(REFINEMENTS):
         if m1 <= m2:
             hi, t2, m2 = t2, t1, m1
@@ -394,7 +394,7 @@ def _flight(s, p):
     it; `geometry.flight_stretches`), walked once per step: (their start states (k, 6) as
     `PuckState`'s fields, their start from the decision (k,), their lengths (k,))."""
     starts, elapsed, lengths = np.empty((SEGMENTS, 6)), np.empty(SEGMENTS), np.empty(SEGMENTS)
-    count, _ = flight_stretches(s, p.wall_restitution, starts, elapsed, lengths)
+    count, _ = flight_stretches(s, p.wall_restitution, starts, elapsed, lengths, True)
     return starts[:count], elapsed[:count], lengths[:count]
 
 
@@ -463,8 +463,8 @@ def _search_peg(s, p, anchor, flight, aim, stretch, at):
     """`_search` after the closest approach (`stretch`, `at`), anywhere if nothing comes
     after it."""
     found = _search(s, p, anchor, flight, aim, stretch, at)
-    if found.score == math.inf:
-        found = _search(s, p, anchor, flight, aim, 0, 0.0)
+    if found.score == math.inf:  # np.int64: a literal 0 would compile `_search` once more
+        found = _search(s, p, anchor, flight, aim, np.int64(0), 0.0)
     return found
 
 
@@ -474,7 +474,9 @@ def _refine(s, p, found, aim):
     golden-section refinement of a peg's grid search `found`."""
     table = Table(s.posts[: s.n_posts], p.wall_restitution)
     t, score = _golden(found.puck, found.low, found.high, found.peg, aim, table, found.wheel)
-    _, miss, length, arm, e, turns = _bounce_on(found.puck, t, found.peg, aim, table, found.wheel)
+    _, miss, length, arm, e, turns = _bounce_on(
+        found.puck, t, found.peg, aim, table, found.wheel, math.inf
+    )
     return score, miss, length, arm, e, turns
 
 
@@ -489,12 +491,9 @@ def solve(action, s, p, out):
     aim = _command(action, 1 if pick else 0)
     flight = _flight(s, p)
     stretch, at = _closest_approach(flight, aim.x, aim.y)
-    if pick:
-        anchor = second = _pick_peg(s, action[0])
-        found = runner = _search_peg(s, p, anchor, flight, aim, stretch, at)
-    else:
-        anchor, found = 0, _search_peg(s, p, 0, flight, aim, stretch, at)
-        second, runner = 0, found
+    anchor = second = _pick_peg(s, action[0]) if pick else 0
+    found = runner = _search_peg(s, p, anchor, flight, aim, stretch, at)
+    if not pick:
         for j in range(1, s.n_anchors):
             other = _search_peg(s, p, j, flight, aim, stretch, at)
             if other.score < found.score:
