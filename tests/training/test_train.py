@@ -112,7 +112,7 @@ def test_train_runs_a_config_as_the_cli_does(tmp_path, monkeypatch):
     folder = tmp_path / "trial"
     reports: list[dict] = []
     summary = train.train(config, folder, report=reports.append)
-    assert built == [("TetherBounce-v0", {"rho": [20.0, 200.0]})]
+    assert built == [("TetherBounce-v0", {"rho": [20.0, 200.0]}, (8, 40))]
     assert [r["timesteps"] for r in reports] == [512, 1024]
     assert summary["best_eval_success_rate"] == max(r["success_rate"] for r in reports)
     assert yaml.safe_load((folder / "config.yaml").read_text()) == config.as_dict()

@@ -48,11 +48,14 @@ def _steps(env_id: str, kwargs: dict, copies: int | None) -> dict:
     return obs
 
 
-def env_kernels(env_id: str, kwargs: dict) -> None:
-    """Compile (or load from the cache) every kernel one env build can run: its single step,
-    and its vector step with autoreset, serial and across threads."""
-    for copies in (None, 4, PARALLEL_COPIES):
-        _steps(env_id, kwargs, copies)
+def env_kernels(
+    env_id: str, kwargs: dict, copies: Sequence[int | None] = (None, 4, PARALLEL_COPIES)
+) -> None:
+    """Compile (or load from the cache) the kernels of one env build that its single env
+    (None) and vector envs of these `copies` run; by default every one it can run: the single
+    step, and the vector step with autoreset, serial and across threads."""
+    for count in copies:
+        _steps(env_id, kwargs, count)
 
 
 def single() -> None:

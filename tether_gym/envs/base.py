@@ -292,15 +292,15 @@ class KernelVectorEnv(VectorEnv):
     def _uniforms(self) -> np.ndarray:
         """Every copy's next episode's uniforms, (num_envs, n_uniforms); they stay the next ones
         until `_advance` moves past them (after a step that did not raise)."""
-        block = self._buffer.shape[::2]
+        shape = self._buffer.shape[::2]  # one copy's block: (block, n_uniforms)
         if isinstance(self._cursor, int):
             if self._cursor == self._block:
                 for i, generator in enumerate(self._generators):
-                    self._buffer[:, i] = generator.random(block)
+                    self._buffer[:, i] = generator.random(shape)
                 self._cursor = 0
             return self._buffer[self._cursor]
         for i in np.flatnonzero(self._cursor == self._block):
-            self._buffer[:, i] = self._generators[i].random(block)
+            self._buffer[:, i] = self._generators[i].random(shape)
             self._cursor[i] = 0
         return self._buffer[self._cursor, self._rows]
 

@@ -26,7 +26,7 @@ from tether_gym.arguments import check_env, did_you_mean
 from tether_gym.evaluation.reports import format_table
 from tether_gym.evaluation.results import EvalResult, NavigationResult
 from tether_gym.evaluation.runner import evaluate
-from tether_gym.seeds import EVAL_SEED, TEST_SEED
+from tether_gym.seeds import EVAL_SEED, EVALUATION_BATCH, TEST_SEED
 from tether_gym.training.callbacks import Report, YardstickEvalCallback
 from tether_gym.training.config import RunConfig
 from tether_gym.training.folders import (
@@ -196,8 +196,9 @@ def train(
     to `report`; at the end `last/` is saved and the final table of the
     policy and the `baselines` is written to `results.md` (and `results.json`, which
     `tether_gym.training.summary` reads). On KeyboardInterrupt `last/` is saved and the
-    interrupt propagates. Runs on `threads` torch threads (`use_threads`). The env's kernels
-    compile (`agents.warm.env_kernels`) before the clock starts: `train_seconds` is training.
+    interrupt propagates. Runs on `threads` torch threads (`use_threads`). The kernels of its
+    training and evaluation envs compile (`agents.warm.env_kernels`) before the clock starts:
+    `train_seconds` is training.
 
     Returns:
         The summary: `run_dir`, `timesteps`, `train_seconds`, `best_eval_success_rate`,
@@ -224,7 +225,8 @@ def train(
     checkpoints = Checkpoints(run_dir, config)
     callback = YardstickEvalCallback(checkpoints, best, report)
     remaining = config.timesteps - start_timesteps
-    env_kernels(config.env_id, config.env_kwargs)  # a first run compiles them: not training
+    copies = (config.n_envs, min(config.eval_episodes, EVALUATION_BATCH))  # training, evaluation
+    env_kernels(config.env_id, config.env_kwargs, copies)  # a first run compiles: not training
     print(f"training {label(config)} for {remaining:,} timesteps into {run_dir}", flush=True)
     start = time.perf_counter()
     if not resume:
