@@ -5,7 +5,7 @@ and the learning curves (success on the evaluation episodes against timesteps). 
 (and a policy with a planner inside) are played anew when the summary is made, so it shows
 today's planners.
 
-    python benchmarks/baselines.py --algo sac --env TetherNavigate_PostsReachSparse-v2 \
+    python benchmarks/baselines.py --algo sac --env TetherNavigate_PostsReachSparse-v3 \
         --env-kwargs control:aim --timesteps 200000 [--seeds 5] [--jobs 2] [--num-threads 1] \
         [--runs-dir runs/baselines] [--out results/baselines] [--overwrite]
     python benchmarks/baselines.py --plot results/baselines/A.json results/baselines/B.json \
@@ -205,7 +205,7 @@ def plot(summaries: list[dict], path: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--algo", choices=("ppo", "sac"), default="ppo")
-    parser.add_argument("--env", default="TetherNavigate_PostsReach-v2")
+    parser.add_argument("--env", default="TetherNavigate_PostsReach-v3")
     parser.add_argument("--env-kwargs", nargs="*", default=[], metavar="KEY:VALUE")
     parser.add_argument("--hyperparams", nargs="*", default=[], metavar="KEY:VALUE")
     parser.add_argument("--timesteps", type=int, default=1_500_000)

@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-NAVIGATE = "TetherNavigate_PostsReach-v2"
+NAVIGATE = "TetherNavigate_PostsReach-v3"
 
 _STEP = """
 import gymnasium as gym

@@ -2,7 +2,7 @@
 stable-baselines3 only (SB3's own `MultiInputPolicy` and `HerReplayBuffer`, nothing of
 `tether_gym.training`), then the success of the deterministic policy on fresh episodes.
 
-    python benchmarks/her_outside.py [--env TetherNavigate_OpenReachSparse-v2]
+    python benchmarks/her_outside.py [--env TetherNavigate_OpenReachSparse-v3]
         [--control aim] [--timesteps 100000] [--episodes 500] [--seed 0] [--json PATH]
 
 The one setting the env asks for is `copy_info_dict=True`: the reward of a relabeled goal needs
@@ -38,7 +38,7 @@ def success_rate(model, env_id: str, control: str, episodes: int, seed: int) -> 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--env", default="TetherNavigate_OpenReachSparse-v2")
+    parser.add_argument("--env", default="TetherNavigate_OpenReachSparse-v3")
     parser.add_argument("--control", default="aim")
     parser.add_argument("--timesteps", type=int, default=100_000)
     parser.add_argument("--episodes", type=int, default=500)

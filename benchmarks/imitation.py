@@ -2,7 +2,7 @@
 behind the aim-control baselines' ceiling (PPO, and PPO from the search's demonstrations, stay
 level with the direct shot).
 
-    python benchmarks/imitation.py [--env TetherNavigate_PostsReach-v2] [--states 80000]
+    python benchmarks/imitation.py [--env TetherNavigate_PostsReach-v3] [--states 80000]
         [--held-out 10000] [--seeds 3] [--epochs 60] [--json results/imitation/ID.json]
         [--overwrite]
 
@@ -142,7 +142,7 @@ def rates(picks: np.ndarray, best: np.ndarray) -> dict[str, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--env", default="TetherNavigate_PostsReach-v2")
+    parser.add_argument("--env", default="TetherNavigate_PostsReach-v3")
     parser.add_argument("--states", type=int, default=80_000)
     parser.add_argument("--held-out", type=int, default=10_000)
     parser.add_argument("--seeds", type=int, default=3, help="network seeds per input")

@@ -1,6 +1,6 @@
 """The navigation planners' decisions per second, and their implementations' agreement and
 success, in one run: greedy and lookahead, reach and stop among 3 posts (the ladder's
-`TetherNavigate_Posts{Reach,Stop}-v2`, setup control), at batch 1 and a large batch, on one core.
+`TetherNavigate_Posts{Reach,Stop}-v3`, setup control), at batch 1 and a large batch, on one core.
 
     python benchmarks/planners.py [--implementations numpy ...] [--batches 1 256] [--repeats 5]
         [--agreement 10000] [--episodes 1000] [--out results/planners/decisions.json] [--quick]
@@ -51,7 +51,7 @@ from tether_gym.envs.tether_navigate.spaces import observe_all  # noqa: E402
 from tether_gym.evaluation.runner import evaluate  # noqa: E402
 from tether_gym.seeds import TEST_SEED  # noqa: E402
 
-TASKS = {"reach": "TetherNavigate_PostsReach-v2", "stop": "TetherNavigate_PostsStop-v2"}
+TASKS = {"reach": "TetherNavigate_PostsReach-v3", "stop": "TetherNavigate_PostsStop-v3"}
 PLANNERS = {"greedy": GreedyPlanner, "lookahead": LookaheadPlanner}
 SETUP = {"control": "setup"}
 DECISIONS_PER_COPY = 25

@@ -93,7 +93,7 @@ CLASSES = {
 
 
 def env_id(rung: str) -> str:
-    return f"TetherNavigate_{rung}Reach-v2"
+    return f"TetherNavigate_{rung}Reach-v3"
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ joined to one row per entry (`JoinTableRows`, a griffe extension in mkdocs.yml).
 A page (or the README) writes a placeholder, a call of one of `MACROS` with literal arguments:
 
     {{ success_table({"results/ladder/*_setup.json": "python benchmarks/ladder.py"}) }}
-    {{ cli_help("tether-train --env TetherNavigate-v2") }}
+    {{ cli_help("tether-train --env TetherNavigate-v3") }}
 
 MkDocs runs this file as a hook (`hooks:` in mkdocs.yml): `on_page_markdown` replaces every
 placeholder of a page with its Markdown before the page is rendered, so no number on a results
@@ -476,7 +476,7 @@ def help_parser(command: str) -> argparse.ArgumentParser:
     """The argparse parser that `command --help` prints the help of.
 
     `command` is the program and any arguments before `--help`, e.g. `"tether-train --env
-    TetherNavigate-v2"`; `"python -m tether_gym.agents.record"` runs that module's `main`.
+    TetherNavigate-v3"`; `"python -m tether_gym.agents.record"` runs that module's `main`.
     Any `main` that builds its parsers with argparse works, subcommands included (`"tether
     train"` gives the subcommand's parser): the parser is caught where it would print.
     """

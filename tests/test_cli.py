@@ -90,7 +90,7 @@ def test_help_lists_both_envs_arguments_from_their_docstrings(command, capsys):
         mains[command] = sweep.main
     out = help_text(mains[command], [], capsys)
     assert "TetherBounce-v0 (TetherBounceEnv) takes" in out
-    assert "TetherNavigate-v2 (TetherNavigateEnv) takes" in out
+    assert "TetherNavigate-v3 (TetherNavigateEnv) takes" in out
     for name in (*BOUNCE_ARGUMENTS, *NAVIGATE_ARGUMENTS):
         assert f"| {name}" in out
 
@@ -98,8 +98,8 @@ def test_help_lists_both_envs_arguments_from_their_docstrings(command, capsys):
 @pytest.mark.parametrize("main", [training.main, evaluate.main], ids=["train", "evaluate"])
 def test_help_with_env_shows_that_envs_arguments(main, capsys):
     pytest.importorskip("stable_baselines3")
-    out = help_text(main, ["--env", "TetherNavigate_WallStop-v2"], capsys)
-    assert "TetherNavigate_WallStop-v2 (TetherNavigateEnv) takes" in out
+    out = help_text(main, ["--env", "TetherNavigate_WallStop-v3"], capsys)
+    assert "TetherNavigate_WallStop-v3 (TetherNavigateEnv) takes" in out
     assert "registered with layout=<a text map>, task='stop'" in out
     assert all(f"| {name}" in out for name in NAVIGATE_ARGUMENTS)
     assert "TetherBounce-v0 (TetherBounceEnv)" not in out
@@ -107,9 +107,9 @@ def test_help_with_env_shows_that_envs_arguments(main, capsys):
 
 def test_an_unknown_env_kwargs_key_is_one_line_with_a_suggestion_and_the_valid_ones(capsys):
     with pytest.raises(SystemExit):
-        evaluate.main(["--env", "TetherNavigate-v2", "--env-kwargs", "n_obstacle:3"])
+        evaluate.main(["--env", "TetherNavigate-v3", "--env-kwargs", "n_obstacle:3"])
     err = capsys.readouterr().err
-    assert err.startswith("tether-evaluate: error: TetherNavigate-v2 has no argument 'n_obstacle' ")
+    assert err.startswith("tether-evaluate: error: TetherNavigate-v3 has no argument 'n_obstacle' ")
     assert "(did you mean 'n_obstacles'?); its arguments: task, " in err and "layout" in err
     assert err.count("\n") == 1 and "usage:" not in err and "--help` lists the options" in err
     with pytest.raises(ValueError, match="has no argument 'n_anchors'; its arguments: task, dyn"):

@@ -155,8 +155,8 @@ def test_a_cycle_is_found_and_named():
 def test_env_config_parses_an_ids_arguments_once_over_its_registration():
     from tether_gym.families import env_config
 
-    stop = env_config("TetherNavigate_PostsStop-v2", {"control": "aim"})
+    stop = env_config("TetherNavigate_PostsStop-v3", {"control": "aim"})
     assert (stop.task, stop.control, stop.coast) == ("stop", "aim", False)
     assert env_config("TetherBounce-v0", {"task": "heading"}).task == "heading"
     with pytest.raises(ValueError, match="control"):
-        env_config("TetherNavigate-v2", {"control": "steer"})
+        env_config("TetherNavigate-v3", {"control": "steer"})

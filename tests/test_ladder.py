@@ -17,7 +17,7 @@ def test_every_rung_task_and_reward_is_registered_with_its_arguments():
         config = env.unwrapped.config
         assert config.task == kwargs["task"] and config.reward_type == kwargs["reward_type"]
         assert (config.task == "stop") == ("Stop" in env_id)
-        assert (config.reward_type == "sparse") == env_id.endswith("Sparse-v2")
+        assert (config.reward_type == "sparse") == env_id.endswith("Sparse-v3")
         obs, _ = env.reset(seed=0)
         assert env.observation_space.contains(obs)
 

@@ -1,8 +1,8 @@
 """tether_gym: a Gymnasium workbench for bouncing a tethered planar puck.
 
 Importing the package registers `TetherBounce-v0` (one bounce per episode),
-`TetherNavigate-v2` / `TetherNavigateSparse-v2` (maneuvering to a goal) and the navigation
-ladder's `TetherNavigate_{Open,Posts,Wall}{Reach,Stop}[Sparse]-v2`
+`TetherNavigate-v3` / `TetherNavigateSparse-v3` (maneuvering to a goal) and the navigation
+ladder's `TetherNavigate_{Open,Posts,Wall}{Reach,Stop}[Sparse]-v3`
 (`tether_gym.ladder`), each with a native vector env and its family's entry point
 (`tether_gym.families`). It also drops numba's cached kernels if the sources they were built
 from changed (`tether_gym.kernel_cache`).

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
+from gymnasium.envs.registration import find_highest_version, get_env_id, parse_env_id
 
 from tether_gym.ladder import VERSION
 
@@ -127,6 +128,17 @@ def family(env_id: str) -> Family:
         if candidate.entry_point == entry_point:
             return candidate
     raise ValueError(f"{env_id!r} ({entry_point}) is in no env family; the families: {known}")
+
+
+def current_id(env_id: str) -> str:
+    """The id a recorded `env_id` (a model card's, a saved run's) plays today: itself, or for an
+    older version of a registered env the newest version, the one Gymnasium would name in its
+    deprecation error (the ids of an older version are not registered)."""
+    namespace, name, version = parse_env_id(env_id)
+    newest = find_highest_version(namespace, name)
+    if version is None or newest is None or newest <= version:
+        return env_id
+    return get_env_id(namespace, name, newest)
 
 
 def env_config(env_id: str, env_kwargs: Mapping[str, Any] | None = None) -> Any:

@@ -26,12 +26,12 @@ RUNGS = {
 """The rungs, easiest first: 6 pegs drawn with no post; with 3 posts; a fixed wall."""
 TASKS = {"Reach": "reach", "Stop": "stop"}
 REWARDS = {"": "dense", "Sparse": "sparse"}
-VERSION = 2
+VERSION = 3
 """TetherNavigate's version, every id's suffix (the Version History in its docstring)."""
 
 
 def ids() -> dict[str, dict]:
-    """Every ladder id with its keyword arguments: `TetherNavigate_{rung}{task}{Sparse}-v2`."""
+    """Every ladder id with its keyword arguments: `TetherNavigate_{rung}{task}{Sparse}-v3`."""
     return {
         f"TetherNavigate_{rung}{task}{suffix}-v{VERSION}": {
             **kwargs, "task": task_name, "reward_type": reward_type,

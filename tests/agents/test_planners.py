@@ -55,7 +55,7 @@ SHOTS = [
 def test_the_inverse_map_sends_the_puck_through_the_goal(options, dynamics, tolerance):
     """A peg placed for a bank shot: the greedy planner's first maneuver leaves on the line
     through the goal (exactly on the impulse model it predicts with), the next one reaches it."""
-    env = gym.make("TetherNavigate-v2", dynamics=dynamics)
+    env = gym.make("TetherNavigate-v3", dynamics=dynamics)
     planner = GreedyPlanner({"dynamics": dynamics})
     obs, _ = env.reset(seed=0, options=options)
     obs, _, _, _, info = env.step(planner.predict(obs)[0])
@@ -69,7 +69,7 @@ def test_the_inverse_map_sends_the_puck_through_the_goal(options, dynamics, tole
 
 
 def test_the_state_is_read_back_from_the_observation():
-    env = gym.make("TetherNavigate-v2", n_obstacles=3, max_maneuvers=4)
+    env = gym.make("TetherNavigate-v3", n_obstacles=3, max_maneuvers=4)
     env.reset(seed=3)
     obs, _, _, _, info = env.step(np.array([0.3, -0.2, 0.5, 0.1], dtype=np.float32))
     assert info["bounced"] and info["spin"] != 0
@@ -90,7 +90,7 @@ def test_the_state_is_read_back_from_the_observation():
 def test_predict_takes_one_observation_or_a_batch(planner, implementation):
     """SB3's signature; the bearing points at a peg (the kernel hooks the nearest bearing)."""
     agent = planner({"task": "stop", "n_obstacles": 2}, implementation=implementation)
-    vector = vector_env("TetherNavigate-v2", 5, task="stop", n_obstacles=2)
+    vector = vector_env("TetherNavigate-v3", 5, task="stop", n_obstacles=2)
     batch, _ = vector.reset(seed=3)
     actions, state = agent.predict(batch, state=None, episode_start=None, deterministic=True)
     assert actions.shape == (5, 4) and actions.dtype == np.float32 and state is None
@@ -110,7 +110,7 @@ def test_planners_beat_random_by_a_wide_margin():
     """Reach on the impulse model, 200 seeded episodes: greedy far above random, lookahead
     at least greedy."""
     kwargs = {"dynamics": "impulse"}
-    env_id = "TetherNavigate-v2"
+    env_id = "TetherNavigate-v3"
     agents = {name: make_agent(name, kwargs, env_id=env_id)
               for name in ("greedy", "lookahead", "random")}  # fmt: skip
     greedy, lookahead, random = evaluate(agents, kwargs, 200, seed=0, env_id=env_id)
@@ -123,23 +123,23 @@ def test_planners_beat_random_by_a_wide_margin():
 
 def test_the_navigation_table_prints(capsys, tmp_path):
     csv = tmp_path / "nav.csv"
-    main(["--env", "TetherNavigate-v2", "--agents", "greedy", "random", "--episodes", "30",
+    main(["--env", "TetherNavigate-v3", "--agents", "greedy", "random", "--episodes", "30",
           "--env-kwargs", "dynamics:impulse", "n_obstacles:2", "--no-progress",
           "--csv", str(csv)])  # fmt: skip
     table = capsys.readouterr().out.splitlines()
     assert "maneuvers to goal" in table[0] and "path length (m)" in table[0]
     assert table[2].startswith("| greedy | 30 |") and table[3].startswith("| random | 30 |")
     assert csv.read_text().splitlines()[0].startswith("name,episodes,success_rate,success_ci_low")
-    (result,) = evaluate({"greedy": GreedyPlanner()}, {}, 3, env_id="TetherNavigate-v2")
+    (result,) = evaluate({"greedy": GreedyPlanner()}, {}, 3, env_id="TetherNavigate-v3")
     assert "| greedy | 3 |" in format_table([result]) and result.path_length.shape == (3,)
 
 
 def test_the_navigation_table_shows_no_maneuvers_to_goal_without_a_success():
     (result,) = evaluate(
-        {"random": make_agent("random", {}, env_id="TetherNavigate-v2")},
+        {"random": make_agent("random", {}, env_id="TetherNavigate-v3")},
         {"task": "stop", "max_maneuvers": 1},
         5,
-        env_id="TetherNavigate-v2",
+        env_id="TetherNavigate-v3",
     )
     assert result.success_rate == 0.0, "a random first maneuver does not stop on the goal"
     assert "| random | 5 | 0.0% [0.0, 43.4] | - |" in format_table([result])

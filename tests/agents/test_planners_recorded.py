@@ -19,7 +19,7 @@ from tether_gym.agents.planners import IMPLEMENTATIONS, GreedyPlanner, Lookahead
 from tether_gym.envs.tether_navigate.spaces import OBS, observe_all
 
 FIXTURE = DATA / "planner_decisions.npz"
-TASKS = {"reach": "TetherNavigate_PostsReach-v2", "stop": "TetherNavigate_PostsStop-v2"}
+TASKS = {"reach": "TetherNavigate_PostsReach-v3", "stop": "TetherNavigate_PostsStop-v3"}
 SETUP = {"control": "setup"}
 SAME_ACTION = 1e-6
 """Normalized actions this close in every entry are the same maneuver."""

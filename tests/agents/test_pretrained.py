@@ -79,11 +79,11 @@ def test_evaluate_runs_the_pretrained_agents_by_name(capsys):
 def test_tether_evaluate_plays_the_navigation_agent_of_the_env_s_task(capsys):
     """On TetherNavigate "pretrained" is the shipped agent of the env's task, its planner
     inside; an agent of one env is refused on the other."""
-    main(["--env", "TetherNavigate_OpenStop-v2", "--agents", "pretrained", "greedy",
+    main(["--env", "TetherNavigate_OpenStop-v3", "--agents", "pretrained", "greedy",
           "--episodes", "10", "--no-progress-bar"])  # fmt: skip
     assert "| pretrained | 10 |" in capsys.readouterr().out
-    for env_id, task in (("TetherNavigate_PostsReach-v2", "reach"),
-                         ("TetherNavigate_WallStop-v2", "stop")):  # fmt: skip
+    for env_id, task in (("TetherNavigate_PostsReach-v3", "reach"),
+                         ("TetherNavigate_WallStop-v3", "stop")):  # fmt: skip
         agent = make_agent("pretrained", {}, env_id=env_id)
         assert isinstance(agent, ProposalAgent) and agent.planner.config.task == task
     card = pretrained.card("pretrained-stop")
@@ -95,7 +95,7 @@ def test_tether_evaluate_plays_the_navigation_agent_of_the_env_s_task(capsys):
     with pytest.raises(ValueError, match="solves"):
         make_agent("pretrained-reach", {}, env_id="TetherBounce-v0")
     with pytest.raises(ValueError, match="solves"):
-        make_agent("pretrained-low-stiffness", {}, env_id="TetherNavigate-v2")
+        make_agent("pretrained-low-stiffness", {}, env_id="TetherNavigate-v3")
 
 
 def test_unknown_names_and_unsupported_runs_are_refused(tmp_path):

@@ -20,14 +20,14 @@ SCRIPT = ROOT / "benchmarks" / "baselines.py"
 @pytest.mark.slow
 def test_seeds_train_once_and_are_summarized_with_their_curves(tmp_path):
     runs, out = tmp_path / "runs", tmp_path / "out"
-    argv = [sys.executable, str(SCRIPT), "--algo", "ppo", "--env", "TetherNavigate_OpenReach-v2",
+    argv = [sys.executable, str(SCRIPT), "--algo", "ppo", "--env", "TetherNavigate_OpenReach-v3",
             "--env-kwargs", "control:aim", "--timesteps", "1024", "--eval-freq", "512",
             "--eval-episodes", "10", "--seeds", "2", "--runs-dir", str(runs), "--out", str(out),
             "--hyperparams", "n_envs:8", "n_steps:64", "batch_size:64", "n_epochs:1"]  # fmt: skip
     subprocess.run(argv, check=True, capture_output=True)
     (summary_file,) = out.glob("*.json")
     summary = json.loads(summary_file.read_text())
-    assert summary["env_id"] == "TetherNavigate_OpenReach-v2" and summary["seeds"] == [0, 1]
+    assert summary["env_id"] == "TetherNavigate_OpenReach-v3" and summary["seeds"] == [0, 1]
     rows = {row["name"]: row for row in summary["results"]}
     policy = rows["PPO (best)"]
     assert len(policy["per_seed"]) == 2 and policy["worst"] == min(policy["per_seed"])

@@ -417,7 +417,7 @@ def test_a_seeds_table_says_each_seed_s_paired_comparison(tmp_path):
     """A summary with `baselines.py --paired` results gets a line per file under its table:
     each seed's wins and losses against the reference, from the file."""
     summary = {
-        "env_id": "TetherNavigate_PostsReach-v2", "env_kwargs": {}, "seeds": [0, 1],
+        "env_id": "TetherNavigate_PostsReach-v3", "env_kwargs": {}, "seeds": [0, 1],
         "timesteps": 1024, "train_seconds": [60.0, 90.0],
         "results": [{"name": "PPO (best)", "success_rate": 0.5, "success_ci": [0.4, 0.6],
                      "worst": 0.45, "episodes": 10}],
@@ -436,7 +436,7 @@ def test_a_ladder_seeds_table_reads_each_summary_s_agent_and_yardsticks(tmp_path
     models over seeds, the planners and random from the same file, and the paired comparison
     counted by seed."""
     summary = {
-        "algo": "ppo", "env_id": "TetherNavigate_OpenStop-v2",
+        "algo": "ppo", "env_id": "TetherNavigate_OpenStop-v3",
         "env_kwargs": {"control": "aim", "coast": True},
         "hyperparams": {"policy": "AimPolicy", "policy_kwargs": "dict(log_std_init=-2.5)"},
         "seeds": [0, 1, 2], "timesteps": 1024, "train_seconds": [60.0, 120.0, 90.0],
@@ -453,7 +453,7 @@ def test_a_ladder_seeds_table_reads_each_summary_s_agent_and_yardsticks(tmp_path
     }  # fmt: skip
     (tmp_path / "summary.json").write_text(json.dumps(summary))
     table = hooks.ladder_seeds_table({"*.json": "python benchmarks/baselines.py"}, root=tmp_path)
-    row = ("| `TetherNavigate_OpenStop-v2` | control:aim coast:True | PPO AimPolicy, "
+    row = ("| `TetherNavigate_OpenStop-v3` | control:aim coast:True | PPO AimPolicy, "
            "policy_kwargs as in the command | 3 | "
            "1,024 | 2 | 50.0% [40.0, 60.0] | 45.0% | 55.1% | 73.1% | 1.2% | "
            "direct 60.0%: ahead on 1, behind on 1 of 3 seeds (p < 0.05) |")  # fmt: skip
@@ -465,7 +465,7 @@ def test_an_imitation_table_reads_each_picker_s_rates(tmp_path):
     with its interval, both over all held-out states and where a detour is needed."""
     seeds = {"mean": 0.5, "ci": [0.4, 0.6], "seeds": [0.45, 0.5, 0.55]}
     result = {
-        "env_id": "TetherNavigate_PostsReach-v2", "teacher": "aim-search", "candidates": 37,
+        "env_id": "TetherNavigate_PostsReach-v3", "teacher": "aim-search", "candidates": 37,
         "states": 1000, "held_out": 100, "detour_share": 0.2,
         "goal_in_best": {"in_best": 0.8, "in_best_detour": 0.0},
         "random_in_best": {"in_best": 0.3, "in_best_detour": 0.1},
@@ -474,7 +474,7 @@ def test_an_imitation_table_reads_each_picker_s_rates(tmp_path):
     (tmp_path / "imitation.json").write_text(json.dumps(result))
     table = hooks.imitation_table({"*.json": "python benchmarks/imitation.py"}, root=tmp_path)
     lines = table.splitlines()
-    prefix = "| `TetherNavigate_PostsReach-v2` | aim-search, 37 | 100 of 1,000 | 20.0% | "
+    prefix = "| `TetherNavigate_PostsReach-v3` | aim-search, 37 | 100 of 1,000 | 20.0% | "
     assert prefix + "always the goal (the direct shot) | 80.0% | 0.0% |" in lines
     assert prefix + "a random candidate | 30.0% | 10.0% |" in lines
     student = "student: observation, 3 seeds | 50.0% [40.0, 60.0] | 50.0% [40.0, 60.0] |"

@@ -171,7 +171,7 @@ def test_the_navigation_agents_load_from_the_wheel_without_training(fresh_venv, 
     bin_dir, site = fresh_venv
     code = (
         "import sys; from tether_gym.agents import pretrained\n"
-        "for env_id in ('TetherNavigate_PostsReach-v2', 'TetherNavigate_OpenStop-v2'):\n"
+        "for env_id in ('TetherNavigate_PostsReach-v3', 'TetherNavigate_OpenStop-v3'):\n"
         "    agent = pretrained.load(pretrained.for_env('pretrained', env_id, {}))\n"
         "    print(type(agent).__name__, agent.planner.config.task)\n"
         "print(pretrained.__file__, any(m.startswith('tether_gym.training') for m in sys.modules))"

@@ -165,7 +165,7 @@ def test_gif_command_writes_an_animation_and_keeps_existing_files(tmp_path, caps
     assert gif.read_bytes() != written
 
 
-# ---- TetherNavigate-v2 -----------------------------------------------------------------------
+# ---- TetherNavigate-v3 -----------------------------------------------------------------------
 
 TABLE = {
     "start": (1.2, 0.5),
@@ -183,7 +183,7 @@ PER_METRE = navigate_rendering.SCALE
 
 
 def maneuver_frames(render_mode="rgb_array_list", **options):
-    env = gym.make("TetherNavigate-v2", render_mode=render_mode)
+    env = gym.make("TetherNavigate-v3", render_mode=render_mode)
     env.reset(seed=0, options={**TABLE, **options})
     _, _, _, _, info = env.step(LONG_TETHER)
     return env, env.render(), info
@@ -251,7 +251,7 @@ def test_a_tether_that_never_goes_taut_is_never_drawn_taut():
 
 
 def test_navigate_rgb_array_is_the_latest_frame():
-    env = gym.make("TetherNavigate-v2", render_mode="rgb_array")
+    env = gym.make("TetherNavigate-v3", render_mode="rgb_array")
     env.reset(seed=0, options=TABLE)
     reset_frame = env.render()
     env.step(LONG_TETHER)
@@ -263,7 +263,7 @@ def test_navigate_rgb_array_is_the_latest_frame():
 
 
 def test_navigate_human_mode_plays_the_maneuver():
-    env = gym.make("TetherNavigate-v2", render_mode="human")
+    env = gym.make("TetherNavigate-v3", render_mode="human")
     env.reset(seed=0, options=TABLE)
     start = time.perf_counter()
     env.step(LONG_TETHER)
@@ -277,9 +277,9 @@ def test_navigate_human_mode_plays_the_maneuver():
 def test_navigate_passes_check_env_with_rendering():
     from gymnasium.utils.env_checker import check_env
 
-    check_env(gym.make("TetherNavigate-v2", render_mode="rgb_array").unwrapped)
+    check_env(gym.make("TetherNavigate-v3", render_mode="rgb_array").unwrapped)
     with pytest.raises(ValueError, match="render_mode"):
-        gym.make_vec("TetherNavigate-v2", 2, "vector_entry_point", render_mode="rgb_array")
+        gym.make_vec("TetherNavigate-v3", 2, "vector_entry_point", render_mode="rgb_array")
 
 
 @pytest.mark.parametrize("agent", ["random", "greedy"])
@@ -287,7 +287,7 @@ def test_gif_command_records_tether_navigate(tmp_path, agent):
     from PIL import Image
 
     gif = tmp_path / "navigate.gif"
-    args = ["--env", "TetherNavigate-v2", "--agent", agent, "--episodes", "1"]
+    args = ["--env", "TetherNavigate-v3", "--agent", agent, "--episodes", "1"]
     record.main([*args, "--out", str(gif), "--size", "96", "--fps", "10"])
     with Image.open(gif) as image:
         assert image.size == (96, 60) and image.n_frames > 5
@@ -297,7 +297,7 @@ def test_a_coast_to_the_aim_is_drawn_after_the_release():
     """With `coast`, after the taut tether the puck glides, no tether drawn, along the
     maneuver's path (off a wall if it goes there) from the release to its closest approach to
     the aim, where the maneuver's last frame holds it."""
-    env = gym.make("TetherNavigate_OpenReach-v2", control="aim", coast=True,
+    env = gym.make("TetherNavigate_OpenReach-v3", control="aim", coast=True,
                    render_mode="rgb_array_list")  # fmt: skip
     env.reset(seed=0)
     _, _, _, _, info = env.step(np.array([0.0, 0.0, 1.0], np.float32))  # the table's centre
@@ -321,7 +321,7 @@ def test_a_contact_is_drawn_along_its_arc_and_its_wall_bounces_are_not_the_fligh
     """A soft tether (rho 10) whose contacts swing the puck into a wall: the drawn flight ends
     at the tautening, the contact follows the arc the path draws, and without `coast` nothing
     is drawn after the release."""
-    env = gym.make("TetherNavigate_OpenReach-v2", rho=10.0)
+    env = gym.make("TetherNavigate_OpenReach-v3", rho=10.0)
     kernel, rng = env.unwrapped.kernel, np.random.default_rng(0)
     checked = 0
     for seed in range(40):

@@ -180,7 +180,7 @@ def test_cli_rejects_bad_options(tmp_path):
 @pytest.mark.parametrize(
     ("env", "names"),
     [("TetherBounce-v0", "oracle, shooting, pretrained, pretrained-low-stiffness, random"),
-     ("TetherNavigate-v2", "greedy, lookahead, pretrained, pretrained-reach, pretrained-stop, "
+     ("TetherNavigate-v3", "greedy, lookahead, pretrained, pretrained-reach, pretrained-stop, "
                            "aim-search, direct, random")],
 )  # fmt: skip
 def test_an_unknown_agent_name_lists_the_names_the_env_takes(capsys, env, names):
@@ -200,17 +200,17 @@ def test_agents_and_plots_are_refused_on_the_wrong_env(tmp_path):
     with pytest.raises(ValueError, match="aim-search"):
         make_agent("aim-search", {})
     with pytest.raises(ValueError, match="oracle"):
-        make_agent("oracle", {}, env_id="TetherNavigate-v2")
+        make_agent("oracle", {}, env_id="TetherNavigate-v3")
     with pytest.raises(SystemExit):
-        main(["--env", "TetherNavigate-v2", "--agents", "shooting", "--episodes", "5",
+        main(["--env", "TetherNavigate-v3", "--agents", "shooting", "--episodes", "5",
               "--no-progress"])  # fmt: skip
     with pytest.raises(SystemExit):
-        main(["--env", "TetherNavigate-v2", "--agents", "random", "--episodes", "5",
+        main(["--env", "TetherNavigate-v3", "--agents", "random", "--episodes", "5",
               "--no-progress", "--plot", str(tmp_path / "p.png")])  # fmt: skip
 
 
-@pytest.mark.parametrize(("env_id", "speed"), [("TetherNavigate_PostsReach-v2", 1.0),
-                                               ("TetherNavigate_OpenStop-v2", 0.0)])  # fmt: skip
+@pytest.mark.parametrize(("env_id", "speed"), [("TetherNavigate_PostsReach-v3", 1.0),
+                                               ("TetherNavigate_OpenStop-v3", 0.0)])  # fmt: skip
 def test_the_direct_shot_aims_at_the_goal_at_its_task_s_speed(env_id, speed):
     env = vector_env(env_id, 8, control="aim")
     obs, _ = env.reset(seed=0)
@@ -227,7 +227,7 @@ def test_the_aim_search_detours_where_the_direct_shot_hits_posts():
     same episodes, fails on few: it reaches the goal on at least half of the direct shot's
     failures, and fails on hardly any the direct shot reaches (its first candidate is the direct
     shot; it may prefer a two-maneuver detour to a longer straight route)."""
-    env_id, agents = "TetherNavigate_PostsReach-v2", {}
+    env_id, agents = "TetherNavigate_PostsReach-v3", {}
     for name in ("aim-search", "direct"):
         agents[name] = make_agent(name, {"coast": True}, env_id=env_id)
     search, direct = evaluate(agents, {"coast": True}, 200, 7, env_id=env_id)
@@ -236,8 +236,8 @@ def test_the_aim_search_detours_where_the_direct_shot_hits_posts():
     assert wins >= 0.5 * 200 * (1 - direct.success_rate) and losses <= 2
 
 
-@pytest.mark.parametrize(("env_id", "kinds"), [("TetherNavigate_PostsReach-v2", {0, 1, 2}),
-                                               ("TetherNavigate_OpenStop-v2", {0, 1})])  # fmt: skip
+@pytest.mark.parametrize(("env_id", "kinds"), [("TetherNavigate_PostsReach-v3", {0, 1, 2}),
+                                               ("TetherNavigate_OpenStop-v3", {0, 1})])  # fmt: skip
 def test_the_aim_search_s_scores_are_what_its_candidates_do_in_the_env(env_id, kinds):
     """Each candidate's score (`benchmarks/imitation.py`'s labels) is what its action does when
     the env plays it from that state: 2 where that maneuver meets the goal, else 1 only where it
@@ -275,12 +275,12 @@ def test_the_aim_search_s_scores_are_what_its_candidates_do_in_the_env(env_id, k
 def test_the_direct_shot_plays_in_aim_control_and_reaches_across_an_open_table():
     """Evaluated on a ladder id in set-up control, the harness plays it in aim control (its
     own); on the open table its shots at the goal reach it nearly always."""
-    (result,) = evaluate({"direct": make_agent("direct", {}, env_id="TetherNavigate_OpenReach-v2")},
-                         {"coast": True}, 100, 5, env_id="TetherNavigate_OpenReach-v2")  # fmt: skip
+    (result,) = evaluate({"direct": make_agent("direct", {}, env_id="TetherNavigate_OpenReach-v3")},
+                         {"coast": True}, 100, 5, env_id="TetherNavigate_OpenReach-v3")  # fmt: skip
     assert result.success_rate > 0.85
 
 
-@pytest.mark.parametrize("env_id", ["TetherBounce-v0", "TetherNavigate_OpenReach-v2"])
+@pytest.mark.parametrize("env_id", ["TetherBounce-v0", "TetherNavigate_OpenReach-v3"])
 def test_the_progress_bar_clock_starts_after_the_first_step(env_id):
     """On a first run the first step compiles the kernels: the bar restarts its clock after
     it (else its ETA freezes at hours), once, and counts every episode."""
@@ -302,7 +302,7 @@ def test_the_progress_bar_clock_starts_after_the_first_step(env_id):
     assert sum(event for event in bar.events if event != "reset") == 5
 
 
-AIM_ENV = ("TetherNavigate_PostsReach-v2", {"control": "aim", "coast": True})
+AIM_ENV = ("TetherNavigate_PostsReach-v3", {"control": "aim", "coast": True})
 
 
 @pytest.fixture(scope="module")

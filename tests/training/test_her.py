@@ -41,7 +41,7 @@ def _transitions(buffer: PathHerReplayBuffer, n: int, seed: int):
 
 @pytest.mark.slow
 def test_reach_goals_lie_on_a_later_path_of_the_episode_and_score_as_the_env_scores_them():
-    model, buffer = _filled_buffer("TetherNavigateSparse-v2")
+    model, buffer = _filled_buffer("TetherNavigateSparse-v3")
     batch, envs = _transitions(buffer, 512, seed=0)
     samples = buffer._get_virtual_samples(batch, envs)
     goals = samples.observations["desired_goal"].numpy().astype(np.float64)
@@ -64,7 +64,7 @@ def test_reach_goals_lie_on_a_later_path_of_the_episode_and_score_as_the_env_sco
 
 @pytest.mark.slow
 def test_stop_goals_are_the_achieved_goals_of_later_steps():
-    _, buffer = _filled_buffer("TetherNavigate_OpenStopSparse-v2")
+    _, buffer = _filled_buffer("TetherNavigate_OpenStopSparse-v3")
     goals = buffer._sample_goals(*_transitions(buffer, 256, seed=1))
     filled = buffer.buffer_size if buffer.full else buffer.pos
     achieved = buffer.next_observations["achieved_goal"][:filled].reshape(-1, 2)
@@ -73,6 +73,6 @@ def test_stop_goals_are_the_achieved_goals_of_later_steps():
 
 
 def test_the_buffer_needs_the_step_info():
-    env = gym.make("TetherNavigateSparse-v2", control="aim")
+    env = gym.make("TetherNavigateSparse-v3", control="aim")
     with pytest.raises(ValueError, match="copy_info_dict=True"):
         SAC("MultiInputPolicy", env, replay_buffer_class=PathHerReplayBuffer)

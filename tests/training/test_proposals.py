@@ -26,7 +26,7 @@ KIND = slice(5, 5 + len(KINDS))
 
 def native_env(n: int, seed: int, **kwargs):
     env = vector_env(
-        "TetherNavigate-v2",
+        "TetherNavigate-v3",
         n,
         **(kwargs or KWARGS),
     )
@@ -64,7 +64,7 @@ def test_the_vec_env_plays_the_picked_proposal_and_the_agent_plays_the_same():
     planner = GreedyPlanner(KWARGS)
     k = 4
     env = proposals.ProposalVecEnv(
-        make_sb3_vec_env(4, seed=7, env_id="TetherNavigate-v2", **KWARGS), planner, k
+        make_sb3_vec_env(4, seed=7, env_id="TetherNavigate-v3", **KWARGS), planner, k
     )
     assert env.action_space == gym.spaces.Discrete(k)
     native, ref = native_env(4, seed=7)
@@ -101,11 +101,11 @@ def test_the_vec_env_plays_the_picked_proposal_and_the_agent_plays_the_same():
 
 @pytest.mark.parametrize(
     ("env", "extra", "message"),
-    [(["--algo", "sac", "--env", "TetherNavigateSparse-v2"], [], "PPO on TetherNavigate only"),
+    [(["--algo", "sac", "--env", "TetherNavigateSparse-v3"], [], "PPO on TetherNavigate only"),
      (["--env", "TetherBounce-v0"], [], "PPO on TetherNavigate only"),
-     (["--env", "TetherNavigate-v2"], ["proposals_k:1"], "proposals_k must be an"),
-     (["--env", "TetherNavigate-v2"], ["residual:greedy"], "not with residual"),
-     (["--env", "TetherNavigate-v2"], ["proposals:lookahead"], "must be 'greedy'")],
+     (["--env", "TetherNavigate-v3"], ["proposals_k:1"], "proposals_k must be an"),
+     (["--env", "TetherNavigate-v3"], ["residual:greedy"], "not with residual"),
+     (["--env", "TetherNavigate-v3"], ["proposals:lookahead"], "must be 'greedy'")],
 )  # fmt: skip
 def test_bad_proposal_settings_name_themselves(tmp_path, capsys, env, extra, message):
     with pytest.raises(SystemExit):
@@ -144,7 +144,7 @@ def scorer_policy(k: int = 4, **policy_kwargs):
     """A `ProposalPolicy` on a proposals env's spaces, and the env's first observations."""
     planner = GreedyPlanner(KWARGS)
     env = proposals.ProposalVecEnv(
-        make_sb3_vec_env(2, seed=5, env_id="TetherNavigate-v2", **KWARGS), planner, k
+        make_sb3_vec_env(2, seed=5, env_id="TetherNavigate-v3", **KWARGS), planner, k
     )
     policy = ProposalPolicy(
         env.observation_space, env.action_space, lambda _: 1e-3, **policy_kwargs
@@ -207,7 +207,7 @@ def test_the_scorer_reads_net_arch_as_sb3_does_and_refuses_another_layout():
 )  # fmt: skip
 def test_the_scorer_policy_needs_proposals_unnormalized(tmp_path, capsys, extra, message):
     # a short run, so that a missing check fails the test rather than trains for long
-    argv = ["--env", "TetherNavigate-v2", "--runs-dir", str(tmp_path), "--timesteps", "64",
+    argv = ["--env", "TetherNavigate-v3", "--runs-dir", str(tmp_path), "--timesteps", "64",
             "--n-envs", "2", "--eval-freq", "0", "--eval-episodes", "2"]  # fmt: skip
     with pytest.raises(SystemExit):
         train.main([*argv, "--hyperparams", "policy:ProposalPolicy", *extra])

@@ -116,8 +116,8 @@ def test_goal_dicts_and_their_final_obs_split_per_copy():
     """TetherNavigate's Dict observations pass through; each finished episode's
     terminal_observation is that copy's slice of the native final_obs dict."""
     kwargs = {"n_obstacles": 2}
-    ours = make_sb3_vec_env(N, seed=4, env_id="TetherNavigate-v2", **kwargs)
-    theirs = vector_env("TetherNavigate-v2", N, **kwargs)
+    ours = make_sb3_vec_env(N, seed=4, env_id="TetherNavigate-v3", **kwargs)
+    theirs = vector_env("TetherNavigate-v3", N, **kwargs)
     obs = ours.reset()
     ref, _ = theirs.reset(seed=4)
     assert set(obs) == {"observation", "achieved_goal", "desired_goal"}
@@ -142,8 +142,8 @@ def test_goal_dicts_and_their_final_obs_split_per_copy():
     assert finished > 0
 
 
-@pytest.mark.parametrize(("env_id", "task"), [("TetherNavigate-v2", "stop"),
-                                              ("TetherNavigateSparse-v2", "reach")])  # fmt: skip
+@pytest.mark.parametrize(("env_id", "task"), [("TetherNavigate-v3", "stop"),
+                                              ("TetherNavigateSparse-v3", "reach")])  # fmt: skip
 def test_compute_reward_through_the_adapter_equals_the_step_rewards(env_id, task):
     """What SB3's HerReplayBuffer does: env_method("compute_reward", next achieved goals,
     desired goals, the stored per-copy infos, indices=[0]) through VecMonitor and the adapter
@@ -175,7 +175,7 @@ def test_compute_reward_through_the_adapter_equals_the_step_rewards(env_id, task
 
 
 def test_pure_methods_take_any_copies_others_all():
-    env = make_sb3_vec_env(N, seed=0, env_id="TetherNavigate-v2")
+    env = make_sb3_vec_env(N, seed=0, env_id="TetherNavigate-v3")
     env.reset()
     (_, _, _, infos), *_ = navigate_steps(env, 1)
     goals = np.zeros((N, 2))

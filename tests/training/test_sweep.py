@@ -329,7 +329,7 @@ def test_resume_refuses_a_folder_without_a_sweep(tmp_path, capsys):
 def test_a_sweep_on_tether_navigate_compares_with_the_greedy_planner(tmp_path):
     data = {
         "base": {
-            "env_id": "TetherNavigate-v2",
+            "env_id": "TetherNavigate-v3",
             "env_kwargs": {"dynamics": "impulse"},
             "n_envs": 8,
             "timesteps": 512,

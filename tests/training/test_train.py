@@ -196,11 +196,11 @@ def test_resume_keeps_its_env_and_says_where_the_command_line_differs(tmp_path, 
     )
     assert "has no last/model.zip" in error
     with pytest.raises(SystemExit):
-        train.main(["--resume", str(tmp_path), "--env", "TetherNavigate_PostsReach-v2"])
+        train.main(["--resume", str(tmp_path), "--env", "TetherNavigate_PostsReach-v3"])
     (error,) = capsys.readouterr().err.splitlines()
     assert (
         f"--resume {tmp_path} trains on TetherBounce-v0, a TetherBounce env: it cannot continue "
-        "on TetherNavigate_PostsReach-v2, a TetherNavigate env" in error
+        "on TetherNavigate_PostsReach-v3, a TetherNavigate env" in error
     )
 
 
@@ -269,8 +269,8 @@ def test_default_names_differ_by_config_and_seed():
     assert train.default_name("TetherBounce-v0", {}, 0) == "ppo_mixed_hybrid_seed0"
     low = train.default_name("TetherBounce-v0", {"rho": [5.0, 100.0], "task": "heading"}, 1)
     assert low == "ppo_heading_hybrid_rho5-100_seed1"
-    navigate = train.default_name("TetherNavigate-v2", {}, 2)
-    assert navigate == "ppo_TetherNavigate-v2_reach_hybrid_seed2"
+    navigate = train.default_name("TetherNavigate-v3", {}, 2)
+    assert navigate == "ppo_TetherNavigate-v3_reach_hybrid_seed2"
     assert train.default_name("TetherBounce-v0", {}, 0, "sac") == "sac_mixed_hybrid_seed0"
 
 

@@ -34,7 +34,7 @@ STOP_SPEEDS = (0.0, 0.25, 0.5, 0.75, 1.0)
 
 class AimSearch:
     """Two maneuvers ahead over aims (see the module docstring), SB3's `predict`. `env_kwargs`:
-    the env's arguments, over those its registered `env_id` fixes (`TetherNavigate-v2` when
+    the env's arguments, over those its registered `env_id` fixes (`TetherNavigate-v3` when
     None); the search predicts with that env in `control="aim"` (its dynamics, `coast` as
     given), its config parsed as training parses it (`families.env_config`)."""
 

@@ -1,4 +1,4 @@
-"""Model-based planners for TetherNavigate-v2: the analytic yardstick of the navigation tasks.
+"""Model-based planners for TetherNavigate-v3: the analytic yardstick of the navigation tasks.
 
 Both plan with the env's own kernel built with `dynamics="impulse"`: its flight is exact
 (straight lines, wall reflections, the reaction wheel's plan and the first tautening of the
@@ -461,7 +461,7 @@ class GreedyPlanner:
         implementation: str = "compiled",
     ):
         """`env_kwargs`: the env's arguments, over those its registered `env_id` fixes (the
-        ladder's tasks and tables; `TetherNavigate-v2` when None), parsed as training parses
+        ladder's tasks and tables; `TetherNavigate-v3` when None), parsed as training parses
         them (`families.env_config`); `implementation`: one of `IMPLEMENTATIONS`."""
         if implementation not in IMPLEMENTATIONS:
             raise ValueError(

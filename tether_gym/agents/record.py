@@ -2,10 +2,10 @@
 
     python -m tether_gym.agents.record --agent oracle --episodes 3 \\
         --out docs/figures/tether_bounce.gif
-    python -m tether_gym.agents.record --env TetherNavigate-v2 --agent random --episodes 2 \\
+    python -m tether_gym.agents.record --env TetherNavigate-v3 --agent random --episodes 2 \\
         --out docs/figures/tether_navigate_random.gif
 
-An env whose step lasts a physical time (TetherBounce-v0's bounce, TetherNavigate-v2's
+An env whose step lasts a physical time (TetherBounce-v0's bounce, TetherNavigate-v3's
 maneuver) draws each step as many frames: its `"rgb_array_list"` render mode returns them (see
 `tether_gym.envs.drawing`). The GIF is those frames, downscaled to `--size` pixels across and
 played at `--fps` (the env draws at that rate too); existing files are kept unless

@@ -21,7 +21,7 @@ import numpy as np
 from tether_gym.agents.registry import make_agent
 from tether_gym.arguments import ArgumentParser
 
-NAVIGATE = "TetherNavigate_PostsReach-v2"
+NAVIGATE = "TetherNavigate_PostsReach-v3"
 BOUNCE = "TetherBounce-v0"
 BOUNCE_BUILDS = ({"dynamics": "hybrid"}, {"dynamics": "impulse"})
 NAVIGATE_BUILDS = tuple(

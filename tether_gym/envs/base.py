@@ -198,7 +198,10 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
     def step(self, action):
         if self._ended:
             raise RuntimeError("the episode is over: call reset() before step()")
-        self._state, obs, outcome = self.kernel.step(self._state, action)
+        try:
+            self._state, obs, outcome = self.kernel.step(self._state, action)
+        except KERNEL_FAILURES as error:
+            raise KernelError.of(self, self._state, action, 0, error) from error
         self.outcome = outcome[0]
         values = outcome[0].tolist()
         reward, terminated, truncated = (
@@ -336,9 +339,13 @@ class KernelVectorEnv(VectorEnv):
     def step(self, actions):
         if self.state is None:
             raise RuntimeError("call reset() before step()")
-        state, obs, final_obs, outcome = self.kernel.step_autoreset(
-            self.state, self._obs, actions, self._uniforms()
-        )
+        try:
+            state, obs, final_obs, outcome = self.kernel.step_autoreset(
+                self.state, self._obs, actions, self._uniforms()
+            )
+        except KERNEL_FAILURES as error:
+            row = _failing_row(self.kernel, self.state, actions)
+            raise KernelError.of(self, self.state, actions, row, error) from error
         self.state, self._obs = state, obs
         reward = outcome[:, self._end[0]]
         terminated, truncated = self.kernel.episode_end(outcome)
@@ -353,6 +360,46 @@ class KernelVectorEnv(VectorEnv):
         info["final_obs"] = self.kernel.view(final_obs)
         info["_final_obs"] = ended.copy()
         return self.kernel.view(obs), reward, terminated, truncated, info
+
+
+KERNEL_FAILURES = (ArithmeticError, SystemError)
+"""What a compiled kernel raises where its numerics cannot go on (numba reports an exception
+raised in a parallel kernel as `SystemError`); a refused action is a `ValueError`, raised as it
+is."""
+
+
+class KernelError(RuntimeError):
+    """A kernel could not step an episode: the message names the env, the episode's state and
+    the action, so that the step can be replayed and reported."""
+
+    @classmethod
+    def of(cls, env, state: np.ndarray, actions, row: int | None, error: Exception):
+        name = type(env).__name__
+        if row is None:
+            return cls(f"{name}.step failed ({type(error).__name__}: {error}); no single copy "
+                       "fails alone")  # fmt: skip
+        actions = np.asarray(actions, dtype=np.float64).reshape(state.shape[0], -1)[row]
+        record = state[row]
+        named = (
+            {field: record[field].tolist() for field in record.dtype.names}
+            if record.dtype.names
+            else record.tolist()
+        )
+        return cls(
+            f"{name}.step failed ({type(error).__name__}: {error}) on the state {named} "
+            f"with the action {actions.tolist()}"
+        )
+
+
+def _failing_row(kernel: Kernel, state: np.ndarray, actions) -> int | None:
+    """The first copy whose step fails alone (a failed batch is stepped again copy by copy)."""
+    actions = np.asarray(actions).reshape(state.shape[0], -1)
+    for row in range(state.shape[0]):
+        try:
+            kernel.step(state[row : row + 1], actions[row : row + 1])
+        except KERNEL_FAILURES:
+            return row
+    return None
 
 
 def _as_arrays(info: dict) -> dict:

@@ -1,7 +1,7 @@
 """`tether-evaluate`: agents on the same fixed, seeded episodes, tabulated.
 
     tether-evaluate --agents oracle shooting random --episodes 1000 --rho 5 100
-    tether-evaluate --env TetherNavigate-v2 --agents greedy lookahead random --episodes 1000
+    tether-evaluate --env TetherNavigate-v3 --agents greedy lookahead random --episodes 1000
 
 Prints the results' table (and with `--paired` every agent against one, episode by episode);
 writes it as CSV or JSON and TetherBounce's heading errors as a PNG on request.

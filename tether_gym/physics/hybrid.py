@@ -55,6 +55,7 @@ from tether_gym.physics.obstacles import (
     RESOLUTION,
     TOUCH,
     clearance,
+    entering_clearance,
     speed_bound,
 )
 from tether_gym.physics.state import PuckState, attachment_offset, puck_state, stretch_rate
@@ -200,8 +201,9 @@ def _rk4(cx, cy, vx, vy, rx, ry, w, ax1, ay1, al1, h, k, c, rest_length, inv_m, 
 @numba.njit(cache=True)
 def _first_touch(cx, cy, vx, vy, rx, ry, w, ax, ay, al, span, gap0, gap1, bound, p, obstacles):
     """The first instant in [0, span] of an RK4 step from (cx, cy, vx, vy, rx, ry, w) at
-    which the rim touches an obstacle (`obstacles.clearance` within `obstacles.TOUCH`), the
-    clearance at the step's ends being gap0 and gap1 and the centre's speed at most `bound`:
+    which the rim touches an obstacle it moves into (`obstacles.entering_clearance` within
+    `obstacles.TOUCH`), that clearance at the step's ends being gap0 and gap1 and the centre's
+    speed at most `bound`:
     (tau, the state there as `_rk4` returns it, which obstacle); tau = inf if none. Intervals
     not proven clear (`bound` times their length exceeds their ends' clearances) are halved,
     leftmost first, down to `obstacles.RESOLUTION` of travel; the crossing is then refined by
@@ -222,7 +224,7 @@ def _first_touch(cx, cy, vx, vy, rx, ry, w, ax, ay, al, span, gap0, gap1, bound,
                 if not low < tau < high:
                     tau = 0.5 * (low + high)
                 s = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, tau, *p)
-                g = clearance(obstacles, s[0], s[1])[0] + TOUCH
+                g = entering_clearance(obstacles, s[0], s[1], s[2], s[3])[0] + TOUCH
                 if g >= 0.0:
                     low, g_low = tau, g
                     if side == 1:
@@ -234,13 +236,13 @@ def _first_touch(cx, cy, vx, vy, rx, ry, w, ax, ay, al, span, gap0, gap1, bound,
                         g_low *= 0.5
                     side = -1
             s = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, low, *p)
-            return low, s, clearance(obstacles, s[0], s[1])[1]
+            return low, s, entering_clearance(obstacles, s[0], s[1], s[2], s[3])[1]
         length = bound * (high - low)
         if g_low + g_high >= length or length <= RESOLUTION or depth + 2 > MAX_HALVINGS:
             continue  # clear throughout (or too short to hide a touch)
         mid = 0.5 * (low + high)
         s = _rk4(cx, cy, vx, vy, rx, ry, w, ax, ay, al, mid, *p)
-        g_mid = clearance(obstacles, s[0], s[1])[0] + TOUCH
+        g_mid = entering_clearance(obstacles, s[0], s[1], s[2], s[3])[0] + TOUCH
         lows[depth], low_gaps[depth], highs[depth], high_gaps[depth] = mid, g_mid, high, g_high
         lows[depth + 1], low_gaps[depth + 1] = low, g_low
         highs[depth + 1], high_gaps[depth + 1] = mid, g_mid
@@ -256,14 +258,15 @@ def _sample(points, n, ref, x, y, vx, vy, nx, ny, nvx, nvy, tolerance, origin_x,
     strays more than tolerance / 2 from the tangent at the last one drawn, ref = (x, y, ux,
     uy), or the next velocity (nvx, nvy) turns back from it. Between two drawn points the arc
     then goes forward along that tangent and strays at most tolerance / 2 from it, so at most
-    `tolerance` from their chord. (n, ref) after it."""
+    `tolerance` from their chord. (n, ref, full) after it: `full` when the point is needed and
+    `points` has no row left, the arc being drawn within `tolerance` up to (x, y) only."""
     x0, y0, ux, uy = ref
-    if n >= points.shape[0] or (
-        abs((nx - x0) * uy - (ny - y0) * ux) <= 0.5 * tolerance and nvx * ux + nvy * uy > 0.0
-    ):
-        return n, ref
+    if abs((nx - x0) * uy - (ny - y0) * ux) <= 0.5 * tolerance and nvx * ux + nvy * uy > 0.0:
+        return n, ref, False
+    if n >= points.shape[0]:
+        return n, ref, True
     points[n, 0], points[n, 1] = x + origin_x, y + origin_y
-    return n + 1, _tangent(x, y, vx, vy)
+    return n + 1, _tangent(x, y, vx, vy), False
 
 
 @numba.njit(cache=True, inline="always")
@@ -283,9 +286,11 @@ def _contact(
     spin w and the orientation `angle`, the damper c, among `obstacles` (their origin the
     anchor; None in the open, which compiles without them): a wall bounces the puck, a post
     ends the contact. Returns (the anchor-relative `PuckState` at the slack instant, at the
-    post or at the budget's end, completed, contact_time, hit_post, wall_hits, points):
-    `points` (k, 2) is filled in table coordinates with the arc drawn within `tolerance` m
-    (`_sample`) and every wall bounce, up to its k rows."""
+    post or where the contact is given up, completed, contact_time, hit_post, wall_hits,
+    points): `points` (k, 2) is filled in table coordinates with the arc drawn within
+    `tolerance` m (`_sample`) and every wall bounce. A contact is given up (completed False)
+    at its time budget, or where its arc needs a (k + 1)-th point: so the arc is drawn within
+    `tolerance` however long the contact (k = 0 draws nothing and gives up nothing)."""
     inertia = kappa * mass * radius * radius
     inv_m, inv_i = 1.0 / mass, 1.0 / inertia
     fastest = fastest_rate(k, c, mass, kappa, offset)
@@ -318,8 +323,9 @@ def _contact(
             # The tether goes slack inside this step: find where T = 0 by the Illinois method.
             low, g_low, high, g_high, side = 0.0, tension, h, new_tension, 0
             for _ in range(60):
-                tau = (low * g_high - high * g_low) / (g_high - g_low)
-                if not low < tau < high:  # a flat bracket (T = 0 at tautening when c = 0): bisect
+                flat = g_high == g_low  # T = 0 at tautening (c = 0) and below resolution after
+                tau = low if flat else (low * g_high - high * g_low) / (g_high - g_low)
+                if not low < tau < high:  # a flat bracket: bisect
                     tau = 0.5 * (low + high)
                 ncx, ncy, nvx, nvy, nrx, nry, nw, turn = _rk4(
                     cx, cy, vx, vy, rx, ry, w, ax, ay, al, tau, *p
@@ -338,42 +344,50 @@ def _contact(
                 if abs(g) <= 1e-13 * peak or high - low <= 1e-15 * h:
                     break
             span = tau
+        touch, which = math.inf, -1
         if obstacles is not None and t + span > safe:  # an obstacle may be within reach
-            gap0 = clearance(obstacles, cx, cy)[0]
-            gap1 = clearance(obstacles, ncx, ncy)[0]
+            gap0 = entering_clearance(obstacles, cx, cy, vx, vy)[0]
+            gap1 = entering_clearance(obstacles, ncx, ncy, nvx, nvy)[0]
             touch, s, which = _first_touch(
                 cx, cy, vx, vy, rx, ry, w, ax, ay, al, span, gap0, gap1, bound, p, obstacles
             )
-            if touch < math.inf:
-                cx, cy, vx, vy, rx, ry, w = s[0], s[1], s[2], s[3], s[4], s[5], s[6]
-                angle += s[7]
-                t += touch
-                if which >= POST:
-                    return PuckState(cx, cy, vx, vy, angle, w), True, t, True, wall_hits, n_points
-                bounced = wall_bounce_row(
-                    PuckState(cx, cy, vx, vy, angle, w), which, obstacles.restitution
-                )
-                vx, vy = bounced.vx, bounced.vy
-                wall_hits += 1
-                if sampled and n_points < points.shape[0]:  # the corner, and a new tangent
-                    points[n_points, 0] = cx + origin_x
-                    points[n_points, 1] = cy + origin_y
-                    n_points += 1
-                    ref = _tangent(cx, cy, vx, vy)
-                ax, ay, al, tension = _accel(cx, cy, vx, vy, rx, ry, w, *p)
-                if not tension > 0.0:  # the bounce off the wall slackens the tether
-                    return PuckState(cx, cy, vx, vy, angle, w), True, t, False, wall_hits, n_points
-                safe = t  # look again from here
-                continue
-            safe = t + span + max(gap1, 0.0) / bound
-        if slack:
-            after = PuckState(ncx, ncy, nvx, nvy, angle + turn, nw)
-            return after, True, t + tau, False, wall_hits, n_points
-        if sampled:
-            n_points, ref = _sample(
+            if touch < math.inf:  # the step ends at the touch
+                ncx, ncy, nvx, nvy, nrx, nry, nw, turn = s
+            else:
+                safe = t + span + max(clearance(obstacles, ncx, ncy)[0], 0.0) / bound
+        if sampled:  # the arc up to the step's end (a touch, the slack instant) drawn
+            n_points, ref, full = _sample(
                 points, n_points, ref, cx, cy, vx, vy, ncx, ncy, nvx, nvy, tolerance, origin_x,
                 origin_y,
             )  # fmt: skip
+            if full:  # no row left to draw it: the contact is given up here
+                return PuckState(cx, cy, vx, vy, angle, w), False, t, False, wall_hits, n_points
+        if obstacles is not None and touch < math.inf:
+            cx, cy, vx, vy, rx, ry, w = ncx, ncy, nvx, nvy, nrx, nry, nw
+            angle += turn
+            t += touch
+            if which >= POST:
+                return PuckState(cx, cy, vx, vy, angle, w), True, t, True, wall_hits, n_points
+            bounced = wall_bounce_row(
+                PuckState(cx, cy, vx, vy, angle, w), which, obstacles.restitution
+            )
+            vx, vy = bounced.vx, bounced.vy
+            wall_hits += 1
+            if sampled:  # the corner, and a new tangent
+                if n_points >= points.shape[0]:
+                    return PuckState(cx, cy, vx, vy, angle, w), False, t, False, wall_hits, n_points
+                points[n_points, 0] = cx + origin_x
+                points[n_points, 1] = cy + origin_y
+                n_points += 1
+                ref = _tangent(cx, cy, vx, vy)
+            ax, ay, al, tension = _accel(cx, cy, vx, vy, rx, ry, w, *p)
+            if not tension > 0.0:  # the bounce off the wall slackens the tether
+                return PuckState(cx, cy, vx, vy, angle, w), True, t, False, wall_hits, n_points
+            safe = t  # look again from here
+            continue
+        if slack:
+            after = PuckState(ncx, ncy, nvx, nvy, angle + turn, nw)
+            return after, True, t + tau, False, wall_hits, n_points
         cx, cy, vx, vy, rx, ry, w = ncx, ncy, nvx, nvy, nrx, nry, nw
         angle += turn
         ax, ay, al, tension = nax, nay, nal, new_tension

@@ -3,8 +3,9 @@
 A contact integrated over time (`hybrid`) must see them at every instant, as the free flight
 does (`events`): a wall bounces the puck (frictionless, its normal velocity times -restitution),
 a post stops it. `Obstacles` holds them for the contact's own coordinates (relative to the
-tether's anchor), `clearance` says how far the centre of mass is from the nearest one, and the
-hybrid model's integrator finds the first instant of a step at which the rim touches one.
+tether's anchor), `clearance` says how far the centre of mass is from the nearest one
+(`entering_clearance`: the nearest it may be entering), and the hybrid model's integrator finds
+the first instant of a step at which the rim touches one.
 
 Detection is conservative, as the tautening search is: the centre of mass moves no faster than
 the speed its energy allows (`speed_bound`), so the clearance changes no faster than that, and a
@@ -76,6 +77,27 @@ def clearance(o, x, y):
         gap, which = wy - o.y_low, 2
     if o.y_high - wy < gap:
         gap, which = o.y_high - wy, 3
+    for j in range(o.n_posts):
+        d = math.sqrt((wx - o.posts[j, 0]) ** 2 + (wy - o.posts[j, 1]) ** 2) - o.reach
+        if d < gap:
+            gap, which = d, POST + j
+    return gap, which
+
+
+@numba.njit(cache=True)
+def entering_clearance(o, x, y, vx, vy):
+    """`clearance` of a centre of mass moving at (vx, vy), without the walls its rim touches
+    (within `TOUCH`) and does not move into: a wall just bounced off cannot be entered at that
+    instant, so a touch search finds the obstacle being entered (the other wall of a corner),
+    not the one being left. A wall farther off counts whichever way the puck moves, so a step
+    proven clear stays proven clear."""
+    wx, wy = x + o.origin_x, y + o.origin_y
+    gap, which = math.inf, -1
+    walls = (wx - o.x_low, o.x_high - wx, wy - o.y_low, o.y_high - wy)
+    into = (vx < 0.0, vx > 0.0, vy < 0.0, vy > 0.0)  # as `events.wall_bounce_row` reads it
+    for wall in range(4):
+        if walls[wall] < gap and (walls[wall] > TOUCH or into[wall]):
+            gap, which = walls[wall], wall
     for j in range(o.n_posts):
         d = math.sqrt((wx - o.posts[j, 0]) ** 2 + (wy - o.posts[j, 1]) ** 2) - o.reach
         if d < gap:

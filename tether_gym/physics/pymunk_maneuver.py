@@ -94,7 +94,7 @@ TAUT_STEPS = 1024
 """Steps per half period of the fastest spring while taut (`TetherWorld`'s 64 are enough for one
 contact; whole episodes carry a maneuver's errors into the next, and some maneuvers amplify
 them a hundredfold or more: a spinning puck's tautening, a post met at a glancing angle). One
-contact converges to the hybrid model's at second order (TetherNavigate-v2's seed 40, first
+contact converges to the hybrid model's at second order (TetherNavigate-v3's seed 40, first
 maneuver: velocity 1.9e-6 of the speed at 256 steps, 2.3e-7 at 1024); replaying 60 episodes
 per rung whole, at the default stiffness 4 maneuvers of 751 end outside tolerance at 256
 steps, 3 at 512 and 1 at 1024, with a soft tether (rho 10) 24 of 674, 14 and 8,

@@ -1,7 +1,7 @@
 """Runs of one configuration over seeds, summarized: each agent's success rate on the runs'
 test episodes as a mean with its 95% Student t interval over the runs.
 
-    python -m tether_gym.training.summary runs/ppo_TetherNavigate-v2_reach_*_seed{0,1,2}
+    python -m tether_gym.training.summary runs/ppo_TetherNavigate-v3_reach_*_seed{0,1,2}
 
 Reads each run folder's `results.json` (written by `train`). The baselines (oracles, planners,
 random) play the same test episodes in every run, so their rows vary only if the runs' env

@@ -3,8 +3,8 @@
     tether-train                                     # the default run (`make train`)
     tether-train --rho 5 100                         # the low-stiffness configuration
     tether-train --algo sac                          # SAC instead of PPO
-    tether-train --env TetherNavigate-v2 --env-kwargs n_obstacles:3   # maneuvering
-    tether-train --algo sac --env TetherNavigateSparse-v2             # SAC + HER
+    tether-train --env TetherNavigate-v3 --env-kwargs n_obstacles:3   # maneuvering
+    tether-train --algo sac --env TetherNavigateSparse-v3             # SAC + HER
     tether-train --resume runs/<name>                # continue an interrupted run
 
 (`python train.py ...` from a clone's root is the same command.) `--algo` picks the algorithm

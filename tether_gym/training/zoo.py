@@ -116,7 +116,7 @@ def run_entry(
 
     An entry whose `env_kwargs` give a control mode is a recipe for that mode: asked for
     another (`--env-kwargs control:setup`, the hard mode), the run takes the entry of the env
-    family's main id (`TetherNavigate-v2`) instead, and the notice names the recipe's items it
+    family's main id (`TetherNavigate-v3`) instead, and the notice names the recipe's items it
     leaves out. ValueError as `load_hyperparams`.
     """
     conf = read_conf(path)

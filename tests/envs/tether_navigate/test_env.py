@@ -1,4 +1,4 @@
-"""TetherNavigate-v2: API checks, goal-conditioned rewards, single against vector envs, bad
+"""TetherNavigate-v3: API checks, goal-conditioned rewards, single against vector envs, bad
 input, and the physics of whole episodes."""
 
 from __future__ import annotations
@@ -39,8 +39,8 @@ S..A..
 def test_checkers_pass_without_warnings(kwargs):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        check_env(gym.make("TetherNavigate-v2", **kwargs).unwrapped, skip_render_check=True)
-        sb3_check_env(gym.make("TetherNavigate-v2", **kwargs).unwrapped)
+        check_env(gym.make("TetherNavigate-v3", **kwargs).unwrapped, skip_render_check=True)
+        sb3_check_env(gym.make("TetherNavigate-v3", **kwargs).unwrapped)
 
 
 def rollout(env, seed: int, steps: int) -> list:
@@ -48,7 +48,7 @@ def rollout(env, seed: int, steps: int) -> list:
 
 
 def test_same_seed_same_episodes_and_pickling():
-    make = lambda: gym.make("TetherNavigate-v2", n_obstacles=2)  # noqa: E731
+    make = lambda: gym.make("TetherNavigate-v3", n_obstacles=2)  # noqa: E731
     a, b, c = rollout(make(), 3, 30), rollout(make(), 3, 30), rollout(make(), 4, 30)
     assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
     assert not all(np.array_equal(x, y) for x, y in zip(a, c, strict=False))
@@ -67,8 +67,8 @@ def test_vector_matches_single_envs_step_for_step(dynamics):
     streams give copy i exactly the episodes of a single env seeded s + i."""
     n, seed, steps = 10, 7, 25
     kwargs = dict(dynamics=dynamics, n_obstacles=2, max_maneuvers=3)
-    vector = vector_env("TetherNavigate-v2", n, block=8, **kwargs)
-    singles = [gym.make("TetherNavigate-v2", **kwargs) for _ in range(n)]
+    vector = vector_env("TetherNavigate-v3", n, block=8, **kwargs)
+    singles = [gym.make("TetherNavigate-v3", **kwargs) for _ in range(n)]
     obs, _ = vector.reset(seed=seed)
     single = [env.reset(seed=seed + i)[0] for i, env in enumerate(singles)]
     rng = np.random.default_rng(0)
@@ -95,7 +95,7 @@ def test_compute_reward_equals_the_step_reward_and_relabels(task, reward_type):
     """GoalEnv contract (Gymnasium-Robotics, SB3's HER): compute_reward on the step's goals
     equals the reward step returned, for one info and for a sequence of infos; relabeled with
     the achieved goal, a reach maneuver succeeds by construction."""
-    env = gym.make("TetherNavigate-v2", task=task, reward_type=reward_type, dynamics="impulse")
+    env = gym.make("TetherNavigate-v3", task=task, reward_type=reward_type, dynamics="impulse")
     obs, _ = env.reset(seed=0)
     env.action_space.seed(0)
     achieved, desired, infos, rewards, ends = [], [], [], [], []
@@ -154,7 +154,7 @@ def energy(velocity, spin) -> float:
 def test_energy_is_conserved_with_the_brake_off_and_elastic_walls(dynamics, tolerance):
     """With e = 1 for every bounce and walls of restitution 1 nothing dissipates: the wheel
     turns the body but returns to rest, so kinetic energy is conserved over whole episodes."""
-    env = gym.make("TetherNavigate-v2", dynamics=dynamics, wall_restitution=1.0, max_maneuvers=8)
+    env = gym.make("TetherNavigate-v3", dynamics=dynamics, wall_restitution=1.0, max_maneuvers=8)
     rng = np.random.default_rng(1)
     checked = 0
     for episode in range(6):
@@ -178,7 +178,7 @@ def test_energy_is_conserved_with_the_brake_off_and_elastic_walls(dynamics, tole
 def test_angular_momentum_about_the_hooked_peg_is_kept_through_each_contact(dynamics, tolerance):
     """The tether's force passes through the peg: m (r x v) + I w about the peg is the same
     at tautening (the path's tautening point, `taut_*`) and at the slack instant."""
-    env = gym.make("TetherNavigate-v2", dynamics=dynamics)
+    env = gym.make("TetherNavigate-v3", dynamics=dynamics)
     rng = np.random.default_rng(2)
     inertia = INERTIA_RATIO * PUCK_MASS * PUCK_RADIUS**2
     contacts = 0
@@ -205,18 +205,18 @@ def test_angular_momentum_about_the_hooked_peg_is_kept_through_each_contact(dyna
 
 
 def test_a_fixed_layout_places_pegs_posts_goal_and_start():
-    env = gym.make("TetherNavigate-v2", layout=LAYOUT)
+    env = gym.make("TetherNavigate-v3", layout=LAYOUT)
     obs, _ = env.reset(seed=0)
     state = env.unwrapped.state
     assert state["n_anchors"] == 3 and state["n_posts"] == 1
     np.testing.assert_allclose(obs["desired_goal"], [2.5 / 3, 0.5], atol=1e-6)
     np.testing.assert_allclose(obs["achieved_goal"], [1 / 6, 1 / 6], atol=1e-6)
     with pytest.raises(ValueError, match="layout"):
-        gym.make("TetherNavigate-v2", layout="A.X\n...")
+        gym.make("TetherNavigate-v3", layout="A.X\n...")
 
 
 def test_reset_options_fix_goal_start_and_pegs():
-    env = gym.make("TetherNavigate-v2", dynamics="impulse")
+    env = gym.make("TetherNavigate-v3", dynamics="impulse")
     options = {"goal": (1.5, 0.5), "start": (0.3, 0.5), "start_velocity": (1.0, 0.0),
                "anchors": [[1.0, 0.8]]}  # fmt: skip
     obs, _ = env.reset(seed=0, options=options)
@@ -237,12 +237,12 @@ def test_the_wheel_meets_the_commanded_offset_angle_when_it_can():
                "start_angle": 0.0, "anchors": [[0.5, 0.5]]}  # fmt: skip
     alpha = 0.6
     action = np.array([math.pi, -1.0, alpha / (math.pi / 2), 1.0], dtype=np.float32)
-    env = gym.make("TetherNavigate-v2", dynamics="impulse")
+    env = gym.make("TetherNavigate-v3", dynamics="impulse")
     env.reset(seed=0, options=options)
     info = env.step(action)[4]
     assert info["bounced"] and info["offset_angle_met"]
     assert info["offset_angle"] == pytest.approx(alpha, abs=1e-6)
-    free = gym.make("TetherNavigate-v2", dynamics="impulse", reaction_wheel=False)
+    free = gym.make("TetherNavigate-v3", dynamics="impulse", reaction_wheel=False)
     free.reset(seed=0, options=options)
     info = free.step(action)[4]
     assert info["bounced"] and not info["offset_angle_met"]
@@ -312,7 +312,7 @@ def test_the_wheel_cannot_prevent_a_tether_pulling_at_the_decision():
 )
 def test_bad_arguments_name_themselves(kwargs, name):
     with pytest.raises(ValueError, match=name):
-        gym.make("TetherNavigate-v2", **kwargs)
+        gym.make("TetherNavigate-v3", **kwargs)
     with pytest.raises(ValueError, match=name):
         TetherNavigateVectorEnv(2, **kwargs)
 

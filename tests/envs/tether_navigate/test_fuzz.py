@@ -88,7 +88,7 @@ def _check_physical(env, posts, step, label: str) -> None:
 def test_a_hybrid_contact_keeps_the_puck_on_the_table():
     """Seed 617: the contact used to throw the puck to (1.377, 1.407), off the table, its
     observation out of `observation_space`."""
-    env = gym.make("TetherNavigate-v2")
+    env = gym.make("TetherNavigate-v3")
     env.reset(seed=617)
     posts = episode_posts(env.unwrapped.state)
     step = env.step(np.array([-0.492906, -0.9373917, 0.85783046, -0.91591454], np.float32))
@@ -99,7 +99,7 @@ def test_a_flight_does_not_pass_through_a_post_untouched():
     """PostsReach seed 14859: the first maneuver used to end inside a post (its centre 0.0887
     m from the post's, under 0.09 m), the second to fly out through the post's centre, both
     with `hit_post` False."""
-    env = gym.make("TetherNavigate_PostsReach-v2")
+    env = gym.make("TetherNavigate_PostsReach-v3")
     env.reset(seed=14859)
     posts = episode_posts(env.unwrapped.state)
     for action in ([-0.16, 0.42, -0.43, -0.37], [-0.76, 0.01, 0.91, 0.13]):
@@ -115,7 +115,7 @@ def test_a_flight_does_not_pass_through_a_post_untouched():
 @pytest.fixture(scope="module")
 def sample():
     """A real transition (its info's keys and types) on a table of one post at (1, 0.5)."""
-    env = gym.make("TetherNavigate_PostsReach-v2", dynamics="impulse")
+    env = gym.make("TetherNavigate_PostsReach-v3", dynamics="impulse")
     env.reset(seed=3, options={"posts": [[1.0, 0.5]]})
     obs, reward, _, _, info = env.step(np.zeros(4, np.float32))
     return env.observation_space, obs, reward, info
@@ -165,7 +165,7 @@ def test_audit_step_finds_nan_and_notes_an_infinite_command_error(sample):
 
 def test_audit_vector_step_is_audit_step_row_by_row():
     """On a vector env's transitions, each row's findings are a single env's audit of it."""
-    envs = vector_env("TetherNavigate_WallReach-v2", 32)
+    envs = vector_env("TetherNavigate_WallReach-v3", 32)
     space = envs.single_observation_space
     envs.reset(seed=5)
     rng = np.random.default_rng(5)
@@ -201,7 +201,7 @@ def test_reproducers_replay_their_findings():
     copy's too: its earlier episodes skipped by resets)."""
     replayed = 0
     for vector in (False, True):
-        result = fuzz("TetherNavigate_WallReach-v2", "velocity", True, "hybrid", steps=256, seed=2,
+        result = fuzz("TetherNavigate_WallReach-v3", "velocity", True, "hybrid", steps=256, seed=2,
                       vector=vector, num_envs=16, compare=1, max_reproducers=3)  # fmt: skip
         for name in CLASSES:
             for reproducer in result["reproducers"][name]:
@@ -214,7 +214,7 @@ def test_reproducers_replay_their_findings():
 
 
 def test_fuzz_is_deterministic_for_a_seed():
-    first, second = (fuzz("TetherNavigate_PostsStop-v2", "velocity", False, "impulse",
+    first, second = (fuzz("TetherNavigate_PostsStop-v3", "velocity", False, "impulse",
                           steps=60, seed=4) for _ in range(2))  # fmt: skip
     for key in ("counts", "reproducers", "episodes"):
         assert first[key] == second[key]
@@ -229,7 +229,7 @@ def test_a_vector_copy_unlike_its_single_env_is_found(monkeypatch):
         init(self, env_id, kwargs, seed + 1000, row)
 
     monkeypatch.setattr(fz._Shadow, "__init__", wrong_seed)
-    result = fuzz("TetherNavigate_OpenReach-v2", "setup", False, "impulse", steps=64, seed=0,
+    result = fuzz("TetherNavigate_OpenReach-v3", "setup", False, "impulse", steps=64, seed=0,
                   vector=True, num_envs=8, compare=3)  # fmt: skip
     assert result["counts"]["vector_vs_single"] == 3
     assert all("differs" in r for r in result["reproducers"]["vector_vs_single"])
@@ -237,7 +237,7 @@ def test_a_vector_copy_unlike_its_single_env_is_found(monkeypatch):
 
 def test_the_command_writes_its_json_and_keeps_an_existing_one(tmp_path, capsys):
     out = tmp_path / "fuzz.json"
-    argv = ["--ids", "TetherNavigate_WallStop-v2", "--steps", "20", "--vector-steps", "80",
+    argv = ["--ids", "TetherNavigate_WallStop-v3", "--steps", "20", "--vector-steps", "80",
             "--num-envs", "8", "--compare", "1", "--json", str(out)]  # fmt: skip
     fz.main(argv)
     data = json.loads(out.read_text())

@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
+from tether_gym import ladder
 from tether_gym.envs.tether_navigate.config import POST_CLEARANCE
 from tether_gym.envs.tether_navigate.spaces import OBS
 
-TASKS = [("TetherNavigate-v2", "reach"), ("TetherNavigateSparse-v2", "reach"),
-         ("TetherNavigate-v2", "stop"), ("TetherNavigateSparse-v2", "stop")]  # fmt: skip
+TASKS = [("TetherNavigate-v3", "reach"), ("TetherNavigateSparse-v3", "reach"),
+         ("TetherNavigate-v3", "stop"), ("TetherNavigateSparse-v3", "stop")]  # fmt: skip
 
 
 def _episodes(env, seeds, rng):
@@ -92,7 +93,7 @@ def test_a_relabeled_goal_gets_what_a_step_towards_it_returns(env_id, task, cont
 def test_relabeling_takes_a_batch_of_infos_as_sb3_passes_them():
     """SB3's HerReplayBuffer calls `compute_reward(achieved (n, 2), desired (n, 2), infos)` with
     an array of per-transition info dicts: one reward per transition, as for each alone."""
-    env = gym.make("TetherNavigateSparse-v2", n_obstacles=2)
+    env = gym.make("TetherNavigateSparse-v3", n_obstacles=2)
     steps = _episodes(env, range(4), np.random.default_rng(1))
     infos = np.array([info for _, _, info, _ in steps], dtype=object)
     achieved = np.array([info["position"] for info in infos])
@@ -109,7 +110,7 @@ def test_relabeling_takes_a_batch_of_infos_as_sb3_passes_them():
 def test_compute_reward_without_the_step_info_names_the_setting_to_use():
     """SB3's HerReplayBuffer by default passes empty info dicts: the env refuses them with one
     line that names `copy_info_dict=True`."""
-    env = gym.make("TetherNavigateSparse-v2").unwrapped
+    env = gym.make("TetherNavigateSparse-v3").unwrapped
     goals = np.zeros((2, 2))
     with pytest.raises(ValueError, match=r"copy_info_dict=True"):
         env.compute_reward(goals, goals, np.array([{}, {}], dtype=object))
@@ -120,7 +121,7 @@ def test_sb3_her_with_default_settings_fails_at_the_first_relabeling_with_that_l
     gradient step with the env's message, not deep inside the task code."""
     from stable_baselines3 import SAC, HerReplayBuffer
 
-    env = gym.make("TetherNavigateSparse-v2")
+    env = gym.make("TetherNavigateSparse-v3")
     model = SAC("MultiInputPolicy", env, replay_buffer_class=HerReplayBuffer,
                 learning_starts=20, batch_size=8, seed=0)  # fmt: skip
     with pytest.raises(ValueError, match=r"copy_info_dict=True"):
@@ -131,7 +132,7 @@ def test_sb3_her_with_default_settings_fails_at_the_first_relabeling_with_that_l
 def test_sb3_check_env_passes_on_the_unwrapped_env(control):
     from stable_baselines3.common.env_checker import check_env
 
-    check_env(gym.make("TetherNavigate-v2", control=control).unwrapped, warn=False)
+    check_env(gym.make("TetherNavigate-v3", control=control).unwrapped, warn=False)
 
 
 def test_at_rest_is_an_absolute_speed():
@@ -141,7 +142,7 @@ def test_at_rest_is_an_absolute_speed():
     from tether_gym.agents.planners import LINE_UP_OFFSET
     from tether_gym.tasks.navigate import REST_SPEED
 
-    env = gym.make("TetherNavigate-v2", task="stop", dynamics="impulse", control="velocity")
+    env = gym.make("TetherNavigate-v3", task="stop", dynamics="impulse", control="velocity")
     env.action_space.seed(0)
     for seed in range(30):
         env.reset(seed=seed)
@@ -160,9 +161,11 @@ def test_at_rest_is_an_absolute_speed():
 
 
 @pytest.mark.parametrize(
-    "old", ["TetherNavigate-v0", "TetherNavigate-v1", "TetherNavigate_PostsReach-v1"]
-)
+    "old",
+    ["TetherNavigate-v0", "TetherNavigate-v1", "TetherNavigate-v2", "TetherNavigate_PostsReach-v1",
+     "TetherNavigate_PostsReach-v2", "TetherNavigate_WallStopSparse-v2"],
+)  # fmt: skip
 def test_older_versions_are_refused_with_the_new_id(old):
-    new = old[: -len("v1")] + "v2"
+    new = old[: -len("v1")] + f"v{ladder.VERSION}"
     with pytest.raises(gym.error.DeprecatedEnv, match=new):
         gym.make(old)

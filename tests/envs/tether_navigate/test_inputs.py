@@ -36,7 +36,7 @@ CLEAR = {"start": (0.3, 0.5), "goal": (1.5, 0.5), "anchors": [(1.0, 0.8)]}
 
 
 def navigate(**kwargs):
-    return gym.make("TetherNavigate-v2", **kwargs)
+    return gym.make("TetherNavigate-v3", **kwargs)
 
 
 def refused(env, match: str, seed: int = 0, **options):
@@ -60,7 +60,7 @@ def test_a_layout_without_posts_works():
     np.testing.assert_allclose(obs["desired_goal"], [5 / 3, 5 / 6])
     _, _, _, _, info = env.step(env.action_space.sample())
     assert not info["hit_post"]
-    vector = vector_env("TetherNavigate-v2", 3, layout=NO_POSTS)
+    vector = vector_env("TetherNavigate-v3", 3, layout=NO_POSTS)
     obs, _ = vector.reset(seed=0)
     assert vector.observation_space.contains(obs)
 
@@ -77,15 +77,15 @@ def test_a_layout_with_a_count_of_pegs_or_posts_is_refused(name, value):
     with pytest.raises(ValueError, match=rf"{name}={value} given with a layout"):
         navigate(layout=NO_POSTS, **{name: value})
     with pytest.raises(ValueError, match=rf"{name}={value} given with a layout"):
-        vector_env("TetherNavigate-v2", 2, layout=NO_POSTS, **{name: value})
+        vector_env("TetherNavigate-v3", 2, layout=NO_POSTS, **{name: value})
 
 
 @pytest.mark.parametrize("name", ["n_anchors", "n_obstacles"])
 def test_the_wall_rung_refuses_a_count_of_pegs_or_posts(name):
     """The Wall ids are registered with a layout: n_obstacles=2 is not silently ignored."""
     with pytest.raises(ValueError, match=rf"{name}=2 given with a layout"):
-        gym.make("TetherNavigate_WallReach-v2", **{name: 2})
-    gym.make("TetherNavigate_WallReach-v2").reset(seed=0)
+        gym.make("TetherNavigate_WallReach-v3", **{name: 2})
+    gym.make("TetherNavigate_WallReach-v3").reset(seed=0)
 
 
 def test_without_a_layout_the_counts_default_to_6_pegs_and_no_post():
@@ -141,7 +141,7 @@ def test_a_layout_breaking_the_tables_clearances_is_refused(layout, match):
 
 
 def test_the_ladders_wall_layout_meets_the_clearances():
-    for env_id in ("TetherNavigate_WallReach-v2", "TetherNavigate_WallStopSparse-v2"):
+    for env_id in ("TetherNavigate_WallReach-v3", "TetherNavigate_WallStopSparse-v3"):
         env = gym.make(env_id)
         assert env.observation_space.contains(env.reset(seed=0)[0])
 
@@ -208,7 +208,7 @@ def test_actions_that_are_not_real_numbers_are_refused(action):
 
 
 def test_the_vector_envs_refuse_them_naming_the_batch_shape():
-    envs = vector_env("TetherNavigate-v2", 2)
+    envs = vector_env("TetherNavigate-v3", 2)
     envs.reset(seed=0)
     with pytest.raises(ValueError, match=r"action must be a real .* shape \(2, 4\), got dtype"):
         envs.step(np.zeros((2, 4), dtype=complex))
@@ -342,7 +342,7 @@ def test_options_that_clash_with_a_drawn_item_ask_for_it_too():
 
 
 def test_every_copy_of_the_vector_env_is_checked():
-    envs = vector_env("TetherNavigate-v2", 8)
+    envs = vector_env("TetherNavigate-v3", 8)
     envs.reset(seed=0)
     states = envs.unwrapped.state
     start = (states["x"][5], states["y"][5])

@@ -287,7 +287,7 @@ e = 1."""
 
 
 def make_env(**kwargs) -> gym.Env:
-    return gym.make("TetherNavigate-v2", **kwargs).unwrapped
+    return gym.make("TetherNavigate-v3", **kwargs).unwrapped
 
 
 def world(pegs, table=None, **kwargs) -> ManeuverWorld:
@@ -350,12 +350,12 @@ def replay_plans(start: PuckState, plans: list[ManeuverPlan]):
 
 
 def test_the_kernel_contact_keeps_the_puck_on_the_table() -> None:
-    """Seed 11, third maneuver (TetherNavigate-v2): the commanded offset angle is out of the
+    """Seed 11, third maneuver (TetherNavigate-v3): the commanded offset angle is out of the
     wheel's reach. The first wheel model bisected towards it to the end of the flight's
     straight segment, on the bottom wall, and the contact, which then ignored the walls, left
     the puck's rim 0.6 mm inside the wall; the wheel's targets keep the contact's reach off
     the walls, and the contact now sees them."""
-    info = play("TetherNavigate-v2", 11, max_maneuvers=3).infos[2]
+    info = play("TetherNavigate-v3", 11, max_maneuvers=3).infos[2]
     assert not info["offset_angle_met"]
     assert info["position"][1] >= PUCK_RADIUS
 

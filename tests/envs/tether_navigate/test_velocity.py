@@ -87,9 +87,9 @@ def _round_trips(dynamics: str, episodes: int, **kwargs):
     """Commands that the forward model can meet: a random set-up's impulse outcome, commanded
     back as (its peg, a point on its path after the bounce, its speed fraction). Yields
     (the command's info, aim, speed, fraction)."""
-    setup = gym.make("TetherNavigate-v2", dynamics="impulse", n_obstacles=2, **kwargs)
+    setup = gym.make("TetherNavigate-v3", dynamics="impulse", n_obstacles=2, **kwargs)
     velocity = gym.make(
-        "TetherNavigate-v2", dynamics=dynamics, n_obstacles=2, control="velocity", **kwargs
+        "TetherNavigate-v3", dynamics=dynamics, n_obstacles=2, control="velocity", **kwargs
     )
     rng = np.random.default_rng(0)
     for seed in range(episodes):
@@ -130,7 +130,7 @@ def test_the_reported_error_is_the_impulse_outcome_s_miss():
     """Random commands, impulse dynamics: `command_error` is the miss of the outcome played
     (where the wheel met the offset angle the inverse chose), met or not, commands aimed into
     the posts among them."""
-    env = gym.make("TetherNavigate-v2", dynamics="impulse", n_obstacles=3, control="velocity")
+    env = gym.make("TetherNavigate-v3", dynamics="impulse", n_obstacles=3, control="velocity")
     rng = np.random.default_rng(1)
     compared = 0
     for seed in range(80):
@@ -213,7 +213,7 @@ def test_an_aim_behind_a_post_is_reached_round_it():
     post where the wheel met the planned offset angle (impulse dynamics, the puck coasting to
     the aim: on a post first, the miss would be the 6 cm or more between the rims' contact and
     the aim)."""
-    env = gym.make("TetherNavigate_PostsReach-v2", dynamics="impulse", control="aim", coast=True)
+    env = gym.make("TetherNavigate_PostsReach-v3", dynamics="impulse", control="aim", coast=True)
     rng = np.random.default_rng(4)
     near = 0
     for seed in range(150):
@@ -244,7 +244,7 @@ def test_a_dead_stop_command_dumps_the_speed():
     command to the same aim in most episodes (not all: a path off a wall can meet the full-speed
     command at a lower speed, and an exact stop needs a peg in line:
     `test_navigate_goal.test_at_rest_is_an_absolute_speed`)."""
-    env = gym.make("TetherNavigate-v2", dynamics="impulse", control="velocity")
+    env = gym.make("TetherNavigate-v3", dynamics="impulse", control="velocity")
     left = {0.0: [], 1.0: []}
     for seed in range(60):
         for speed in left:
@@ -257,7 +257,7 @@ def test_a_dead_stop_command_dumps_the_speed():
 
 
 def test_the_peg_entry_picks_the_peg_by_rank_in_distance():
-    env = gym.make("TetherNavigate-v2", n_anchors=5, control="velocity", dynamics="impulse")
+    env = gym.make("TetherNavigate-v3", n_anchors=5, control="velocity", dynamics="impulse")
     for seed in range(10):
         for rank in range(5):
             obs, _ = env.reset(seed=seed)
@@ -270,8 +270,8 @@ def test_the_peg_entry_picks_the_peg_by_rank_in_distance():
 def test_velocity_control_single_and_vector_envs_agree():
     """The native vector env's copies play exactly the single env's episodes."""
     kwargs = {"n_obstacles": 3, "control": "velocity"}
-    vec = vector_env("TetherNavigate-v2", 3, **kwargs)
-    singles = [gym.make("TetherNavigate-v2", **kwargs) for _ in range(3)]
+    vec = vector_env("TetherNavigate-v3", 3, **kwargs)
+    singles = [gym.make("TetherNavigate-v3", **kwargs) for _ in range(3)]
     obs, _ = vec.reset(seed=5)
     for i, env in enumerate(singles):
         single, _ = env.reset(seed=5 + i)
@@ -294,8 +294,8 @@ def test_aim_control_picks_the_peg_that_misses_the_command_least():
     the pegs in most states (the env ranks the pegs by score: the miss, plus a penalty where
     the reaction wheel cannot meet the offset angle, plus the offset's small weight)."""
     kwargs = {"n_obstacles": 2, "dynamics": "impulse"}
-    aim = gym.make("TetherNavigate-v2", control="aim", **kwargs)
-    velocity = gym.make("TetherNavigate-v2", control="velocity", **kwargs)
+    aim = gym.make("TetherNavigate-v3", control="aim", **kwargs)
+    velocity = gym.make("TetherNavigate-v3", control="velocity", **kwargs)
     assert aim.action_space.shape == (3,)
     rng = np.random.default_rng(3)
     least = []
@@ -330,8 +330,8 @@ def test_coasting_ends_the_maneuver_at_its_closest_approach_to_the_aim():
     tolerance in the impulse model the inverse solves), so the next decision is taken there."""
     rng = np.random.default_rng(5)
     kwargs = {"control": "aim", "dynamics": "impulse"}
-    plain = gym.make("TetherNavigate_OpenReach-v2", **kwargs)
-    coasting = gym.make("TetherNavigate_OpenReach-v2", coast=True, **kwargs)
+    plain = gym.make("TetherNavigate_OpenReach-v3", **kwargs)
+    coasting = gym.make("TetherNavigate_OpenReach-v3", coast=True, **kwargs)
     met = 0
     for seed in range(60):
         # full speed, aims the puck's centre can reach (the command's miss ignores the walls)
@@ -352,11 +352,11 @@ def test_coasting_ends_the_maneuver_at_its_closest_approach_to_the_aim():
 
 def test_coasting_needs_an_aim_and_the_planners_still_play_set_ups():
     with pytest.raises(ValueError, match="coast=True needs control"):
-        gym.make("TetherNavigate-v2", coast=True)
+        gym.make("TetherNavigate-v3", coast=True)
     from tether_gym.agents.planners import GreedyPlanner
     from tether_gym.evaluation.runner import evaluate
 
     kwargs = {"control": "aim", "coast": True}
-    planner = GreedyPlanner(kwargs, "TetherNavigate_OpenReach-v2")
-    (result,) = evaluate({"greedy": planner}, kwargs, 20, 7, env_id="TetherNavigate_OpenReach-v2")
+    planner = GreedyPlanner(kwargs, "TetherNavigate_OpenReach-v3")
+    (result,) = evaluate({"greedy": planner}, kwargs, 20, 7, env_id="TetherNavigate_OpenReach-v3")
     assert result.episodes == 20 and result.success_rate > 0.5

@@ -2,7 +2,7 @@
 
     tether-evaluate --agents pretrained oracle
     tether-evaluate --agents pretrained-low-stiffness shooting --rho 5 100
-    tether-evaluate --env TetherNavigate_PostsReach-v2 --agents pretrained greedy lookahead
+    tether-evaluate --env TetherNavigate_PostsReach-v3 --agents pretrained greedy lookahead
 
 Each agent is two package files here: `<name>.pt`, the policy alone as stable-baselines3's
 `BasePolicy.save` writes it (weights and constructor arguments: no optimizer state, no replay
@@ -30,7 +30,7 @@ import gymnasium as gym
 from tether_gym.agents.planned import with_planner
 from tether_gym.agents.saved import SB3Agent
 from tether_gym.arguments import require_extra
-from tether_gym.families import check_agent, family
+from tether_gym.families import check_agent, current_id, family
 
 AGENTS = {
     "pretrained": "default",
@@ -56,12 +56,15 @@ def agent_file(name: str, suffix: str, folder: Path | None = None) -> Path:
 
 def card(name: str, folder: Path | None = None) -> dict[str, Any]:
     """The model card's front matter: algo, policy, env_id, env_kwargs, seed, timesteps,
-    train_seconds, command, the held-out results and the hyperparameters."""
+    train_seconds, command, the held-out results and the hyperparameters. `env_id` is the id
+    the agent plays today (`families.current_id`); `trained_env_id` the one it was trained
+    and measured on."""
     import yaml
 
     text = agent_file(name, ".md", folder).read_text()
     _, front, _ = text.split("---\n", 2)
-    return yaml.safe_load(front)
+    facts = yaml.safe_load(front)
+    return {**facts, "trained_env_id": facts["env_id"], "env_id": current_id(facts["env_id"])}
 
 
 def load_policy(path: Path, algo: str, policy: str = "MlpPolicy") -> Any:

@@ -1,4 +1,4 @@
-"""TetherNavigate-v2: maneuvering a puck to a goal through tether bounces off pegs (`env`), and
+"""TetherNavigate-v3: maneuvering a puck to a goal through tether bounces off pegs (`env`), and
 its kernel (`kernel`)."""
 
 from tether_gym.envs.tether_navigate.config import Layout, NavigateConfig

@@ -68,16 +68,20 @@ PATH_TIME = 4.0
 `coast` the flight searched for its closest approach to the aim."""
 PATH_TOLERANCE = 1e-3
 """m: the path drawn along a hybrid contact strays at most this far from the simulated arc."""
-CONTACT_POINTS = 48
-"""Points drawn along a hybrid contact's arc (and its wall bounces), each added where the arc
-since the last one could stray `PATH_TOLERANCE` from the chord: a contact still taut at its
-budget that winds about the peg for longer is drawn with its last chord longer."""
+CONTACT_POINTS = 128
+"""Points drawn along a hybrid contact's arc (and its wall bounces) at most, each added where the
+arc since the last one could stray `PATH_TOLERANCE` from the chord. A contact whose arc needs
+more is given up there (`completed` False, released where its drawing ends), as one still taut
+at its time budget is: a soft tether (rho near 10) that captures the puck into an orbit about
+the peg. Completed contacts need far fewer (`benchmarks/fuzz_navigate.py` counts those given
+up)."""
 PATH_POINTS = MAX_WALL_HITS + 3 + CONTACT_POINTS + COAST_STRETCHES
 """A maneuver's path: its start, the wall hits, the tautening, the contact's arc, the slack
 instant, and with `coast` the coast's wall hits and its end."""
 RHO_LENGTH, RHO_SPEED = 0.8, START_SPEED[1]
 """The stiffness is the one whose rho (eq. 11) is `rho` for the longest tether at the fastest
-start: shorter tethers and slower pucks meet a lower rho."""
+start: shorter tethers meet a lower rho (rho grows with L), slower pucks a higher one (rho falls
+as 1 / v)."""
 RHO_RANGE = (10.0, 1e6)
 """The rho this env allows (`envs.kernels.tether_stiffness`), its default `DEFAULT_RHO`."""
 DYNAMICS = ("hybrid", "impulse")

@@ -1,4 +1,4 @@
-"""TetherNavigate-v2: maneuver a puck to a goal through a sequence of tether bounces."""
+"""TetherNavigate-v3: maneuver a puck to a goal through a sequence of tether bounces."""
 
 from __future__ import annotations
 
@@ -183,7 +183,9 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     ## Episode End
 
     Terminated on success, when the puck comes to rest (speed under 0.02 m/s) elsewhere, or
-    touches a post; truncated after `max_maneuvers` maneuvers.
+    touches a post (a failure: the puck is reported where its rim touches the post, with the
+    velocity and spin it arrived with, so `at_rest` only if it arrived at rest); truncated after
+    `max_maneuvers` maneuvers.
 
     `info` after each step: `is_success`, `position` (2,), `velocity` (2,), `angle`, `spin`
     (the puck after the maneuver), `anchor` (2,) (the hooked peg), `taut_velocity` (2,),
@@ -198,9 +200,8 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
     `flight_time` (s),
     `wall_hits` (in the flight and the contact), `at_rest`, `hit_post`, `maneuvers_left`,
     `taut_position` and `release_position` (2,) (where the contact starts and ends), `path`
-    (62, 2) (start, wall hits,
-    tautening, the contact's arc, slack instant, with `coast` the coast's wall hits and end,
-    padded with the last point) and `reward_terms`.
+    (142, 2) (start, wall hits, tautening, the contact's arc, slack instant, with `coast` the
+    coast's wall hits and end, padded with the last point) and `reward_terms`.
 
     ## Physics
 
@@ -208,19 +209,27 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
 
     - Free flight is exact (straight lines, uniform spin); walls bounce the puck's centre
       frictionlessly (the normal velocity times `-wall_restitution`, the tangential velocity
-      and the spin unchanged) and a post (radius 0.05 m) stops it and ends the episode, both
-      located as events: the rim never enters a wall or a post.
+      and the spin unchanged) and touching a post (radius 0.05 m) ends the maneuver and the
+      episode there, both located as events: the rim never enters a wall or a post. A post
+      hit is reported as it happens, under both dynamics: the puck where its rim touches the
+      post, with the velocity it arrived with (the episode ends before any rebound matters).
     - The contact (`dynamics="hybrid"`: the spring tether integrated from tautening to its
       slack instant; `"impulse"`: the paper's instantaneous bounce) sees the table too: during
       a hybrid contact a wall bounces the puck as in flight and a post ends the episode, each
-      found by a conservative search that cannot step over a touch (`physics.obstacles`). A
-      flight that starts touching or inside a post is a post hit. `path` draws the contact's
-      arc through points placed where it could stray 1 mm from its chords (48 at most: a
-      contact still taut at its time budget, winding about the peg, is drawn with its last
-      chord longer); `completed` is False for such a contact, which is released there.
+      found by a conservative search that cannot step over a touch, and in a corner finds the
+      wall being entered, not the one just left (`physics.obstacles`). A flight that starts
+      touching or inside a post, moving or at rest, is a post hit. `path` draws the contact's
+      arc through points placed where it could stray 1 mm from its chords, so it is within
+      1 mm of the simulated arc everywhere; a contact whose arc needs more than 128 points, or
+      still taut at its time budget (a soft tether, `rho` near 10, that captures the puck into
+      an orbit about the peg), is given up there: `completed` is False and the tether is
+      released where the drawing ends.
     - The tether runs above the posts and the puck (the paper's footnote 1: it is out of the
       puck's plane, as its raised wall and pin are): it never catches on a post, and the
       attachment point may lie across the puck's outline from the peg (|alpha| > pi/2).
+    - Pegs are in the floor: the puck glides over them, the hooked one and the others. Its
+      centre passes within its own radius of a peg in about one random maneuver in five
+      (`benchmarks/fuzz_navigate.py` counts them, `peg_overlap`).
     - The reaction wheel is kinematic: an ideal rate-controlled motor that turns the body at
       up to `wheel_rate` beyond its free spin, with no torque limit, and stops at tautening.
     - The brake sets the contact's restitution; the hybrid tether's damper is chosen so that
@@ -256,8 +265,8 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
 
     ## Difficulty Ladder
 
-    Registered ids `TetherNavigate_{rung}{task}-v2` (dense) and
-    `TetherNavigate_{rung}{task}Sparse-v2`, task `Reach` or `Stop` (`tether_gym.ladder`):
+    Registered ids `TetherNavigate_{rung}{task}-v3` (dense) and
+    `TetherNavigate_{rung}{task}Sparse-v3`, task `Reach` or `Stop` (`tether_gym.ladder`):
 
     | Rung    | Table                                                    | Arguments         |
     |---------|----------------------------------------------------------|-------------------|
@@ -269,6 +278,13 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
 
     ## Version History
 
+    * v3: the contact's path is drawn within 1 mm of its arc however long the contact (v2
+      joined the 48th point to the release with one chord, so a long contact at a low `rho`
+      could report a false success or miss a true one; a contact needing more than 128
+      points is now given up there, `completed` False); the touch search finds the wall
+      being entered in a corner (v2 could stall on the one just left until the contact's
+      budget ran out); a puck at rest touching a post is a post hit under impulse dynamics
+      too.
     * v2: contacts see the table: a wall bounces the puck during a hybrid contact as in
       flight and a post ends the episode (v1's contact ignored both, so the puck could end
       off the table or pass through a post), and a flight or tautening that starts touching

@@ -24,6 +24,7 @@ from tether_gym.envs.tether_navigate.config import (
     TABLE_WIDTH,
 )
 from tether_gym.physics.events import free_flight_row, time_to_wall_row, wall_bounce_row
+from tether_gym.physics.obstacles import TOUCH
 from tether_gym.physics.state import PuckState
 
 
@@ -31,18 +32,23 @@ from tether_gym.physics.state import PuckState
 def first_post_hit(puck, posts, n_posts, t_end, touching):
     """When the puck's rim first touches a post within [0, t_end] (inf if never). With
     `touching`, the env's physics: 0 for a puck that touches one or is inside one at the start,
-    whichever way it moves. Without, only a crossing into a post counts (the planners'
+    whichever way it moves, and for one at rest within `obstacles.TOUCH` of one (as a contact's
+    touch search finds a touch). Without, only a crossing into a post counts (the planners'
     candidate flights, as their numpy reference `planners._entering` does)."""
     first = math.inf
     reach = POST_RADIUS + PUCK_RADIUS
     v2 = puck.vx * puck.vx + puck.vy * puck.vy
-    if v2 == 0.0:
-        return first
     for j in range(n_posts):
         px, py = puck.x - posts[j, 0], puck.y - posts[j, 1]
-        c = px * px + py * py - reach * reach
-        if touching and c <= 0.0:  # touching or inside at the start: a hit now
+        distance2 = px * px + py * py
+        c = distance2 - reach * reach
+        # A moving puck at the reach is resolved by its crossing below (inwards: a hit at
+        # once); one at rest has none, so its touch is its distance, within a contact's TOUCH.
+        at_rest_touch = v2 == 0.0 and math.sqrt(distance2) <= reach + TOUCH
+        if touching and (c <= 0.0 or at_rest_touch):
             return 0.0
+        if v2 == 0.0:
+            continue
         b = px * puck.vx + py * puck.vy
         disc = b * b - v2 * c
         if disc < 0.0:

@@ -143,7 +143,7 @@ with the hybrid contact)."""
 
 
 class NavigateKernel(Kernel):
-    """The kernel of TetherNavigate-v2 for one `NavigateConfig`."""
+    """The kernel of TetherNavigate-v3 for one `NavigateConfig`."""
 
     observation, outcome, goal_keys = OBSERVATION, OUTCOME, GOAL_KEYS
 

@@ -89,7 +89,7 @@ class Renderer(SceneRenderer):
     """TetherNavigate's scenes for `drawing.SceneRenderer`'s render modes."""
 
     def __init__(self, render_mode: str, fps: float, config: NavigateConfig) -> None:
-        super().__init__(render_mode, fps, "TetherNavigate-v2", Canvas(SIZE, SIZE[1] / SCALE))
+        super().__init__(render_mode, fps, "TetherNavigate-v3", Canvas(SIZE, SIZE[1] / SCALE))
         self.canvas.look_at(CENTRE)
         self.config = config
         self._before: np.void | None = None
