@@ -3,15 +3,17 @@ on each rung of the ladder (Open, Posts, Wall; setup control, hybrid dynamics) r
 `tether_gym.physics.pymunk_maneuver` from the kernel's control inputs, walls and posts and all,
 and each maneuver's end compared with the kernel's.
 
-    python benchmarks/pymunk_navigate.py [--episodes 100] [--rho 850 10] [--seed 0]
+    python benchmarks/pymunk_navigate.py [--episodes 100] [--rho 850 10] [--wall-restitution 0.9]
+        [--seed 0]
         [--json results/pymunk/agreement.json] [--overwrite]
 
 Each rung is played at each `--rho` (the tether's stiffness as the env's `rho`: 850 is the
 default; a soft tether, rho = 10, makes contacts long enough to meet the walls and the posts
-often), `--episodes` episodes each, seeds `--seed` on, actions drawn from the action space
-seeded alike. Each episode is replayed twice in the world: whole (`replay` from the episode's
-start, the world carrying its own state from maneuver to maneuver, up to the episode's end:
-"episode" below) and maneuver by maneuver (each from the kernel's state before it: "maneuver").
+often) and each `--wall-restitution` (0.9 the default), `--episodes` episodes each, seeds
+`--seed` on, actions drawn from the action space seeded alike. Each episode is replayed twice
+in the world: whole (`replay` from the episode's start, the world carrying its own state from
+maneuver to maneuver, up to the episode's end: "episode" below) and maneuver by maneuver (each
+from the kernel's state before it: "maneuver").
 A maneuver agrees when the world ends it within `POSITION_TOLERANCE` (2 mm) of the kernel's
 position, within `VELOCITY_TOLERANCE` (1%) of its velocity, with the same `hit_post`.
 
@@ -41,6 +43,7 @@ if __name__ == "__main__":  # one core (the machine's others are left free), bef
         os.environ.setdefault(_name, "1")
 
 import argparse
+import itertools
 import json
 import math
 import platform
@@ -74,6 +77,8 @@ from tether_gym.physics.state import PuckState
 
 ROOT = Path(__file__).resolve().parent.parent
 RUNGS = ("Open", "Posts", "Wall")
+WALL_RESTITUTION = NavigateConfig().wall_restitution
+"""The env's default wall restitution."""
 POSITION_TOLERANCE, VELOCITY_TOLERANCE = 2e-3, 0.01
 """m, and a fraction of the kernel's speed after the maneuver."""
 PUCK = dict(mass=PUCK_MASS, radius=PUCK_RADIUS, inertia_ratio=INERTIA_RATIO, offset=OFFSET)
@@ -347,8 +352,9 @@ def table(populations: dict[str, dict]) -> str:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--episodes", type=int, default=100, help="per rung and rho")
+    parser.add_argument("--episodes", type=int, default=100, help="per rung, rho and restitution")
     parser.add_argument("--rho", type=float, nargs="+", default=[DEFAULT_RHO, 10.0])
+    parser.add_argument("--wall-restitution", type=float, nargs="+", default=[WALL_RESTITUTION])
     parser.add_argument("--seed", type=int, default=0, help="the first episode's seed")
     parser.add_argument("--rungs", nargs="+", choices=RUNGS, default=list(RUNGS))
     parser.add_argument("--json", type=Path, default=None)
@@ -362,15 +368,18 @@ def main(argv: list[str] | None = None) -> None:
     begin = time.perf_counter()
     populations, reproducers = {}, []
     for rung in args.rungs:
-        for rho in args.rho:
+        for rho, restitution in itertools.product(args.rho, args.wall_restitution):
+            kwargs = {"rho": rho, "wall_restitution": restitution}
             name, rows = f"{rung} rho {rho:g}", []
+            if args.wall_restitution != [WALL_RESTITUTION]:
+                name += f" e_wall {restitution:g}"
             started = time.perf_counter()
             for seed in range(args.seed, args.seed + args.episodes):
-                episode = play(env_id(rung), seed, rho=rho)
+                episode = play(env_id(rung), seed, **kwargs)
                 found = compare(episode, alone="all")
                 rows += found
                 reproducers += [
-                    {"env_id": env_id(rung), "kwargs": {"rho": rho}, "seed": seed,
+                    {"env_id": env_id(rung), "kwargs": kwargs, "seed": seed,
                      "maneuver": r.maneuver, "class": r.kind, "position": r.position,
                      "velocity": r.velocity, "alone_position": r.alone_position,
                      "alone_velocity": r.alone_velocity}
@@ -388,6 +397,7 @@ def main(argv: list[str] | None = None) -> None:
     out = {
         "command": shlex.join(["python", "benchmarks/pymunk_navigate.py", *given]),
         **_git(), "seconds": seconds, "episodes": args.episodes, "rho": args.rho,
+        "wall_restitution": args.wall_restitution,
         "seed": args.seed, "taut_steps": TAUT_STEPS,
         "tolerance": {"position": POSITION_TOLERANCE, "velocity": VELOCITY_TOLERANCE},
         "python": platform.python_version(), "numpy": np.__version__,

@@ -2,7 +2,7 @@
 
 A contact integrated over time (`hybrid`) must see them at every instant, as the free flight
 does (`events`): a wall bounces the puck (frictionless, its normal velocity times -restitution),
-a post stops it. `Obstacles` holds them for the contact's own coordinates (relative to the
+a post ends the contact. `Obstacles` holds them for the contact's own coordinates (relative to the
 tether's anchor), `clearance` says how far the centre of mass is from the nearest one
 (`entering_clearance`: the nearest it may be entering), and the hybrid model's integrator finds
 the first instant of a step at which the rim touches one.
