@@ -88,6 +88,7 @@ from tether_gym.envs.tether_navigate.config import (
     TABLE_WIDTH,
     NavigateConfig,
 )
+from tether_gym.envs.tether_navigate.controls import CONTROL_MODES as MODES
 from tether_gym.physics.hybrid import damping_ratio, hybrid_contact_among_row
 from tether_gym.physics.obstacles import on_table
 from tether_gym.physics.state import PuckState
@@ -171,14 +172,12 @@ DEFINITIONS = {
     "peg_overlap": "the path or the position passes closer than PUCK_RADIUS to a peg of the "
     "episode (pegs are in the floor: the puck glides over them): informational",
 }
-CONTROL_MODES = (
-    ("setup", False),
-    ("velocity", False),
-    ("velocity", True),
-    ("aim", False),
-    ("aim", True),
+CONTROL_MODES = tuple(
+    (name, coast)
+    for name, mode in MODES.items()
+    for coast in ((False, True) if mode.coasts else (False,))
 )
-"""(control, coast): `coast=True` needs velocity or aim control."""
+"""(control, coast): every control mode, and with `coast` those that coast."""
 RUNGS = ("Open", "Posts", "Wall")
 MAX_REPRODUCERS = 5
 VECTOR_BLOCK = 32

@@ -16,10 +16,9 @@ import json
 from pathlib import Path
 
 from tether_gym import ladder
+from tether_gym.envs.tether_navigate.controls import CONTROLS
 from tether_gym.evaluation.cli import main as evaluate_main
 from tether_gym.seeds import TEST_SEED
-
-CONTROLS = ("setup", "velocity", "aim")
 
 
 def dense_ids() -> list[str]:

@@ -40,6 +40,39 @@ def test_caches_of_unchanged_sources_are_kept(tmp_path):
     assert all(path.exists() for path in caches)
 
 
+def test_an_edit_outside_the_kernels_sources_keeps_the_key(tmp_path):
+    """Evaluation, training, the figures and the CLI are no kernel's source; a module a
+    kernel's module imports is, wherever it lives."""
+    make_package(tmp_path)
+    (tmp_path / "physics" / "step.py").write_text(
+        "from tether_gym.shared import constants\n\ndef f():\n    from tether_gym import late\n"
+    )
+    extra = ("shared/__init__.py", "shared/constants.py", "late.py", "evaluation/cli.py",
+             "figures.py", "cli.py")  # fmt: skip
+    for name in extra:
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text("X = 1\n")
+    key = kernel_cache.sources_digest(tmp_path)
+    for name in ("evaluation/cli.py", "figures.py", "cli.py", "training/train.py"):
+        (tmp_path / name).write_text("changed = True\n")
+        assert kernel_cache.sources_digest(tmp_path) == key, name
+    for name in ("shared/constants.py", "late.py"):
+        (tmp_path / name).write_text("changed = True\n")
+        assert kernel_cache.sources_digest(tmp_path) != key, name
+        key = kernel_cache.sources_digest(tmp_path)
+
+
+def test_the_packages_kernel_sources_are_its_kernel_layers():
+    """Today's package: the physics, tasks, envs and the compiled planners, and what they
+    import; evaluation, training and the figures are not among them."""
+    package = Path(tether_gym.__file__).parent
+    names = {path.relative_to(package).as_posix() for path in kernel_cache.kernel_sources()}
+    assert {"physics/hybrid.py", "envs/tether_navigate/maneuver.py", "tasks/navigate.py",
+            "agents/planner_kernels.py"} <= names  # fmt: skip
+    assert not any(name.startswith(("evaluation/", "training/")) for name in names)
+    assert not {"figures.py", "cli.py", "agents/planners.py"} & names
+
+
 def test_an_edited_kernel_layer_drops_every_cache(tmp_path):
     make_package(tmp_path)
     kernel_cache.refresh(tmp_path)

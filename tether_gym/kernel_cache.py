@@ -1,46 +1,81 @@
-"""numba's on-disk kernel caches kept in step with the package's sources.
+"""numba's on-disk kernel caches kept in step with the sources they were compiled from.
 
 numba checks a cached kernel against its own module's file only. A kernel that calls or
 inlines a function of another module (the navigate step calls the control modes, the tasks
 and the physics) would go on running the old machine code after that module changed, by an
 edit, a checkout or a pull. `refresh`, run when the package is imported, drops every cached
-kernel when the package's sources below the training layer differ from those the caches were
-built from (their digest is kept beside the caches), so the kernels compile anew on first use.
-`announce` says so in one line when that first use comes.
+kernel when the kernels' sources differ from those the caches were built from (their digest is
+kept beside the caches), so the kernels compile anew on first use. The kernels' sources are
+the modules that define them (`KERNEL_SOURCES`) and every module of the package they import:
+an edit anywhere else (evaluation, training, the figures) keeps the caches. `announce` says so
+in one line when that first use comes.
 """
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import os
 import sys
 from pathlib import Path
 
 PACKAGE = Path(__file__).parent
-TRAINING = "training"
-"""The top layer, left out of the digest: imports point down only, so no kernel reads it, and
-editing it recompiles nothing."""
+KERNEL_SOURCES = ("physics", "tasks", "envs", "agents/planner_kernels.py")
+"""The folders and modules (relative to the package) that define numba kernels."""
 STAMP = Path("__pycache__") / "kernel-sources.sha256"
 """The digest of the sources the caches were built from, relative to the package."""
 CACHE_SUFFIXES = (".nbi", ".nbc")
 """numba's index and data files, written beside each module in its `__pycache__`."""
 
 
+def kernel_sources(package: Path = PACKAGE) -> list[Path]:
+    """The modules of `KERNEL_SOURCES` and, transitively, every module of the package they
+    import (at the top or inside a function), sorted."""
+    todo = []
+    for name in KERNEL_SOURCES:
+        root = package / name
+        todo += sorted(root.rglob("*.py")) if root.is_dir() else [root] if root.is_file() else []
+    seen: set[Path] = set()
+    while todo:
+        path = todo.pop()
+        if path not in seen:
+            seen.add(path)
+            todo += _imported(path, package)
+    return sorted(seen)
+
+
+def _imported(path: Path, package: Path) -> list[Path]:
+    """The package's modules that `path` imports (`from tether_gym.a import b` names the
+    module a, or a.b where b is a module)."""
+    names = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names += [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names += [node.module] + [f"{node.module}.{alias.name}" for alias in node.names]
+    found = []
+    for name in names:
+        top, _, rest = name.partition(".")
+        if top != "tether_gym":
+            continue
+        base = package.joinpath(*rest.split(".")) if rest else package
+        found += [p for p in (base.with_suffix(".py"), base / "__init__.py") if p.is_file()]
+    return found
+
+
 def sources_digest(package: Path = PACKAGE) -> str:
-    """SHA-256 over the paths and contents of the package's Python sources but training's."""
+    """SHA-256 over the paths and contents of the kernels' sources (`kernel_sources`)."""
     digest = hashlib.sha256()
-    for path in sorted(package.rglob("*.py")):
-        name = path.relative_to(package)
-        if name.parts[0] != TRAINING:
-            digest.update(name.as_posix().encode() + b"\0")
-            digest.update(path.read_bytes() + b"\0")
+    for path in kernel_sources(package):
+        digest.update(path.relative_to(package).as_posix().encode() + b"\0")
+        digest.update(path.read_bytes() + b"\0")
     return digest.hexdigest()
 
 
 def refresh(package: Path = PACKAGE) -> bool:
-    """Drop the package's cached kernels if its sources but training's changed since the caches
-    were built (or no digest says what they were built from); True if it dropped them. A
-    package that cannot be written (numba then caches elsewhere) is left alone."""
+    """Drop the package's cached kernels if the kernels' sources changed since the caches were
+    built (or no digest says what they were built from); True if it dropped them. A package
+    that cannot be written (numba then caches elsewhere) is left alone."""
     stamp = package / STAMP
     digest = sources_digest(package)
     try:
@@ -96,5 +131,6 @@ def announce(what: str, *kernels) -> None:
 
 
 __all__ = [
-    "CACHE_SUFFIXES", "STAMP", "TRAINING", "announce", "compiles", "refresh", "sources_digest",
+    "CACHE_SUFFIXES", "KERNEL_SOURCES", "STAMP", "announce", "compiles", "kernel_sources",
+    "refresh", "sources_digest",
 ]  # fmt: skip

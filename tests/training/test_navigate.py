@@ -23,7 +23,7 @@ from tests.helpers.training import TINY_NAVIGATE_NET, TINY_PPO, TINY_SAC, saved_
 from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtractor, ProposalPolicy
 from tether_gym.agents.saved import load_agent
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS
-from tether_gym.envs.tether_navigate.controls import ACTIONS
+from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.spaces import decode_observation
 from tether_gym.evaluation.results import NavigationResult
 from tether_gym.evaluation.runner import evaluate
@@ -342,7 +342,7 @@ def test_a_ppo_run_cloned_from_the_planner_names_it(tmp_path, capsys):
 
 def aim_of(action, control: str) -> np.ndarray:
     """The aim (m) of a normalized action in `control`."""
-    physical = ACTIONS[control].decode(ACTIONS[control].denormalize(action))
+    physical = CONTROL_MODES[control].decode(action)
     return np.array([physical["aim_x"], physical["aim_y"]])
 
 
@@ -383,7 +383,7 @@ def test_an_untrained_aim_policy_commands_its_start_speed(algo, speed):
                       start_speed=speed)  # fmt: skip
     obs, _ = env.reset(seed=1)
     action, _ = model.predict(obs, deterministic=True)
-    command = ACTIONS["aim"].decode(ACTIONS["aim"].denormalize(action))
+    command = CONTROL_MODES["aim"].decode(action)
     assert abs(command["speed"] - speed) < 0.02
     assert np.abs(aim_of(action, "aim") - obs["desired_goal"]).max() < 0.02
 
@@ -422,7 +422,7 @@ def test_an_aim_policy_round_trips_through_a_saved_model(tmp_path, algo):
 
 @pytest.mark.parametrize(
     ("control", "kwargs", "message"),
-    [("setup", {}, "control must be one of ('aim', 'velocity')"),
+    [("setup", {}, "control must be one of ('velocity', 'aim')"),
      ("aim", {"control": "velocity"}, "acts with 4 numbers, the action space holds 3"),
      ("aim", {"features_extractor_class": CombinedExtractor}, "must name the desired goal"),
      ("aim", {"start_speed": 1.5}, "start_speed must be in [0, 1], got 1.5")],
@@ -444,11 +444,11 @@ def test_sac_s_aim_policy_refuses_state_dependent_noise():
 
 @pytest.mark.parametrize(
     ("argv", "hyperparams", "message"),
-    [(["--env", "TetherNavigate-v3"], [], "TetherNavigate with control one of ('aim', 'velocity')"),
+    [(["--env", "TetherNavigate-v3"], [], "TetherNavigate with control one of ('velocity', 'aim')"),
      (["--env", "TetherNavigate-v3", "--env-kwargs", "control:aim"], ["normalize:true"],
       "not with normalize"),
      (["--env", "TetherNavigateSparse-v3", "--algo", "sac"], [],
-      "TetherNavigate with control one of ('aim', 'velocity')")],
+      "TetherNavigate with control one of ('velocity', 'aim')")],
 )  # fmt: skip
 def test_tether_train_checks_an_aim_policy_s_env(tmp_path, capsys, argv, hyperparams, message):
     run = ["--timesteps", "64", "--runs-dir", str(tmp_path), *OPTIONS]

@@ -31,7 +31,7 @@ from tether_gym.envs.tether_navigate.config import (
     MAX_SPEED,
     STATE,
 )
-from tether_gym.envs.tether_navigate.controls import PLAYS, build
+from tether_gym.envs.tether_navigate.controls import CONTROL_MODES, PLAYS
 from tether_gym.envs.tether_navigate.controls.setup import ACTION
 from tether_gym.envs.tether_navigate.geometry import (
     flight_stretches,
@@ -63,7 +63,7 @@ squared speed in its speed's order to about 1e-16."""
 LENGTH_LOW, LENGTH_HIGH = ACTION["tether_length"].low, ACTION["tether_length"].high
 BRAKE_LOW, BRAKE_HIGH = ACTION["restitution"].low, ACTION["restitution"].high
 ACTION_LOW, ACTION_HIGH = ACTION.low, ACTION.high
-_play = PLAYS[build("setup", IMPULSE)]
+_play = PLAYS[CONTROL_MODES["setup"].build(IMPULSE)]
 """The env's maneuver the planners predict with: set-up control, the impulse model."""
 FAIL = 1e6
 """The cost of an episode that ends without success."""

@@ -20,16 +20,18 @@ import numpy as np
 
 from tether_gym.agents.registry import make_agent
 from tether_gym.arguments import ArgumentParser
+from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 
 NAVIGATE = "TetherNavigate_PostsReach-v3"
 BOUNCE = "TetherBounce-v0"
 BOUNCE_BUILDS = ({"dynamics": "hybrid"}, {"dynamics": "impulse"})
 NAVIGATE_BUILDS = tuple(
-    {"control": control, "dynamics": dynamics, **({"coast": True} if control == "aim" else {})}
-    for control in ("setup", "aim")
+    {"control": mode.name, "dynamics": dynamics, **({"coast": True} if mode.coasts else {})}
+    for mode in {mode.solver: mode for mode in CONTROL_MODES.values()}.values()
     for dynamics in ("hybrid", "impulse")
 )
-"""The env arguments whose kernels differ: velocity and aim control share a set-up build."""
+"""The env arguments whose kernels differ: one control mode per compiled set-up (modes that
+share a solver share its builds), each dynamics."""
 PARALLEL_COPIES = 1024
 """Copies enough for every batch kernel to run across threads."""
 

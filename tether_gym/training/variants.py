@@ -15,9 +15,9 @@ from typing import TYPE_CHECKING, Any
 
 from stable_baselines3.common.vec_env import VecEnv
 
-from tether_gym.agents.networks import AIMED_CONTROLS
 from tether_gym.agents.planned import check_scale, make_planner, make_proposer
 from tether_gym.agents.planned import settings as proposal_settings
+from tether_gym.envs.tether_navigate.controls import AIMED
 from tether_gym.families import env_config, family
 from tether_gym.training.config import RunConfig
 from tether_gym.training.pretrain import check_pretrain, clone_planner
@@ -171,9 +171,9 @@ class Aim(Variant):
         if not self.asked(config.hyperparams):
             return
         control = getattr(env_config(config.env_id, config.env_kwargs), "control", None)
-        if control not in AIMED_CONTROLS:
+        if control not in AIMED:
             raise ValueError(
-                f"policy AimPolicy: TetherNavigate with control one of {AIMED_CONTROLS} "
+                f"policy AimPolicy: TetherNavigate with control one of {AIMED} "
                 f"(--env-kwargs control:aim), got {config.env_id} with control {control!r}"
             )
         if config.hyperparams.get("normalize"):

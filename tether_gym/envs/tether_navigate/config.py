@@ -87,13 +87,6 @@ RHO_RANGE = (10.0, 1e6)
 DYNAMICS = ("hybrid", "impulse")
 """The dynamics this env allows; the kernels read their codes in `physics.MODELS` (`HYBRID`,
 `IMPULSE`)."""
-CONTROLS = ("setup", "velocity", "aim")
-"""The control modes' names (`controls.CONTROL_MODES`: what an action commands); a mode's code
-in the kernels is its index here."""
-SETUP, VELOCITY, AIM = range(len(CONTROLS))
-AIMED = ("velocity", "aim")
-"""The modes that command the motion after the bounce: the env meets the offset angle (they
-need the reaction wheel), and the puck may coast to the aim (`coast`)."""
 
 STATE = np.dtype(
     [("x", np.float64), ("y", np.float64), ("vx", np.float64), ("vy", np.float64),
@@ -113,7 +106,7 @@ PARAMS = np.dtype(
      ("anchors", np.float64, (MAX_ANCHORS, 2)), ("posts", np.float64, (MAX_POSTS, 2)),
      ("n_goals", np.int64), ("goals", np.float64, (GRID[0] * GRID[1], 2)),
      ("n_starts", np.int64), ("starts", np.float64, (GRID[0] * GRID[1], 2)),
-     ("control", np.int64), ("coast", np.bool_)]
+     ("coast", np.bool_)]
 )  # fmt: skip
 """The configuration as the kernels read it; with a layout, its pegs, posts and the candidate
 cells of the goal and start."""
@@ -294,11 +287,15 @@ class NavigateConfig:
     coast: bool = False
 
     def __post_init__(self):
+        # the control modes' table imports this module: read it once both are loaded
+        from tether_gym.envs.tether_navigate.controls import AIMED, CONTROLS, control_mode
+
         set_ = object.__setattr__
         for name, options in (("task", TASKS), ("reward_type", REWARD_TYPES),
                               ("dynamics", DYNAMICS), ("control", CONTROLS)):  # fmt: skip
             if getattr(self, name) not in options:
                 raise ValueError(f"{name} must be one of {options}, got {getattr(self, name)!r}")
+        mode = control_mode(self.control)
         rho, stiffness = tether_stiffness(self.rho, self.stiffness, RHO_RANGE, _stiffness)
         if stiffness is None:
             set_(self, "rho", rho)
@@ -325,11 +322,11 @@ class NavigateConfig:
              check_float("wall_restitution", self.wall_restitution, 0.0, 1.0))  # fmt: skip
         if not isinstance(self.reaction_wheel, (bool, np.bool_)):
             raise ValueError(f"reaction_wheel must be True or False, got {self.reaction_wheel!r}")
-        if self.control in AIMED and not self.reaction_wheel:
+        if mode.needs_wheel and not self.reaction_wheel:
             raise ValueError(f"control={self.control!r} needs reaction_wheel=True (the offset)")
         if not isinstance(self.coast, (bool, np.bool_)):
             raise ValueError(f"coast must be True or False, got {self.coast!r}")
-        if self.coast and self.control not in AIMED:
+        if self.coast and not mode.coasts:
             coasting = " or ".join(repr(name) for name in AIMED)
             raise ValueError(f"coast=True needs control={coasting} (it coasts to the aim)")
         set_(self, "wheel_rate", check_float("wheel_rate", self.wheel_rate, 0.0, 1e4))
@@ -343,7 +340,6 @@ class NavigateConfig:
         p = np.zeros(1, PARAMS)
         p["task"], p["reward_type"] = TASKS.index(self.task), REWARD_TYPES.index(self.reward_type)
         p["dynamics"] = HYBRID if self.dynamics == "hybrid" else IMPULSE
-        p["control"] = CONTROLS.index(self.control)
         p["wall_restitution"], p["stiffness"] = self.wall_restitution, self.stiffness
         p["reaction_wheel"], p["wheel_rate"] = self.reaction_wheel, self.wheel_rate
         p["max_maneuvers"], p["coast"] = self.max_maneuvers, self.coast

@@ -35,7 +35,7 @@ from tether_gym.envs.tether_navigate.config import (
     NavigateConfig,
     table_breach,
 )
-from tether_gym.envs.tether_navigate.controls import PLAYS, build, control_mode
+from tether_gym.envs.tether_navigate.controls import CONTROL_MODES, PLAYS, control_mode
 from tether_gym.envs.tether_navigate.sampling import reset_rows, sample
 from tether_gym.envs.tether_navigate.spaces import (
     GOAL_KEYS,
@@ -62,7 +62,7 @@ def finite_action(action):
     return True
 
 
-_play = PLAYS[build("setup", IMPULSE)]
+_play = PLAYS[CONTROL_MODES["setup"].build(IMPULSE)]
 """The maneuver the steps play: each build in `STEPS` rebinds it (`controls.PLAYS`)."""
 
 
@@ -153,7 +153,7 @@ class NavigateKernel(Kernel):
         self.n_uniforms = config.n_uniforms()
         self.mode = control_mode(config.control)
         """The control mode (`controls.ControlMode`)."""
-        self.steps = STEPS[build(config.control, int(self.params[0]["dynamics"]))]
+        self.steps = STEPS[self.mode.build(int(self.params[0]["dynamics"]))]
         """The step kernels built for the mode and the dynamics (`STEPS`)."""
         self.compiling = (
             f"TetherNavigate's kernels ({config.control} control, {config.dynamics} dynamics)"

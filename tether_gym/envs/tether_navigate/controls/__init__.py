@@ -1,10 +1,12 @@
 """TetherNavigate's control modes: how an action becomes a maneuver's set-up (`maneuver`).
 
 Each mode is a `ControlMode`, as HighwayEnv's action types are: its action's fields and
-`space()`, `decode` (a normalized action in physical terms, by name), its compiled `solve`
-(one episode's set-up from a normalized action), and what it asks of the env (the reaction
-wheel; whether `coast` applies, `env_kwargs`). `control_mode(name)` is the factory,
-`CONTROL_MODES` the table:
+`space()`, `decode` (a normalized action in physical terms, by name), the compiled set-up it
+plays (`solver`, one episode's set-up from a normalized action, and `build`, its kernels' key),
+and what it asks of the env (`aimed`: the reaction wheel, whether `coast` applies,
+`env_kwargs`). `CONTROL_MODES` is the one table: a new mode is one record there, and the names
+(`CONTROLS`), the aimed modes (`AIMED`), the envs' checks, the agents', the warm-up and the
+benchmarks read it. `control_mode(name)` is the factory:
 
 - `setup`: the set-up itself (`controls.setup`).
 - `velocity`: the peg and the motion after the bounce, turned into the set-up by the inverse of
@@ -25,7 +27,6 @@ import numpy as np
 from gymnasium import spaces
 
 from tether_gym.envs.fields import Fields
-from tether_gym.envs.tether_navigate.config import AIMED, CONTROLS
 from tether_gym.envs.tether_navigate.controls import setup, velocity
 from tether_gym.envs.tether_navigate.maneuver import MANEUVERS
 from tether_gym.physics.jit import twin
@@ -39,26 +40,34 @@ class ControlMode:
     name: str
     action: Fields = field(repr=False)
     """The action's entries: the physical ranges the normalized action [-1, 1] maps onto."""
-    solve: Callable = field(repr=False)
-    """Compiled, `(action, s, p, out) -> (peg, tether length, offset angle, brake, aim x, aim
-    y)`: the set-up of episode state `s`'s maneuver for a normalized action (the aim NaN where
-    the mode has none); writes `command_met` and `command_error` into outcome row `out`."""
+    solver: str
+    """The key of its compiled set-up in `SOLVERS`, `(action, s, p, out) -> (peg, tether
+    length, offset angle, brake, aim x, aim y)`: the set-up of episode state `s`'s maneuver
+    for a normalized action (the aim NaN where the mode has none), writing `command_met` and
+    `command_error` into outcome row `out`. Modes may share one (velocity and aim control)."""
+    aimed: bool
+    """It commands the motion after the bounce: the env meets the offset angle (the mode needs
+    the reaction wheel, which `NavigateConfig` checks) and the puck may coast to the aim."""
+
+    @property
+    def solve(self) -> Callable:
+        """The compiled set-up (`SOLVERS[solver]`)."""
+        return SOLVERS[self.solver]
 
     @property
     def needs_wheel(self) -> bool:
-        """The set-up's offset angle is the env's to meet: the mode needs the reaction wheel
-        (`config.AIMED`, which `NavigateConfig` checks)."""
-        return self.name in AIMED
+        """The set-up's offset angle is the env's to meet: the mode needs the reaction wheel."""
+        return self.aimed
 
     @property
     def coasts(self) -> bool:
-        """The mode has an aim the puck may coast to (the env's `coast`; `config.AIMED`)."""
-        return self.name in AIMED
+        """The mode has an aim the puck may coast to (the env's `coast`)."""
+        return self.aimed
 
-    @property
-    def code(self) -> int:
-        """The mode in the compiled kernels (`PARAMS["control"]`)."""
-        return CONTROLS.index(self.name)
+    def build(self, dynamics: int) -> tuple[str, int]:
+        """The key of `PLAYS` (and of the kernels built on it) for this mode and a dynamics
+        code: modes that share a solver share their builds."""
+        return self.solver, dynamics
 
     def space(self) -> spaces.Box:
         """Normalized actions: [-1, 1] per entry of `action`, mapped linearly onto its range."""
@@ -83,19 +92,21 @@ class ControlMode:
         return kwargs
 
 
+SOLVERS = {"setup": setup.solve, "velocity": velocity.solve}
+"""The compiled set-ups, by name."""
 CONTROL_MODES = {
     mode.name: mode
     for mode in (
-        ControlMode("setup", setup.ACTION, setup.solve),
-        ControlMode("velocity", velocity.ACTION, velocity.solve),
-        ControlMode("aim", velocity.AIM_ACTION, velocity.solve),
+        ControlMode("setup", setup.ACTION, "setup", aimed=False),
+        ControlMode("velocity", velocity.ACTION, "velocity", aimed=True),
+        ControlMode("aim", velocity.AIM_ACTION, "velocity", aimed=True),
     )
 }
-"""name -> `ControlMode`, in `config.CONTROLS`' order."""
-assert tuple(CONTROL_MODES) == CONTROLS
-
-ACTIONS = {name: mode.action for name, mode in CONTROL_MODES.items()}
-"""Each control mode's action fields (the older table; `CONTROL_MODES[name].action`)."""
+"""name -> `ControlMode`: every control mode, the first the default."""
+CONTROLS = tuple(CONTROL_MODES)
+"""The modes' names."""
+AIMED = tuple(name for name, mode in CONTROL_MODES.items() if mode.aimed)
+"""The modes that command the motion after the bounce (`ControlMode.aimed`)."""
 
 
 def control_mode(control: str | ControlMode) -> ControlMode:
@@ -120,8 +131,6 @@ def play(action, s, p, out):
     _maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out)
 
 
-SOLVERS = {"setup": setup.solve, "velocity": velocity.solve}
-"""The compiled set-ups: velocity and aim control share theirs."""
 PLAYS = {
     (solver, dynamics): numba.njit(cache=True, inline="always")(
         twin(play, f"{solver}_{DYNAMICS[dynamics]}", _solve=solve, _maneuver=maneuver)
@@ -133,19 +142,5 @@ PLAYS = {
 the contact its env plays, not every mode's."""
 
 
-def build(control: str, dynamics: int) -> tuple[str, int]:
-    """The key of `PLAYS` (and of the kernels built on it) for a control mode and a dynamics
-    code."""
-    return ("setup" if control == "setup" else "velocity", dynamics)
-
-
-__all__ = [
-    "ACTIONS",
-    "CONTROLS",
-    "CONTROL_MODES",
-    "PLAYS",
-    "ControlMode",
-    "build",
-    "control_mode",
-    "play",
-]
+__all__ = ["AIMED", "CONTROLS", "CONTROL_MODES", "PLAYS", "SOLVERS", "ControlMode",
+           "control_mode", "play"]  # fmt: skip

@@ -49,7 +49,6 @@ from tether_gym.envs.tether_navigate.config import (
     PUCK_RADIUS,
     TABLE_HEIGHT,
     TABLE_WIDTH,
-    VELOCITY,
 )
 from tether_gym.envs.tether_navigate.controls.setup import ACTION as SETUP_ACTION
 from tether_gym.envs.tether_navigate.flight import contact_clearance, wheel_crossing
@@ -72,6 +71,9 @@ ACTION = Fields(
 )
 AIM_ACTION = Fields(*ACTION.fields[1:])
 """`control="aim"`: the same without the peg."""
+PEG_ACTION = len(ACTION)
+"""The entries of an action that names its peg (`ACTION`): `solve` tells the two modes apart by
+it."""
 ACTION_LOW, ACTION_HIGH = ACTION.low, ACTION.high
 LENGTH_LOW, LENGTH_HIGH = SETUP_ACTION["tether_length"].low, SETUP_ACTION["tether_length"].high
 BRAKE_LOW, BRAKE_HIGH = SETUP_ACTION["restitution"].low, SETUP_ACTION["restitution"].high
@@ -483,11 +485,11 @@ def _refine(s, p, found, aim):
 @numba.njit(cache=True)
 def solve(action, s, p, out):
     """The set-up (peg, tether length, offset angle, brake) nearest a normalized velocity
-    command (`ACTION`; `AIM_ACTION` with `p.control` "aim": every peg searched, the two best
-    on the grid refined) from episode state `s`, the tautening after the flight's closest
+    command (`ACTION`; `AIM_ACTION`, without the peg: every peg searched, the two best on
+    the grid refined) from episode state `s`, the tautening after the flight's closest
     approach to the aim where the flight allows one; writes `command_met` and
     `command_error` into `out`; and the aim (m)."""
-    pick = p.control == VELOCITY
+    pick = action.shape[0] == PEG_ACTION
     aim = _command(action, 1 if pick else 0)
     flight = _flight(s, p)
     stretch, at = _closest_approach(flight, aim.x, aim.y)
