@@ -148,13 +148,6 @@ def test_the_dispatcher_runs_each_console_script(capsys):
     assert "invalid choice: 'tune'" in capsys.readouterr().err
 
 
-def test_the_dispatchers_old_names_warn_and_still_work():
-    from tether_gym import cli
-
-    with pytest.warns(DeprecationWarning, match="tether_gym.arguments.check_env"):
-        assert cli.check_env is arguments.check_env
-
-
 @pytest.mark.parametrize(
     "override, message",
     [

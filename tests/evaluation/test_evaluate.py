@@ -131,12 +131,9 @@ def test_load_agent_runs_a_saved_model_with_its_normalizer(tmp_path):
     assert result.episodes == 20
 
 
-@pytest.mark.parametrize(
-    "module", ["tether_gym.evaluation.cli", "tether_gym.agents.evaluate", "agents.evaluate"]
-)
+@pytest.mark.parametrize("module", ["tether_gym.evaluation.cli", "agents.evaluate"])
 def test_cli_help_documents_every_option(module):
-    """`python -m tether_gym.agents.evaluate` (the deprecated alias) and `python -m
-    agents.evaluate` (the repository's shim) are the same command."""
+    """`python -m agents.evaluate` (the repository's entry point) is the same command."""
     root = ROOT
     command = [sys.executable, "-m", module, "--help"]
     out = subprocess.run(command, capture_output=True, text=True, cwd=root).stdout
