@@ -94,9 +94,6 @@ CONTROL_MODES = {
 """name -> `ControlMode`, in `config.CONTROLS`' order."""
 assert tuple(CONTROL_MODES) == CONTROLS
 
-ACTIONS = {name: mode.action for name, mode in CONTROL_MODES.items()}
-"""Each control mode's action fields (the older table; `CONTROL_MODES[name].action`)."""
-
 
 def control_mode(control: str | ControlMode) -> ControlMode:
     """The `ControlMode` named `control` (a mode is returned as it is); ValueError naming the
@@ -140,7 +137,6 @@ def build(control: str, dynamics: int) -> tuple[str, int]:
 
 
 __all__ = [
-    "ACTIONS",
     "CONTROLS",
     "CONTROL_MODES",
     "PLAYS",
