@@ -1,4 +1,4 @@
-"""Shim: `python train.py ...` from a clone's root (`make train`) is `tether-train ...`."""
+"""Entry point: `python train.py ...` from a clone's root (`make train`) is `tether-train ...`."""
 
 import sys
 

@@ -1,4 +1,4 @@
-"""Shim: `python -m agents.evaluate ...` from a clone's root is `tether-evaluate ...`."""
+"""Entry point: `python -m agents.evaluate ...` from a clone's root is `tether-evaluate ...`."""
 
 from tether_gym.evaluation.cli import main
 

@@ -27,7 +27,7 @@ def dense_ids() -> list[str]:
 
 def run(env_id: str, control: str, agents: list[str], path: Path, episodes: int, overwrite: bool):
     argv = ["--env", env_id, "--agents", *agents, "--episodes", str(episodes),
-            "--seed", str(TEST_SEED), "--json", str(path), "--no-progress",
+            "--seed", str(TEST_SEED), "--json", str(path), "--no-progress-bar",
             "--env-kwargs", f"control:{control}"]  # fmt: skip
     if overwrite:
         argv.append("--overwrite")

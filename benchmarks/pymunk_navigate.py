@@ -59,8 +59,8 @@ import numpy as np
 import pymunk
 
 import tether_gym  # noqa: F401  (registers the env ids)
+from tether_gym.envs.kernels import DEFAULT_RHO
 from tether_gym.envs.tether_navigate.config import (
-    DEFAULT_RHO,
     FLIGHT_HORIZON,
     INERTIA_RATIO,
     OFFSET,

@@ -23,7 +23,7 @@ def help_text(main, argv: list[str], capsys) -> str:
     return capsys.readouterr().out
 
 
-def test_both_commands_have_a_flag_per_envconfig_field():
+def test_both_commands_have_a_flag_per_bounceconfig_field():
     """The named env flags come from the env's one declaration: a new field gets a flag."""
     pytest.importorskip("stable_baselines3")
     from tether_gym.training import train
@@ -75,7 +75,7 @@ def test_tether_evaluate_needs_the_extra_only_for_a_model(monkeypatch, tmp_path,
     evaluate.main(["--agents", "oracle", "--episodes", "5", "--no-progress-bar"])
     assert "| oracle |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
-        evaluate.main(["--agents", str(tmp_path / "m.zip"), "--episodes", "5", "--no-progress"])
+        evaluate.main(["--agents", str(tmp_path / "m.zip"), "--episodes", "5", "--no-progress-bar"])
     assert 'pip install "tether-gym[train]"' in capsys.readouterr().err
 
 
@@ -117,13 +117,12 @@ def test_an_unknown_env_kwargs_key_is_one_line_with_a_suggestion_and_the_valid_o
 
 
 def test_the_progress_flag_has_one_name_across_the_commands():
-    """--no-progress-bar everywhere; tether-evaluate's former --no-progress still works."""
+    """--no-progress-bar everywhere."""
     pytest.importorskip("stable_baselines3")
     from tether_gym.training import train
 
     for parser in (evaluate.build_parser(), train.build_parser()):
         assert parser.parse_args(["--no-progress-bar"]).no_progress_bar
-    assert evaluate.build_parser().parse_args(["--no-progress"]).no_progress_bar
 
 
 def test_the_dispatcher_runs_each_console_script(capsys):
@@ -146,13 +145,6 @@ def test_the_dispatcher_runs_each_console_script(capsys):
     with pytest.raises(SystemExit):
         cli.main(["tune"])
     assert "invalid choice: 'tune'" in capsys.readouterr().err
-
-
-def test_the_dispatchers_old_names_warn_and_still_work():
-    from tether_gym import cli
-
-    with pytest.warns(DeprecationWarning, match="tether_gym.arguments.check_env"):
-        assert cli.check_env is arguments.check_env
 
 
 @pytest.mark.parametrize(

@@ -14,9 +14,8 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-import warnings
 from collections.abc import Sequence
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 from tether_gym.arguments import ArgumentParser
 
@@ -47,24 +46,6 @@ COMMANDS = {
     ),
 }
 """The subcommands, in the order `--help` lists them."""
-MOVED_TO_ARGUMENTS = (
-    "DEFAULT_ENV_ID", "HELP_ENV_IDS", "ENV_DEFAULTS", "TRAIN_EXTRA", "SWEEP_EXTRA",
-    "require_extra", "parse_value", "env_arguments", "env_help", "chosen_env", "env_epilog",
-    "add_env_arguments", "given_env_options", "env_from_args", "check_env",
-)  # fmt: skip
-"""The env-argument helpers this module held before it became the dispatcher."""
-
-
-def __getattr__(name: str) -> Any:
-    """The names of `MOVED_TO_ARGUMENTS`, with a DeprecationWarning naming their module."""
-    if name not in MOVED_TO_ARGUMENTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    warnings.warn(
-        f"tether_gym.cli.{name} is deprecated: use tether_gym.arguments.{name}",
-        DeprecationWarning,
-        stacklevel=2,
-    )
-    return getattr(importlib.import_module("tether_gym.arguments"), name)
 
 
 def build_parser() -> argparse.ArgumentParser:

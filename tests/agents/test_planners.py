@@ -124,7 +124,7 @@ def test_planners_beat_random_by_a_wide_margin():
 def test_the_navigation_table_prints(capsys, tmp_path):
     csv = tmp_path / "nav.csv"
     main(["--env", "TetherNavigate-v3", "--agents", "greedy", "random", "--episodes", "30",
-          "--env-kwargs", "dynamics:impulse", "n_obstacles:2", "--no-progress",
+          "--env-kwargs", "dynamics:impulse", "n_obstacles:2", "--no-progress-bar",
           "--csv", str(csv)])  # fmt: skip
     table = capsys.readouterr().out.splitlines()
     assert "maneuvers to goal" in table[0] and "path length (m)" in table[0]

@@ -68,7 +68,7 @@ def test_policy_files_are_small_and_hold_no_optimizer_state(name):
 
 
 def test_evaluate_runs_the_pretrained_agents_by_name(capsys):
-    main(["--agents", "pretrained", "oracle", "--episodes", "50", "--no-progress"])
+    main(["--agents", "pretrained", "oracle", "--episodes", "50", "--no-progress-bar"])
     out = capsys.readouterr().out
     assert "| pretrained | 50 |" in out and "| oracle | 50 |" in out
     agent = make_agent("pretrained-low-stiffness", {"rho": (5.0, 100.0)})

@@ -18,13 +18,6 @@ LAYERS = (
     "training", "cli",
 )  # fmt: skip
 """Lowest first: a module may import its own layer and those before it."""
-OLD_NAMES = {
-    "tether_gym.agents.evaluate": "the deprecated alias of tether_gym.evaluation",
-    "tether_gym.agents.pretrained.__main__": "`python -m tether_gym.agents.pretrained`, which "
-    "runs tether_gym.evaluation.export",
-}
-"""Modules that keep an old name working by re-exporting or running a higher layer's code:
-exempt from the layer rule, and imported by no module of the package."""
 
 
 def layer(module: str) -> str | None:
@@ -63,8 +56,6 @@ def module_name(path: Path) -> str:
 
 @pytest.mark.parametrize("path", layered_files(), ids=lambda path: module_name(path))
 def test_a_module_imports_only_its_own_layer_and_those_below(path):
-    if module_name(path) in OLD_NAMES:
-        pytest.skip(OLD_NAMES[module_name(path)])
     own = LAYERS.index(layer(module_name(path)))
     upward = [
         f"{path.name}:{line} imports {module}"
@@ -82,15 +73,3 @@ def test_the_agents_never_import_training():
     for path in agents:
         modules = [module for _, module in imported_modules(path)]
         assert not [module for module in modules if module.startswith("tether_gym.training")]
-
-
-def test_no_module_uses_an_old_name():
-    """The old names are kept for users; the package itself imports the new homes (and only
-    `python -m tether_gym` imports the dispatcher, whose old names are the env arguments')."""
-    found = [
-        f"{module_name(path)}:{line} imports {module}"
-        for path in sorted(PACKAGE.rglob("*.py"))
-        for line, module in imported_modules(path)
-        if module in OLD_NAMES or (module == "tether_gym.cli" and path.name != "__main__.py")
-    ]
-    assert not found, "\n".join(found)

@@ -23,7 +23,6 @@ PACKAGED = [
     "tether_gym/arguments.py",
     "tether_gym/agents/oracle.py",
     "tether_gym/agents/random_agent.py",
-    "tether_gym/agents/evaluate.py",
     "tether_gym/evaluation/cli.py",
     "tether_gym/training/train.py",
     "tether_gym/training/sb3.py",
@@ -121,7 +120,7 @@ def test_the_wheel_installs_only_tether_gym_with_agents_training_and_hyperparams
 
 def test_tether_gym_comes_from_the_fresh_venv(fresh_venv, outside):
     bin_dir, site = fresh_venv
-    code = "import tether_gym.training.train as t; print(t.__file__); print(t.DEFAULT_CONF)"
+    code = "import tether_gym.training.zoo as t; print(t.__file__); print(t.DEFAULT_CONF)"
     module, conf = run([bin_dir / "python", "-c", code], outside).stdout.split()
     assert Path(module).is_relative_to(site) and Path(conf).is_file()
 
@@ -144,7 +143,7 @@ def test_tether_sweep_lists_the_packaged_sweeps(fresh_venv, outside):
 def test_tether_evaluate_runs_the_oracle_and_random_from_any_folder(fresh_venv, outside):
     bin_dir, _ = fresh_venv
     command = [bin_dir / "tether-evaluate", "--agents", "oracle", "random", "--episodes", "100"]
-    out = run([*command, "--no-progress", "--json", "results.json"], outside).stdout
+    out = run([*command, "--no-progress-bar", "--json", "results.json"], outside).stdout
     assert "| oracle | 100 |" in out and "| random | 100 |" in out
     oracle, random = json.loads((outside / "results.json").read_text())["results"]
     assert oracle["success_rate"] > 0.9 > 0.1 > random["success_rate"]
@@ -154,12 +153,12 @@ def test_tether_evaluate_runs_the_pretrained_agents_without_training(fresh_venv,
     """The shipped policies load from the installed package, with no run folder anywhere."""
     bin_dir, _ = fresh_venv
     command = [bin_dir / "tether-evaluate", "--agents", "pretrained", "oracle", "--episodes", "100"]
-    out = run([*command, "--no-progress", "--json", "results.json"], outside).stdout
+    out = run([*command, "--no-progress-bar", "--json", "results.json"], outside).stdout
     assert "| pretrained | 100 |" in out
     pretrained, _ = json.loads((outside / "results.json").read_text())["results"]
     assert pretrained["success_rate"] > 0.9
     command = [bin_dir / "tether-evaluate", "--agents", "pretrained-low-stiffness", "--rho", "5",
-               "100", "--episodes", "20", "--no-progress"]  # fmt: skip
+               "100", "--episodes", "20", "--no-progress-bar"]  # fmt: skip
     assert "| pretrained-low-stiffness | 20 |" in run(command, outside).stdout
     assert not (outside / "runs").exists()
 
@@ -191,5 +190,5 @@ def test_tether_train_reads_its_packaged_hyperparameters_and_writes_under_cwd(fr
     assert "| PPO (last) |" in run(command, outside).stdout
     model = outside / "runs" / "ppo_mixed_hybrid_seed0" / "last" / "model.zip"
     command = [bin_dir / "tether-evaluate", "--agents", str(model), "--episodes", "20"]
-    table = run([*command, "--no-progress"], outside).stdout
+    table = run([*command, "--no-progress-bar"], outside).stdout
     assert "| ppo_mixed_hybrid_seed0 (last) | 20 |" in table  # named by its run

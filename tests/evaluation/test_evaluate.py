@@ -88,7 +88,7 @@ def test_saved_models_are_named_by_their_run_and_as_few_folders_as_tell_them_apa
 
 
 def test_cli_compares_with_a_named_agent_episode_by_episode(capsys):
-    args = ["--agents", "oracle", "random", "--episodes", "20", "--no-progress"]
+    args = ["--agents", "oracle", "random", "--episodes", "20", "--no-progress-bar"]
     main([*args, "--paired", "random"])
     out = capsys.readouterr().out
     assert "Episode by episode against random:" in out and "| oracle |" in out.split("against")[1]
@@ -131,12 +131,9 @@ def test_load_agent_runs_a_saved_model_with_its_normalizer(tmp_path):
     assert result.episodes == 20
 
 
-@pytest.mark.parametrize(
-    "module", ["tether_gym.evaluation.cli", "tether_gym.agents.evaluate", "agents.evaluate"]
-)
+@pytest.mark.parametrize("module", ["tether_gym.evaluation.cli", "agents.evaluate"])
 def test_cli_help_documents_every_option(module):
-    """`python -m tether_gym.agents.evaluate` (the deprecated alias) and `python -m
-    agents.evaluate` (the repository's shim) are the same command."""
+    """`python -m agents.evaluate` (the repository's entry point) is the same command."""
     root = ROOT
     command = [sys.executable, "-m", module, "--help"]
     out = subprocess.run(command, capture_output=True, text=True, cwd=root).stdout
@@ -151,7 +148,8 @@ def test_cli_help_documents_every_option(module):
 def test_cli_writes_outputs_and_never_silently_overwrites(tmp_path, capsys):
     csv, js, png = tmp_path / "t.csv", tmp_path / "t.json", tmp_path / "t.png"
     args = ["--agents", "oracle", "random", "--episodes", "30", "--rho", "20", "200",
-            "--no-progress", "--csv", str(csv), "--json", str(js), "--plot", str(png)]  # fmt: skip
+            "--no-progress-bar", "--csv", str(csv), "--json", str(js),
+            "--plot", str(png)]  # fmt: skip
     main(args)
     assert "| oracle |" in capsys.readouterr().out
     assert len(csv.read_text().splitlines()) == 3 and png.stat().st_size > 0
@@ -168,13 +166,13 @@ def test_cli_writes_outputs_and_never_silently_overwrites(tmp_path, capsys):
 
 def test_cli_rejects_bad_options(tmp_path):
     with pytest.raises(SystemExit):
-        main(["--rho", "1", "2", "3", "--no-progress"])
+        main(["--rho", "1", "2", "3", "--no-progress-bar"])
     with pytest.raises(SystemExit):
-        main(["--agents", str(tmp_path / "missing.zip"), "--episodes", "5", "--no-progress"])
+        main(["--agents", str(tmp_path / "missing.zip"), "--episodes", "5", "--no-progress-bar"])
     with pytest.raises(SystemExit):
-        main(["--task", "juggle", "--episodes", "5", "--no-progress"])
+        main(["--task", "juggle", "--episodes", "5", "--no-progress-bar"])
     with pytest.raises(SystemExit):
-        main(["--env-kwargs", "restitution:2", "--episodes", "5", "--no-progress"])
+        main(["--env-kwargs", "restitution:2", "--episodes", "5", "--no-progress-bar"])
 
 
 @pytest.mark.parametrize(
@@ -203,10 +201,10 @@ def test_agents_and_plots_are_refused_on_the_wrong_env(tmp_path):
         make_agent("oracle", {}, env_id="TetherNavigate-v3")
     with pytest.raises(SystemExit):
         main(["--env", "TetherNavigate-v3", "--agents", "shooting", "--episodes", "5",
-              "--no-progress"])  # fmt: skip
+              "--no-progress-bar"])  # fmt: skip
     with pytest.raises(SystemExit):
         main(["--env", "TetherNavigate-v3", "--agents", "random", "--episodes", "5",
-              "--no-progress", "--plot", str(tmp_path / "p.png")])  # fmt: skip
+              "--no-progress-bar", "--plot", str(tmp_path / "p.png")])  # fmt: skip
 
 
 @pytest.mark.parametrize(("env_id", "speed"), [("TetherNavigate_PostsReach-v3", 1.0),

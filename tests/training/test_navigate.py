@@ -189,12 +189,6 @@ def test_the_summary_averages_the_runs_over_seeds(tmp_path, capsys):
     with pytest.raises(SystemExit):
         summary.main([*folders, str(other)])
     assert "summarize the seeds of one configuration" in capsys.readouterr().err
-    older = tmp_path / "older"  # written before results.json recorded the env: not checked
-    older.mkdir()
-    unrecorded = {k: v for k, v in run.items() if k not in ("env_id", "env_kwargs")}
-    (older / summary.RESULTS).write_text(json.dumps(unrecorded))
-    assert summary.main([*folders, str(older)]) == 0
-    assert "| PPO (best) | 4 |" in capsys.readouterr().out
 
 
 class ZeroPolicy:

@@ -232,15 +232,6 @@ def test_a_misspelt_set_key_gets_the_closest_one(tmp_path, capsys):
         assert f"(did you mean {closest!r}?)" in capsys.readouterr().err
 
 
-def test_setup_is_the_deprecated_name_of_sweep_from_args():
-    from tether_gym.training.sweep import cli
-
-    for module in (sweep, cli):
-        with pytest.warns(DeprecationWarning, match="use sweep_from_args"):
-            assert module.setup is sweep.sweep_from_args
-    assert "setup" not in sweep.__all__
-
-
 def test_the_interval_over_seeds():
     assert all(math.isnan(end) for end in t_interval(np.array([0.5])))
     assert t_interval(np.array([0.9, 0.9])) == (0.9, 0.9)

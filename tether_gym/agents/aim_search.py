@@ -40,8 +40,6 @@ class AimSearch:
 
     control_mode = CONTROL_MODES["aim"]
     """The control mode the agent acts in."""
-    control = control_mode.name
-    """The mode's name (the older attribute)."""
 
     def __init__(self, env_kwargs: dict | None = None, env_id: str | None = None):
         self.config = env_config(

@@ -20,8 +20,6 @@ class DirectShot:
 
     control_mode = CONTROL_MODES["aim"]
     """The control mode the agent acts in."""
-    control = control_mode.name
-    """The mode's name (the older attribute)."""
 
     def __init__(self, env_kwargs: dict | None = None, env_id: str | None = None):
         given = {**(gym.spec(env_id).kwargs if env_id else {}), **(env_kwargs or {})}

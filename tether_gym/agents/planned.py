@@ -56,8 +56,6 @@ class ResidualAgent:
 
     control_mode = CONTROL_MODES["setup"]
     """The control mode the agent acts in: its planner's set-ups."""
-    control = control_mode.name
-    """The mode's name (the older attribute)."""
 
     def __init__(self, policy, base, scale: float):
         self.policy, self.base, self.scale = policy, base, check_scale(scale)
@@ -179,8 +177,6 @@ class ProposalAgent:
 
     control_mode = CONTROL_MODES["setup"]
     """The control mode the agent acts in: its planner's set-ups."""
-    control = control_mode.name
-    """The mode's name (the older attribute)."""
 
     def __init__(self, policy, planner: GreedyPlanner, k: int, depth: int = 1):
         self.policy, self.planner = policy, planner

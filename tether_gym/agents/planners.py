@@ -451,8 +451,6 @@ class GreedyPlanner:
 
     control_mode = CONTROL_MODES["setup"]
     """The control mode the planner acts in: its actions are set-ups, in any env's episodes."""
-    control = control_mode.name
-    """The mode's name (the older attribute)."""
 
     def __init__(
         self,

@@ -135,7 +135,7 @@ def fit_agent(spec: str, agent, env_id: str, env_kwargs: dict[str, Any]) -> None
             said = ", ".join(f"{n}={getattr(mine, n)!r}" for n in differ)
             asked = ", ".join(f"{n}={getattr(ours, n)!r}" for n in differ)
             own_control = any(n in CONTROL_KEYS for n in differ) and (
-                isinstance(agent, SB3Agent) or hasattr(agent, "control")
+                isinstance(agent, SB3Agent) or hasattr(agent, "control_mode")
             )
             plays = "in its own control mode, " if own_control else ""
             print(
@@ -223,8 +223,7 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         help="also compare every agent with AGENT (one of --agents) episode by episode: wins, "
         "losses and the exact McNemar p-value")  # fmt: skip
     add("--overwrite", action="store_true", help="replace existing output files")
-    add("--no-progress-bar", "--no-progress", action="store_true",
-        help="no progress bar (--no-progress: the same, its former name)")  # fmt: skip
+    add("--no-progress-bar", action="store_true", help="no progress bar")
     add_env_arguments(parser, env_id)
     return parser
 

@@ -1,6 +1,6 @@
 """Export a training run's best policy as a pretrained agent: its policy file and model card.
 
-    python -m tether_gym.agents.pretrained RUN_DIR NAME --command "..."
+    tether export RUN_DIR NAME --command "..."
 
 The card's success and its baselines' are measured here, on the held-out episodes
 (`HELD_OUT_SEED`) of the run's env, by `tether_gym.evaluation.runner`; the catalog
@@ -184,8 +184,8 @@ def _env_flags(facts: dict[str, Any]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """`python -m tether_gym.agents.pretrained RUN_DIR NAME --command ...`."""
-    parser = ArgumentParser(description=__doc__.split("\n\n")[0])
+    """`tether export RUN_DIR NAME --command ...`."""
+    parser = ArgumentParser(prog="tether export", description=__doc__.split("\n\n")[0])
     parser.add_argument("run_dir", type=Path, help="a training run folder with best/")
     parser.add_argument("name", choices=sorted(AGENTS), help="the pretrained agent to replace")
     parser.add_argument("--command", required=True, help="the command that trained the run")

@@ -70,18 +70,13 @@ def run_navigation(
     """Per-episode outcomes of one agent on a navigation env, and its wall time. Copy i plays
     its first episodes in turn (`episodes` shared out among the copies), the same ones for
     every agent, listed round by round. An agent with a control mode of its own (`control_mode`,
-    a `ControlMode`, or its name as `control`: a planner's set-ups) plays in it
-    (`ControlMode.env_kwargs`), and one with env arguments of its own that shape its action
-    (`control_kwargs`: a saved model's control mode and coast) plays with them: the episodes
-    do not depend on them."""
+    a `ControlMode`: a planner's set-ups) plays in it (`ControlMode.env_kwargs`), and one with
+    env arguments of its own that shape its action (`control_kwargs`: a saved model's control
+    mode and coast) plays with them: the episodes do not depend on them."""
     copies = min(episodes, BATCH)
     quota = episodes // copies + (np.arange(copies) < episodes % copies)
-    from tether_gym.envs.tether_navigate.controls import control_mode
-
     env_kwargs = {**env_kwargs, **getattr(agent, "control_kwargs", {})}
     mode = getattr(agent, "control_mode", None)
-    if mode is None and hasattr(agent, "control"):  # a mode by name only
-        mode = control_mode(agent.control)
     if mode is not None:
         env_kwargs = mode.env_kwargs(env_kwargs)
     env = gym.make_vec(

@@ -1,6 +1,5 @@
 """A training run's config: what `tether_gym.training.experiment.train` reads, saved as the run
-folder's `config.yaml` (`RunConfig.as_dict`) and read back from it (`RunConfig.from_dict`),
-folders written before a field existed included."""
+folder's `config.yaml` (`RunConfig.as_dict`) and read back from it (`RunConfig.from_dict`)."""
 
 from __future__ import annotations
 
@@ -11,9 +10,6 @@ from typing import Any
 
 CHECKPOINT_KEYS = ("num_timesteps", "train_seconds", "eval_success_rate", "torch_threads")
 """What a checkpoint's `config.yaml` adds to the run's (`tether_gym.training.folders`)."""
-OLD_DEFAULTS = {"algo": "ppo", "save_replay_buffer": True}
-"""Values of fields that older run folders do not record: they were PPO runs, and kept the
-replay buffer."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -52,7 +48,7 @@ class RunConfig:
             raise ValueError(f"unknown run config keys {sorted(unknown)}; known: {sorted(names)}")
         if "env_id" not in data:
             raise ValueError("a run config needs env_id")
-        return cls(**{**OLD_DEFAULTS, **{k: v for k, v in data.items() if k in names}})
+        return cls(**{k: v for k, v in data.items() if k in names})
 
     @classmethod
     def of(cls, config: RunConfig | Mapping[str, Any]) -> RunConfig:

@@ -53,10 +53,11 @@ def check_pretrain(spec: Any, env_kwargs: dict[str, Any]) -> dict[str, Any]:
         raise ValueError(f"unknown pretrain entries {sorted(unknown)}")
     teacher = make_teacher(spec["planner"], env_kwargs)
     control = env_kwargs.get("control", "setup")
-    if teacher.control != control:
+    own = teacher.control_mode.name
+    if own != control:
         raise ValueError(
-            f"pretrain planner {spec['planner']!r} acts in control={teacher.control!r}; "
-            f"the env's is {control!r} (--env-kwargs control:{teacher.control})"
+            f"pretrain planner {spec['planner']!r} acts in control={own!r}; "
+            f"the env's is {control!r} (--env-kwargs control:{own})"
         )
     options = {**DEFAULTS, **spec}
     for key in ("decisions", "epochs", "batch_size"):

@@ -27,8 +27,7 @@ RESULTS = "results.json"
 
 def load_runs(run_dirs: list[Path]) -> list[dict]:
     """Each run's `results.json` (ValueError naming a folder without one, or one whose env or
-    env arguments differ from the first run's: seeds of one configuration only; runs written
-    before results.json recorded them are not checked)."""
+    env arguments differ from the first run's: seeds of one configuration only)."""
     runs = []
     for folder in run_dirs:
         try:
@@ -36,8 +35,7 @@ def load_runs(run_dirs: list[Path]) -> list[dict]:
         except (OSError, json.JSONDecodeError) as error:
             raise ValueError(f"cannot read the results of {str(folder)!r}: {error}") from None
         env, first = (f"{run.get('env_id')} {run.get('env_kwargs')}" for run in (runs[-1], runs[0]))
-        recorded = "env_id" in runs[-1] and "env_id" in runs[0]  # older runs did not record it
-        if recorded and env != first:
+        if env != first:
             raise ValueError(
                 f"{str(folder)!r} ran {env}, {str(run_dirs[0])!r} {first}: summarize the seeds "
                 "of one configuration"

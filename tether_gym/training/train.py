@@ -31,9 +31,7 @@ run_dir)` (re-exported here), for callers that make their own configs (a sweep's
 from __future__ import annotations
 
 import argparse
-import importlib
 import sys
-import warnings
 from pathlib import Path
 from typing import Any
 
@@ -72,39 +70,6 @@ RUN_OPTIONS = (
 """`RunConfig` fields that the command line sets (None: not given)."""
 RESUME_OPTIONS = ("timesteps", "eval_episodes", "eval_freq", "save_replay_buffer")
 """The options a resumed run may change."""
-MOVED = {
-    **dict.fromkeys(
-        ("ALGOS", "DEFAULT_CONF", "POLICIES", "ZOO_KEYS", "algo_kwargs", "default_conf",
-         "expression", "load_hyperparams", "parse_overrides", "schedule"),
-        "tether_gym.training.zoo",
-    ),
-    **dict.fromkeys(
-        ("EVALUATIONS", "REPLAY_BUFFER", "Checkpoints", "append_row", "prepare_run_dir"),
-        "tether_gym.training.folders",
-    ),
-    **dict.fromkeys(("as_agent", "baselines", "yardstick"), "tether_gym.training.yardsticks"),
-    **dict.fromkeys(
-        ("final_results", "load_model", "make_model", "make_venv", "use_one_thread"),
-        "tether_gym.training.experiment",
-    ),
-    **dict.fromkeys(("EVAL_SEED", "TEST_SEED"), "tether_gym.seeds"),
-    "OracleEvalCallback": "tether_gym.training.callbacks",
-}  # fmt: skip
-"""Names this module held before training was split into rooms, and where they live now."""
-RENAMED = {"OracleEvalCallback": "YardstickEvalCallback", "use_one_thread": "use_threads"}
-
-
-def __getattr__(name: str) -> Any:
-    """The old names of `MOVED`, with a DeprecationWarning naming the new place."""
-    if name not in MOVED:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    new = RENAMED.get(name, name)
-    warnings.warn(
-        f"tether_gym.training.train.{name} is deprecated: use {MOVED[name]}.{new}",
-        DeprecationWarning,
-        stacklevel=2,
-    )
-    return getattr(importlib.import_module(MOVED[name]), new)
 
 
 def default_name(env_id: str, env_kwargs: dict[str, Any], seed: int, algo: str = "ppo") -> str:

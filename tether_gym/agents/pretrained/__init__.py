@@ -14,9 +14,9 @@ planner is part of it, rebuilt from the card's settings when it loads, and its c
 
 The card's success is measured on held-out episodes (`tether_gym.seeds.HELD_OUT_SEED`), apart
 from the episodes that picked the best model of a run (`EVAL_SEED`) and from those that picked
-the best seed of a sweep (`TEST_SEED`). `python -m tether_gym.agents.pretrained RUN_DIR
-NAME --command ...` turns a run's `best/` model into these two files (for maintainers:
-`tether_gym.evaluation.export`, which plays the agents; this catalog only loads them).
+the best seed of a sweep (`TEST_SEED`). `tether export RUN_DIR NAME --command ...` turns a
+run's `best/` model into these two files (for maintainers: `tether_gym.evaluation.export`,
+which plays the agents; this catalog only loads them).
 """
 
 from __future__ import annotations

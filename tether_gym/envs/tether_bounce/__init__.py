@@ -2,11 +2,10 @@
 frames (`rendering`)."""
 
 from tether_gym.envs.tether_bounce.env import TetherBounceEnv, TetherBounceVectorEnv
-from tether_gym.envs.tether_bounce.kernel import BounceConfig, EnvConfig, decode_observation
+from tether_gym.envs.tether_bounce.kernel import BounceConfig, decode_observation
 
 __all__ = [
     "BounceConfig",
-    "EnvConfig",
     "TetherBounceEnv",
     "TetherBounceVectorEnv",
     "decode_observation",

@@ -540,8 +540,3 @@ def decode_observation(obs) -> dict[str, np.ndarray]:
         "stiffness": env_stiffness(rho),
         "spin": o["spin"],
     }
-
-
-EnvConfig = BounceConfig
-"""The old name of `BounceConfig` (deprecated: it sat beside TetherNavigate's
-`NavigateConfig`)."""

@@ -8,7 +8,6 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from tether_gym.envs.kernels import DEFAULT_RHO as DEFAULT_RHO  # re-exported, as before
 from tether_gym.envs.kernels import (
     HYBRID,
     IMPULSE,

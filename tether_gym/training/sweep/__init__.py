@@ -79,7 +79,6 @@ from tether_gym.training.sweep.cli import (
     prepare_out,
     sweep_from_args,
 )
-from tether_gym.training.sweep.cli import __getattr__ as __getattr__  # the former names
 from tether_gym.training.sweep.report import (
     FINAL,
     SUMMARY_COLUMNS,

@@ -7,9 +7,7 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
-import warnings
 from pathlib import Path
-from typing import Any
 
 from ray import tune
 
@@ -117,20 +115,6 @@ def sweep_from_args(args: argparse.Namespace) -> tuple[Sweep, Path, bool]:
     sweep = load_sweep(find_sweep(args.sweep_file), args.overrides)
     prepare_out(args.out, args.overwrite)
     return sweep, args.out, False
-
-
-RENAMED = {"setup": "sweep_from_args"}
-"""Former names of this module's functions, and their names now."""
-
-
-def __getattr__(name: str) -> Any:
-    """The names of `RENAMED`, with a DeprecationWarning naming the new one."""
-    if name not in RENAMED:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    warnings.warn(
-        f"{__name__}.{name} is deprecated: use {RENAMED[name]}", DeprecationWarning, stacklevel=2
-    )
-    return globals()[RENAMED[name]]
 
 
 def list_examples() -> str:
