@@ -150,10 +150,9 @@ DEFINITIONS = {
     f"completed) from info's state at tautening (taut_position, taut_velocity, taut_angle, "
     f"taut_spin), anchor, tether_length and restitution, with the env's stiffness, wall "
     f"restitution and posts, by physics.hybrid.hybrid_contact_among_row drawing its arc within "
-    f"{ARC_TOLERANCE} m: info['path'] from taut_position to release_position lacks either, or "
-    f"one of its points is not on that arc, or the arc between two consecutive path points "
-    f"strays more than PATH_TOLERANCE + {ARC_SLACK} = {PATH_TOLERANCE + ARC_SLACK} m from "
-    f"their chord",
+    f"{ARC_TOLERANCE} m up to the release: info['path'] from taut_position to release_position "
+    f"lacks either, or one of its points is not on that arc, or a point of the arc lies more "
+    f"than PATH_TOLERANCE + {ARC_SLACK} = {PATH_TOLERANCE + ARC_SLACK} m from that polyline",
     "freeze": f"info['completed'] is False with more than {FREEZE_WALL_HITS} wall_hits (a "
     f"contact stuck at a wall, its time budget spent there)",
     "post_report": f"info['hit_post'] is True but the position is not at a post's reach "
@@ -536,28 +535,26 @@ def _to_polyline(px, py, line):
 
 @numba.njit
 def _stray(path, arc, match):
-    """How far the arc `arc` (m, 2) strays from the chords of `path` (k, 2) drawn over it, both
-    from the same start: each path point is placed on the arc in order (on the first segment of
-    the arc within `match` of it, from the previous one's on), and the arc's points between two
-    path points are measured to their chord. (stray in m, the path point ending the chord that
-    strays most, whether every path point was placed); a path point not on the arc strays by
-    its distance to the whole arc."""
-    worst, where, at, m = 0.0, 0, 0, arc.shape[0]
-    for k in range(1, path.shape[0]):
-        px, py = path[k, 0], path[k, 1]
-        s = at
-        while s < m - 1 and _to_segment(px, py, arc[s, 0], arc[s, 1], arc[s + 1, 0],
-                                        arc[s + 1, 1]) > match:  # fmt: skip
-            s += 1
-        if s >= m - 1 and math.hypot(px - arc[m - 1, 0], py - arc[m - 1, 1]) > match:
-            off = _to_polyline(px, py, arc)
-            return (off, k, False) if off > worst else (worst, where, False)
-        for j in range(at + 1, s + 1):
-            d = _to_segment(arc[j, 0], arc[j, 1], path[k - 1, 0], path[k - 1, 1], px, py)
-            if d > worst:
-                worst, where = d, k
-        at = s
-    return worst, where, True
+    """How far the arc `arc` (m, 2) strays from the polyline `path` (k, 2) drawn over it: the
+    farthest any point of the arc lies from the whole polyline (the reward and the success read
+    distances to the polyline, so this bounds their error; a contact that goes out and comes
+    back along its own way, a rebound, is measured as drawn). (stray in m, the path point
+    ending the segment nearest the arc's farthest point, whether every path point lies within
+    `match` of the arc)."""
+    worst, where = 0.0, 0
+    for i in range(arc.shape[0]):
+        best, segment = math.hypot(arc[i, 0] - path[0, 0], arc[i, 1] - path[0, 1]), 0
+        for k in range(1, path.shape[0]):
+            d = _to_segment(arc[i, 0], arc[i, 1], path[k - 1, 0], path[k - 1, 1], path[k, 0],
+                            path[k, 1])  # fmt: skip
+            if d < best:
+                best, segment = d, k
+        if best > worst:
+            worst, where = best, segment
+    on_arc = True
+    for k in range(path.shape[0]):
+        on_arc &= _to_polyline(path[k, 0], path[k, 1], arc) <= match
+    return worst, where, on_arc
 
 
 def _index(points: np.ndarray, point: np.ndarray, start: int) -> int | None:
@@ -574,7 +571,8 @@ def arc_stray(info: Mapping, posts: np.ndarray, config: NavigateConfig) -> dict:
     it reaches the env's release: a contact the env gives up at its last drawing point goes on
     here), and `info["path"]` from `taut_position` to `release_position` is held to it
     (`_stray`): {"stray" (m; None if the path lacks either point), "chord" (m, the length of the
-    chord that strays most), "on_arc" (every path point on the arc), "arc_points"}."""
+    path's segment nearest the arc's farthest point), "on_arc" (every path point on the arc),
+    "arc_points"}."""
     path = np.asarray(info["path"], dtype=np.float64)
     taut = np.asarray(info["taut_position"], dtype=np.float64)
     release = np.asarray(info["release_position"], dtype=np.float64)
@@ -588,7 +586,7 @@ def arc_stray(info: Mapping, posts: np.ndarray, config: NavigateConfig) -> dict:
     state = (*taut, *np.asarray(info["taut_velocity"], dtype=np.float64),
              float(info["taut_angle"]), float(info["taut_spin"]),
              *np.asarray(info["anchor"], dtype=np.float64))  # fmt: skip
-    size = ARC_POINTS
+    size, match = ARC_POINTS, 2.0 * ARC_TOLERANCE
     while True:
         points = np.empty((size, 2))
         x, y, drawn = _dense_contact(
@@ -597,12 +595,27 @@ def arc_stray(info: Mapping, posts: np.ndarray, config: NavigateConfig) -> dict:
         )  # fmt: skip
         ended = drawn < size  # else its drawing ran out: integrate again with more points
         arc = np.vstack([taut[None], points[:drawn], [[x, y]] if ended else np.empty((0, 2))])
-        stray, where, on_arc = _stray(chords, arc, 2.0 * ARC_TOLERANCE)
-        if on_arc or ended:
+        cuts = _passes(arc, release, match)
+        if len(cuts) or ended:
             break
         size *= 8
+    # The arc up to the release: the env took the same steps, so the arc passes through it
+    # (where a given-up contact stopped, the dense one goes on); of its passes there (an orbit
+    # or a rebound may pass twice), the one the path fits best.
+    best = None
+    for cut in cuts if len(cuts) else [len(arc) - 1]:
+        found = _stray(chords, np.vstack([arc[: cut + 1], release[None]]), match)
+        if best is None or (found[2], -found[0]) > (best[2], -best[0]):
+            best, length = found, cut + 2
+    stray, where, on_arc = best
     chord = float(np.linalg.norm(chords[where] - chords[where - 1])) if where else 0.0
-    return {"stray": float(stray), "chord": chord, "on_arc": bool(on_arc), "arc_points": len(arc)}
+    return {"stray": float(stray), "chord": chord, "on_arc": bool(on_arc), "arc_points": length}
+
+
+def _passes(arc: np.ndarray, point: np.ndarray, match: float) -> list[int]:
+    """The first segment of each run of the arc's segments within `match` of `point`."""
+    near = [j for j in range(len(arc) - 1) if _to_segment(*point, *arc[j], *arc[j + 1]) <= match]
+    return [j for k, j in enumerate(near) if k == 0 or near[k - 1] != j - 1]
 
 
 def _off_arc(result: dict) -> bool:

@@ -19,6 +19,7 @@ from benchmarks.fuzz_navigate import (
     CLASSES,
     HOLES,
     REACH,
+    arc_stray,
     audit_step,
     audit_vector_step,
     combos,
@@ -161,6 +162,66 @@ def test_audit_step_finds_nan_and_notes_an_infinite_command_error(sample):
     found = audit_step(np.zeros((0, 2)), bad, reward, info, space)
     assert found["nan"] and found["obs_outside_space"]
     assert audit_step(np.zeros((0, 2)), obs, np.nan, info, space)["nan"]
+
+
+def test_audit_step_finds_a_freeze_and_a_post_report_against_the_docstring(sample):
+    """A contact given up after many wall hits is a freeze (an incomplete one a note); a post
+    hit must be reported at the post's reach, at rest only if it arrived at rest."""
+    path = [[0.3, 0.5], [0.6, 0.5]]
+    given_up = _audit(sample, path, completed=False, wall_hits=3.0)
+    assert given_up == {"incomplete_contact": 1}
+    frozen = _audit(sample, path, completed=False, wall_hits=50_458.0)
+    assert frozen["freeze"] and frozen["incomplete_contact"]
+    at_post = [1.0 - REACH, 0.5]
+    reported = _audit(sample, [[0.3, 0.5], at_post], hit_post=True, velocity=[1.0, 0.0],
+                      at_rest=False)  # fmt: skip
+    assert not reported, reported
+    assert _audit(sample, [[0.3, 0.5], [0.8, 0.5]], hit_post=True, velocity=[1.0, 0.0],
+                  at_rest=False)["post_report"]  # fmt: skip
+    assert _audit(sample, [[0.3, 0.5], at_post], hit_post=True, velocity=[1.0, 0.0],
+                  at_rest=True)["post_report"]  # fmt: skip
+
+
+def test_arc_stray_finds_a_path_that_leaves_the_arc():
+    """The env's drawing of a soft contact is on its arc; the same path with its arc replaced
+    by one chord (v2's drawing when its points ran out) strays from it."""
+    env = gym.make("TetherNavigate-v3", rho=10)
+    env.reset(seed=0, options={"start": [1.0, 0.8], "start_velocity": [1.2, 0.0],
+                               "anchors": [[1.0, 0.5]], "start_angle": 0.0})  # fmt: skip
+    posts = episode_posts(env.unwrapped.state)
+    *_, info = env.step(np.array([0.0, -1.0, 0.0, 1.0], np.float32))
+    assert info["bounced"]
+    drawn = arc_stray(info, posts, env.unwrapped.config)
+    assert drawn["on_arc"] and drawn["stray"] <= 1e-3
+    path = np.asarray(info["path"])
+    taut = np.flatnonzero((path == info["taut_position"]).all(axis=1))[0]
+    release = np.flatnonzero((path == info["release_position"]).all(axis=1))[-1]
+    assert release - taut >= 3  # an arc, not a chord
+    chord = np.vstack([path[: taut + 1], path[release:]])
+    chord = np.vstack([chord, np.repeat(chord[-1:], len(path) - len(chord), axis=0)])
+    assert arc_stray({**info, "path": chord}, posts, env.unwrapped.config)["stray"] > 1e-3
+
+
+def test_arc_stray_measures_a_rebound_as_drawn():
+    """A contact that goes 1.3 mm out and comes back along its own way (from the sweep's run at
+    rho 91): its path is on its arc, though the arc passes the path's last points twice (the
+    first checker, matching path points to the arc in order, took the way out for the way
+    back and reported a 1.05 mm stray)."""
+    kwargs = {"control": "aim", "coast": True, "dynamics": "hybrid", "rho": 91.07590376336165,
+              "wall_restitution": 0.6031809024539039, "wheel_rate": 101.41317912303306}  # fmt: skip
+    env = gym.make("TetherNavigate_OpenStopSparse-v3", **kwargs)
+    env.reset(seed=1095538111)
+    env.reset()
+    env.reset()
+    actions = [[0.0, -0.4676123, -0.720761], [0.36261111, -1.0585501, 0.0],
+               [-0.4088932, 0.0, 1.0], [0.30395845, 0.7517159, -0.5843743],
+               [-1.0000006, -0.9906311, 0.895325]]  # fmt: skip
+    for action in actions:
+        posts = episode_posts(env.unwrapped.state)
+        *_, info = env.step(np.array(action, np.float32))
+    assert info["bounced"] and info["completed"]
+    found = arc_stray(info, posts, env.unwrapped.config)
+    assert found["on_arc"] and found["stray"] < 1e-5
 
 
 def test_audit_vector_step_is_audit_step_row_by_row():
