@@ -86,6 +86,7 @@ def replayed_rates(run_dirs: list[Path]) -> list[dict[str, float]]:
     planners (a run's own table shows the planners of its day): the planners (deterministic,
     the same for every seed: played once) and, for a policy with a planner inside, its best
     and last models."""
+    from tether_gym.agents.planned import playing
     from tether_gym.agents.saved import load_agent, read_config
     from tether_gym.evaluation.runner import evaluate
 
@@ -101,7 +102,7 @@ def replayed_rates(run_dirs: list[Path]) -> list[dict[str, float]]:
     rates = []
     for run_dir, config in zip(run_dirs, configs, strict=True):
         models = {}
-        if any(config["hyperparams"].get(key) is not None for key in ("residual", "proposals")):
+        if playing(config["hyperparams"]) is not None:
             table = json.loads((run_dir / RESULTS).read_text())["results"]
             models = {row["name"]: load_agent(run_dir / kind / "model.zip")
                       for row in table for kind in ("best", "last")

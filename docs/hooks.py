@@ -57,10 +57,15 @@ def read_results(path: Path) -> dict[str, Any]:
     if path.suffix == ".md":
         import yaml
 
+        from tether_gym.agents.planned import playing
+
         front = yaml.safe_load(path.read_text().split("---\n", 2)[1])
         held_out = front["held_out"]
-        planner = (front.get("hyperparams") or {}).get("proposals")
-        name = front["name"] + (f" (over the {planner} planner's proposals)" if planner else "")
+        params = front.get("hyperparams") or {}
+        planned = playing(params)
+        name = front["name"]
+        if planned is not None:
+            name += f" ({planned.title.format(planner=params[planned.key])})"
         agents = {
             (name if key == "policy" else key): value
             for key, value in held_out.items()

@@ -8,13 +8,22 @@ greedy planner's `k` best proposals (`propose`) as the observation's "proposals"
 of them. `ResidualAgent` and `ProposalAgent` play either with its planner, and `with_planner`
 builds the one a training run's config describes: what `load_agent` needs to play a saved
 model, without training's imports (torch, stable-baselines3).
+
+Each planner-backed variant is one `Planned` record in `PLANNED`, both halves in one place: the
+zoo keys asking for it, the observation entry its policy reads, the agent that plays it, and
+its training side (the VecEnv wrapper, the `Variant` class) named by "module:name" paths, so
+this floor imports no training code. The zoo's keys, `with_planner`, the saved-model check
+(`reads_planner`), the cards' and docs' words and the exclusions between variants read it.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 
 from tether_gym.agents.planners import FAIL, KINDS, GreedyPlanner, LookaheadPlanner, observed_states
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_SPEED, PUCK_RADIUS
@@ -49,6 +58,11 @@ def check_scale(scale: Any) -> float:
     if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0.0 < scale <= 1.0:
         raise ValueError(f"residual_scale must be a number in (0, 1], got {scale!r}")
     return float(scale)
+
+
+def residual_settings(params: dict[str, Any]) -> tuple[float]:
+    """A zoo entry's (residual_scale,), its default filled in and checked."""
+    return (check_scale(params.get("residual_scale", 1.0)),)
 
 
 class ResidualAgent:
@@ -192,15 +206,108 @@ class ProposalAgent:
         return (played[0] if single else played), state
 
 
+@dataclass(frozen=True, eq=False)
+class Planned:
+    """One planner-backed variant: what playing it and training it share."""
+
+    key: str
+    """The zoo key asking for it; its value names the planner (`residual: greedy`)."""
+    settings: tuple[str, ...]
+    """Its other zoo keys (`residual_scale`)."""
+    variant: str | None = None
+    """The "module:name" path of its training behaviour, a subclass of
+    `tether_gym.training.variants.PlannedVariant` built with this record (its checks, run name,
+    work before learning); None: `PlannedVariant` itself."""
+    excludes: tuple[str, ...] = ()
+    """The keys of the variants a zoo entry may not ask for beside it."""
+    agent: Callable[..., Any] | None = None
+    """The agent that plays its trained policy with the planner, `agent(policy, planner,
+    *options(params))` with a `control_mode`; None: the policy plays alone."""
+    planner: Callable[[str, dict[str, Any], str | None], Any] | None = None
+    """The planner the key's value names for an env: `planner(name, env_kwargs, env_id)`,
+    ValueError for a name it does not take."""
+    options: Callable[[dict[str, Any]], tuple] | None = None
+    """A zoo entry's `settings`, defaults filled in and checked (ValueError): the arguments
+    after the planner of `agent` and `wrapper`."""
+    observation: str | None = None
+    """The observation entry its policy reads besides the env's (a saved model whose
+    observation has it plays with its planner)."""
+    wrapper: str | None = None
+    """The "module:name" path of the SB3 VecEnv wrapper it trains in, `wrapper(venv, planner,
+    *options(params))`; None: the env as it is."""
+    title: str = ""
+    """The agent's planner in a table's name, "{planner}" standing for the key's value."""
+    card: str = ""
+    """What the planner does inside the agent, in a pretrained card's words."""
+
+    def asked(self, params: Mapping[str, Any]) -> bool:
+        """Whether the zoo entry `params` asks for it."""
+        return params.get(self.key) is not None
+
+    def build(self, params: Mapping[str, Any], env_kwargs: dict[str, Any], env_id: str | None):
+        """Its planner for the env and its settings in `params` (ValueError naming a bad one)."""
+        planner = self.planner(params[self.key], env_kwargs, env_id)
+        return planner, self.options(params)
+
+
+RESIDUAL = Planned(
+    key="residual",
+    settings=("residual_scale",),
+    variant="tether_gym.training.variants:Residual",
+    agent=ResidualAgent,
+    planner=make_planner,
+    options=residual_settings,
+    observation=BASE_KEY,
+    wrapper="tether_gym.training.residual:ResidualVecEnv",
+    title="residual on the {planner} planner",
+    card="at every decision it acts and the policy's correction, scaled by `residual_scale`, "
+    "is added to its action",
+)
+PROPOSALS = Planned(
+    key="proposals",
+    settings=("proposals_k", "proposals_depth"),
+    variant="tether_gym.training.variants:Proposals",
+    excludes=("residual", "pretrain"),
+    agent=ProposalAgent,
+    planner=make_proposer,
+    options=settings,
+    observation=PROPOSALS_KEY,
+    wrapper="tether_gym.training.proposals:ProposalVecEnv",
+    title="over the {planner} planner's proposals",
+    card="at every decision it proposes its best maneuvers (`proposals_k`, predicted "
+    "`proposals_depth` maneuvers ahead) and the policy picks one",
+)
+PRETRAIN = Planned(key="pretrain", settings=(), variant="tether_gym.training.variants:Pretrain")
+PLANNED: dict[str, Planned] = {p.key: p for p in (RESIDUAL, PROPOSALS, PRETRAIN)}
+"""Every planner-backed variant by its zoo key, in the order they wrap the training env and
+name a run: a new variant is one record here (its agent, and its wrapper and `Variant` where
+it trains differently)."""
+
+
+def planned_keys() -> tuple[str, ...]:
+    """The zoo keys of the variants in `PLANNED`: each one's key and settings."""
+    return tuple(key for p in PLANNED.values() for key in (p.key, *p.settings))
+
+
+def playing(params: Mapping[str, Any]) -> Planned | None:
+    """The variant a zoo entry asks for whose policy plays with its planner (the first in
+    `PLANNED`), None if it plays alone."""
+    return next((p for p in PLANNED.values() if p.agent is not None and p.asked(params)), None)
+
+
+def reads_planner(space: spaces.Space) -> bool:
+    """Whether a policy's observation space has a planner's entry: it plays with its planner."""
+    entries = set(getattr(space, "spaces", {}))
+    return any(p.observation in entries for p in PLANNED.values() if p.observation)
+
+
 def with_planner(agent, config: dict[str, Any]):
     """The agent a run's `config` describes around its trained policy `agent`: the policy
-    itself, or with its planner if it is a residual policy (`tether_gym.training.residual`) or
-    picks among a planner's proposals."""
+    itself, or with its planner if a variant of `PLANNED` plays it so (a residual policy, one
+    picking among a planner's proposals)."""
     params = config["hyperparams"]
-    if params.get("residual") is not None:
-        planner = make_planner(params["residual"], config["env_kwargs"], config["env_id"])
-        return ResidualAgent(agent, planner, params.get("residual_scale", 1.0))
-    if params.get("proposals") is not None:
-        planner = make_proposer(params["proposals"], config["env_kwargs"], config["env_id"])
-        return ProposalAgent(agent, planner, *settings(params))
-    return agent
+    planned = playing(params)
+    if planned is None:
+        return agent
+    planner, options = planned.build(params, config["env_kwargs"], config["env_id"])
+    return planned.agent(agent, planner, *options)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tether_gym.agents.planned import BASE_KEY, PROPOSALS_KEY, with_planner
+from tether_gym.agents.planned import reads_planner, with_planner
 from tether_gym.families import current_id
 
 CONFIG = "config.yaml"
@@ -109,7 +109,6 @@ def load_agent(path: str | Path):
         normalizer.training = False
     agent = SB3Agent(model, normalizer)
     config = path.parent / CONFIG
-    planned = {BASE_KEY, PROPOSALS_KEY} & set(getattr(model.observation_space, "spaces", {}))
-    if planned and config.is_file():
+    if reads_planner(model.observation_space) and config.is_file():
         return with_planner(agent, read_config(config))
     return agent

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from tether_gym.agents.planned import with_planner
+from tether_gym.agents.planned import playing, with_planner
 from tether_gym.agents.pretrained import (
     AGENTS,
     POLICIES,
@@ -126,7 +126,7 @@ def _card_text(facts: dict[str, Any], note: str) -> str:
     first = replayed_episodes(held)
     env = facts["env_kwargs"] or "default arguments"
     yardsticks = family(facts["env_id"]).baselines
-    planner = facts["hyperparams"].get("proposals")
+    planned = playing(facts["hyperparams"])
     lines = [
         "---",
         yaml.safe_dump(facts, sort_keys=False).rstrip(),
@@ -139,12 +139,11 @@ def _card_text(facts: dict[str, Any], note: str) -> str:
         f"{facts['train_seconds']:.0f} s on {_threads(facts.get('torch_threads', 1))}. The "
         "policy file holds the weights and constructor arguments only (no optimizer state).",
     ]
-    if planner:
+    if planned is not None:
         lines += [
             "",
-            f"**The {planner} planner is inside this agent**: at every decision it proposes its "
-            "best maneuvers (`proposals_k`, predicted `proposals_depth` maneuvers ahead) and the "
-            "policy picks one. Loading the agent rebuilds the planner from this card.",
+            f"**The {facts['hyperparams'][planned.key]} planner is inside this agent**: "
+            f"{planned.card}. Loading the agent rebuilds the planner from this card.",
         ]
     lines += [
         "",

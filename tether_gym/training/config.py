@@ -36,7 +36,7 @@ class RunConfig:
     save_replay_buffer: bool = False
     """Whether an off-policy algorithm's replay buffer is saved in `last/`."""
     hyperparams: dict[str, Any] = field(default_factory=dict)
-    """The zoo entry: the algorithm's arguments and the zoo's and our keys (`ZOO_KEYS`)."""
+    """The zoo entry: the algorithm's arguments and the zoo's and our keys (`zoo.zoo_keys()`)."""
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> RunConfig:

@@ -38,9 +38,9 @@ from tether_gym.training.folders import (
 )
 from tether_gym.training.sb3 import make_sb3_vec_env
 from tether_gym.training.summary import RESULTS
-from tether_gym.training.variants import VARIANTS, asked, label
+from tether_gym.training.variants import asked, label, variants
 from tether_gym.training.yardsticks import as_agent, baselines
-from tether_gym.training.zoo import ALGOS, POLICIES, ZOO_KEYS, algo_kwargs, expression
+from tether_gym.training.zoo import ALGOS, POLICIES, algo_kwargs, expression, zoo_keys
 
 
 def check_config(config: RunConfig | Mapping[str, Any]) -> None:
@@ -53,13 +53,13 @@ def check_config(config: RunConfig | Mapping[str, Any]) -> None:
     check_env(config.env_id, config.env_kwargs)
     signature = inspect.signature(ALGOS[config.algo].__init__)
     allowed = set(signature.parameters) - {"self", "env", "_init_setup_model"}
-    unknown = set(config.hyperparams) - allowed - set(ZOO_KEYS)
+    unknown = set(config.hyperparams) - allowed - set(zoo_keys())
     if unknown:
         first = sorted(unknown)[0]
-        hint = did_you_mean(first, sorted(allowed | set(ZOO_KEYS)))
+        hint = did_you_mean(first, sorted(allowed | set(zoo_keys())))
         raise ValueError(f"unknown {label(config)} hyperparameters {sorted(unknown)}{hint}")
     algo_kwargs(config.hyperparams)
-    for variant in VARIANTS:
+    for variant in variants():
         variant.check(config)
     for key in ("n_envs", "timesteps", "eval_episodes"):
         if getattr(config, key) < 1:

@@ -1,11 +1,13 @@
-"""The planner-backed variants of a training run, each asked for by a key of its zoo entry
-and registered in `VARIANTS`: a residual policy on a planner, PPO picking among a planner's
-proposals, PPO cloned from a planner before it learns, and the aim policy that maps the goal
-onto the env's action. A variant checks its settings, names the run, wraps the training env,
-adds policy arguments and acts before learning; `tether_gym.training.experiment` asks each in
-turn, so a new variant is one class here.
+"""The variants of a training run, each asked for by its zoo entry (`variants()`): a residual
+policy on a planner, PPO picking among a planner's proposals, PPO cloned from a planner before
+it learns, and the aim policy that maps the goal onto the env's action. A variant checks its
+settings, names the run, wraps the training env, adds policy arguments and acts before
+learning; `tether_gym.training.experiment` asks each in turn.
 
-Playing a trained variant with its planner is `tether_gym.agents.planned.with_planner`'s.
+The planner-backed ones are the records of `tether_gym.agents.planned.PLANNED`, which also
+says how a trained one plays (`with_planner`): a `PlannedVariant` trains as its record says (its
+key, the variants it excludes, its planner and settings, its wrapper), and a subclass here adds
+what a variant checks, names or does besides.
 """
 
 from __future__ import annotations
@@ -15,21 +17,18 @@ from typing import TYPE_CHECKING, Any
 
 from stable_baselines3.common.vec_env import VecEnv
 
-from tether_gym.agents.planned import check_scale, make_planner, make_proposer
-from tether_gym.agents.planned import settings as proposal_settings
+from tether_gym.agents.planned import PLANNED, Planned
 from tether_gym.envs.tether_navigate.controls import AIMED
-from tether_gym.families import env_config, family
+from tether_gym.families import env_config, family, load
 from tether_gym.training.config import RunConfig
 from tether_gym.training.pretrain import check_pretrain, clone_planner
-from tether_gym.training.proposals import ProposalVecEnv
-from tether_gym.training.residual import ResidualVecEnv
 
 if TYPE_CHECKING:
     from stable_baselines3.common.base_class import BaseAlgorithm
 
 
 class Variant:
-    """A planner-backed variant: what a run with it does differently (nothing by default)."""
+    """A variant: what a run with it does differently (nothing by default)."""
 
     key = ""
     """The zoo key that asks for it."""
@@ -59,85 +58,89 @@ class Variant:
         evaluation's episodes)."""
 
 
-def _planners_act_in_setup(key: str, config: RunConfig) -> None:
-    if not family(config.env_id).planners:
-        return  # the variant's own check names the env the planners solve
-    control = env_config(config.env_id, config.env_kwargs).control
-    if control != "setup":
-        raise ValueError(f"{key}: the planners act in control='setup', not {control}")
+class PlannedVariant(Variant):
+    """A planner-backed variant, trained as its record of `PLANNED` says: asked for by its key,
+    not beside the variants it excludes, its planner and settings checked, the env wrapped in
+    its wrapper; it plays in its agent's control mode."""
 
-
-class Residual(Variant):
-    """`residual: <planner>`, `residual_scale`: the policy's action is added to the planner's
-    (`tether_gym.training.residual`)."""
-
-    key = "residual"
-    control = "setup"
+    def __init__(self, planned: Planned):
+        self.planned, self.key = planned, planned.key
+        self.control = planned.agent.control_mode.name if planned.agent is not None else None
 
     def check(self, config: RunConfig) -> None:
         params = config.hyperparams
         if not self.asked(params):
             return
-        _planners_act_in_setup(self.key, config)
+        self.check_run(config)
+        if any(params.get(key) is not None for key in self.planned.excludes):
+            raise ValueError(f"{self.key}: not with {' or '.join(self.planned.excludes)}")
+        if self.planned.planner is not None:
+            self.planned.build(params, config.env_kwargs, config.env_id)
+
+    def check_run(self, config: RunConfig) -> None:
+        """ValueError for a run the variant cannot train (its env, its algorithm), checked when
+        asked, before the exclusions and the settings."""
+
+    def wrap_venv(self, venv: VecEnv, config: RunConfig) -> VecEnv:
+        if self.planned.wrapper is None:
+            return venv
+        planner, options = self.planned.build(config.hyperparams, config.env_kwargs, config.env_id)
+        return load(self.planned.wrapper)(venv, planner, *options)
+
+    def check_control(self, config: RunConfig) -> None:
+        """ValueError if the env's control mode is not its agent's (on an env the planners
+        play; the variant's own check names the env they solve)."""
+        if not family(config.env_id).planners:
+            return
+        control = env_config(config.env_id, config.env_kwargs).control
+        if control != self.control:
+            raise ValueError(
+                f"{self.key}: the planners act in control={self.control!r}, not {control}"
+            )
+
+
+class Residual(PlannedVariant):
+    """`residual: <planner>`, `residual_scale`: the policy's action is added to the planner's
+    (`tether_gym.training.residual`)."""
+
+    def check_run(self, config: RunConfig) -> None:
+        self.check_control(config)
         if not family(config.env_id).planners:
             raise ValueError(f"residual: the planners solve TetherNavigate, not {config.env_id}")
-        make_planner(params["residual"], config.env_kwargs, config.env_id)
-        check_scale(params.get("residual_scale", 1.0))
 
     def label(self, config: RunConfig) -> str:
         return f"{config.algo.upper()} residual on {config.hyperparams['residual']}"
 
-    def wrap_venv(self, venv: VecEnv, config: RunConfig) -> VecEnv:
-        params = config.hyperparams
-        planner = make_planner(params["residual"], config.env_kwargs, config.env_id)
-        return ResidualVecEnv(venv, planner, params.get("residual_scale", 1.0))
 
-
-class Proposals(Variant):
+class Proposals(PlannedVariant):
     """`proposals: <planner>`, `proposals_k`, `proposals_depth`: PPO picks one of the
     planner's proposals (a discrete action, `tether_gym.training.proposals`), with
     `policy: ProposalPolicy` scoring each proposal."""
 
-    key = "proposals"
-    control = "setup"
-
     def check(self, config: RunConfig) -> None:
         params = config.hyperparams
-        if not self.asked(params):
-            if params.get("policy") == "ProposalPolicy":
-                raise ValueError(
-                    "policy ProposalPolicy scores a planner's proposals: give `proposals`"
-                )
-            return
-        _planners_act_in_setup(self.key, config)
+        if not self.asked(params) and params.get("policy") == "ProposalPolicy":
+            raise ValueError("policy ProposalPolicy scores a planner's proposals: give `proposals`")
+        super().check(config)
+
+    def check_run(self, config: RunConfig) -> None:
+        self.check_control(config)
         if config.algo != "ppo" or not family(config.env_id).planners:
             raise ValueError("proposals: PPO on TetherNavigate only (the action is discrete)")
-        if params.get("residual") is not None or params.get("pretrain") is not None:
-            raise ValueError("proposals: not with residual or pretrain")
-        make_proposer(params["proposals"], config.env_kwargs, config.env_id)
-        proposal_settings(params)
+        params = config.hyperparams
         if params.get("policy") == "ProposalPolicy" and params.get("normalize"):
             raise ValueError("policy ProposalPolicy: not with normalize (it reads slot flags)")
 
     def label(self, config: RunConfig) -> str:
         return f"{config.algo.upper()} over {config.hyperparams['proposals']}'s proposals"
 
-    def wrap_venv(self, venv: VecEnv, config: RunConfig) -> VecEnv:
-        params = config.hyperparams
-        planner = make_proposer(params["proposals"], config.env_kwargs, config.env_id)
-        return ProposalVecEnv(venv, planner, *proposal_settings(params))
 
-
-class Pretrain(Variant):
+class Pretrain(PlannedVariant):
     """`pretrain: {planner: ..., decisions: ...}`: PPO cloned from a planner's demonstrations
     before it learns (`tether_gym.training.pretrain`)."""
 
-    key = "pretrain"
-
-    def check(self, config: RunConfig) -> None:
+    def check_run(self, config: RunConfig) -> None:
         params = config.hyperparams
-        if not self.asked(params):
-            return
         if config.algo != "ppo" or not family(config.env_id).planners or params.get("normalize"):
             raise ValueError("pretrain: PPO on TetherNavigate without normalize only")
         check_pretrain(params["pretrain"], config.env_kwargs)
@@ -183,19 +186,22 @@ class Aim(Variant):
         return {"control": env_config(config.env_id, config.env_kwargs).control}
 
 
-VARIANTS: tuple[Variant, ...] = (Residual(), Proposals(), Pretrain(), Aim())
-"""Every variant, in the order they wrap the training env and name a run (the first asked
-names it)."""
+def variants() -> tuple[Variant, ...]:
+    """Every variant, in the order they wrap the training env and name a run (the first asked
+    names it): those of `PLANNED` as it is now (each its record's `variant`), then the aim
+    policy."""
+    planned = [(load(p.variant) if p.variant else PlannedVariant)(p) for p in PLANNED.values()]
+    return (*planned, Aim())
 
 
 def control_asked(params: dict[str, Any]) -> str | None:
     """The control mode the variants asked for in zoo `params` play in (None: any)."""
-    return next((v.control for v in VARIANTS if v.control and v.asked(params)), None)
+    return next((v.control for v in variants() if v.control and v.asked(params)), None)
 
 
 def asked(config: RunConfig) -> list[Variant]:
-    """The variants `config` asks for, in `VARIANTS`' order."""
-    return [variant for variant in VARIANTS if variant.asked(config.hyperparams)]
+    """The variants `config` asks for, in `variants()`' order."""
+    return [variant for variant in variants() if variant.asked(config.hyperparams)]
 
 
 def label(config: RunConfig) -> str:

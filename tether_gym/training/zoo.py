@@ -1,8 +1,8 @@
 """Hyperparameter files in rl-baselines3-zoo's format: a mapping per env id, `lin_<x>` for a
 linear schedule, `policy_kwargs` and `replay_buffer_kwargs` as Python expressions, the zoo's
 own keys (`n_timesteps`, `n_envs`, `policy`, `normalize`, `env_kwargs`) beside the algorithm's
-arguments, and ours (`PLANNED_KEYS`: the planner-backed variants of
-`tether_gym.training.variants`).
+arguments, and ours (`planned_keys()`: those of the planner-backed variants in
+`tether_gym.agents.planned.PLANNED`).
 
 An entry's `env_kwargs` are the env arguments its recipe was tuned with (a ladder rung's control
 mode and coast): the command line's override them key by key (`make_config`), and a control mode
@@ -21,6 +21,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.utils import LinearSchedule
 
 from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtractor, ProposalPolicy
+from tether_gym.agents.planned import planned_keys
 from tether_gym.arguments import DEFAULT_ENV_ID
 from tether_gym.families import family
 from tether_gym.training.her import PathHerReplayBuffer
@@ -30,14 +31,18 @@ if TYPE_CHECKING:
 
 ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
 """`--algo` names and their SB3 classes; each has its zoo file `hyperparams/<name>.yml`."""
-PLANNED_KEYS = (
-    "residual", "residual_scale", "pretrain", "proposals", "proposals_k", "proposals_depth",
-)  # fmt: skip
-"""Our keys of a zoo entry, read by the planner-backed variants (`residual`, `residual_scale`:
-a residual policy on a TetherNavigate planner; `pretrain`: PPO cloned from a planner first;
-`proposals`, `proposals_k`, `proposals_depth`: PPO picking among a planner's proposals)."""
-ZOO_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_kwargs", *PLANNED_KEYS)
-"""Keys of a zoo entry that are not arguments of the algorithm."""
+OWN_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_kwargs")
+"""The zoo's own keys of an entry."""
+
+
+def zoo_keys() -> tuple[str, ...]:
+    """Keys of a zoo entry that are not arguments of the algorithm: the zoo's own and those of
+    the planner-backed variants in `PLANNED` as it is now (`residual`, `residual_scale`: a
+    residual policy on a TetherNavigate planner; `pretrain`: PPO cloned from a planner first;
+    `proposals`, `proposals_k`, `proposals_depth`: PPO picking among a planner's proposals)."""
+    return (*OWN_KEYS, *planned_keys())
+
+
 REPLAY_BUFFERS = {"HerReplayBuffer": HerReplayBuffer, "PathHerReplayBuffer": PathHerReplayBuffer}
 """`replay_buffer_class` names a zoo entry may give (hindsight relabeling for goal envs)."""
 EXPRESSION_NAMES = {"dict": dict, "nn": torch.nn, "NavigateExtractor": NavigateExtractor}
@@ -152,7 +157,8 @@ def expression(text: str) -> Any:
 def algo_kwargs(params: dict[str, Any]) -> dict[str, Any]:
     """The algorithm's keyword arguments in a zoo entry (schedules, policy_kwargs and
     replay_buffer_kwargs evaluated, replay_buffer_class by name)."""
-    kwargs = {k: v for k, v in params.items() if k not in ZOO_KEYS}
+    own = zoo_keys()
+    kwargs = {k: v for k, v in params.items() if k not in own}
     key = ""
     try:
         for key in ("learning_rate", "clip_range", "clip_range_vf"):
