@@ -74,7 +74,6 @@ import numba
 import numpy as np
 
 import tether_gym
-from tether_gym import NAVIGATE_IDS
 from tether_gym.envs.tether_navigate.config import (
     DYNAMICS,
     INERTIA_RATIO,
@@ -89,6 +88,7 @@ from tether_gym.envs.tether_navigate.config import (
     NavigateConfig,
 )
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES as MODES
+from tether_gym.families import NAVIGATE
 from tether_gym.physics.hybrid import damping_ratio, hybrid_contact_among_row
 from tether_gym.physics.obstacles import on_table
 from tether_gym.physics.state import PuckState
@@ -259,7 +259,7 @@ def combos(ids=None) -> list[tuple[str, str, bool, str]]:
     """Every (env_id, control, coast, dynamics) fuzzed: 14 x 5 x 2 by default."""
     return [
         (env_id, control, coast, dynamics)
-        for env_id in (ids or list(NAVIGATE_IDS))
+        for env_id in (ids or list(NAVIGATE.ids))
         for control, coast in CONTROL_MODES
         for dynamics in DYNAMICS
     ]
@@ -1165,9 +1165,9 @@ def main(argv: list[str] | None = None) -> None:
         parser.error("--steps, --vector-steps and --compare must be >= 0, --num-envs >= 1")
     if not 0.0 <= args.arc_sample <= 1.0 or args.vector_block < 1:
         parser.error("--arc-sample must be in [0, 1], --vector-block >= 1")
-    unknown = set(args.ids or ()) - set(NAVIGATE_IDS)
+    unknown = set(args.ids or ()) - set(NAVIGATE.ids)
     if unknown:
-        parser.error(f"unknown ids {sorted(unknown)}; choose among {list(NAVIGATE_IDS)}")
+        parser.error(f"unknown ids {sorted(unknown)}; choose among {list(NAVIGATE.ids)}")
     tree = os.environ.get(AGAINST_TREE)
     if args.against is not None and tree is None:
         _run_against(args.against, given)

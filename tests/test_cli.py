@@ -1,10 +1,12 @@
-"""What the console scripts share: env flags from `BounceConfig`, literals, the extra check."""
+"""What the console scripts share: env flags from the chosen env's config, literals, the extra
+check."""
 
 from __future__ import annotations
 
 import dataclasses
 import importlib
 import importlib.util
+import re
 
 import pytest
 
@@ -103,6 +105,10 @@ def test_help_with_env_shows_that_envs_arguments(main, capsys):
     assert "registered with layout=<a text map>, task='stop'" in out
     assert all(f"| {name}" in out for name in NAVIGATE_ARGUMENTS)
     assert "TetherBounce-v0 (TetherBounceEnv)" not in out
+    # the flags are NavigateConfig's, their defaults the id's
+    assert re.search(r"--task VALUE\s+default 'stop'", out)
+    assert re.search(r"--layout VALUE\s+default <a text map>", out)
+    assert "--control VALUE" in out and "--inertia-ratio" not in out
 
 
 def test_an_unknown_env_kwargs_key_is_one_line_with_a_suggestion_and_the_valid_ones(capsys):

@@ -13,7 +13,6 @@ from pathlib import Path
 import gymnasium as gym
 import pytest
 
-import tether_gym
 from tests.helpers import ROOT
 from tether_gym.families import BOUNCE, FAMILIES, NAVIGATE, family, load
 
@@ -28,8 +27,9 @@ def test_every_registered_id_maps_to_its_family():
         for env_id, spec in gym.registry.items()
         if str(spec.entry_point).startswith("tether_gym.")
     ]
-    expected = {"TetherBounce-v0": BOUNCE, **dict.fromkeys(tether_gym.NAVIGATE_IDS, NAVIGATE)}
+    expected = {"TetherBounce-v0": BOUNCE, **dict.fromkeys(NAVIGATE.ids, NAVIGATE)}
     assert {env_id: family(env_id) for env_id in ours} == expected
+    assert all(gym.spec(i).kwargs == NAVIGATE.ids[i] for i in NAVIGATE.ids)
     assert all(family(env_family.env_id) is env_family for env_family in FAMILIES)
 
 

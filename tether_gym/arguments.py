@@ -1,12 +1,14 @@
 """The env arguments the console scripts share, from one declaration, and the extras check.
 
 `tether-train` and `tether-evaluate` take `--env ID` and rl-zoo style `--env-kwargs key:value
-...`, plus one named flag per field of TetherBounce-v0's `BounceConfig` (`--task`, `--rho`, ...),
-generated here so that the flags cannot drift from the env. Values are Python literals
-(`rho:(5, 100)`, `stiffness:3000`), a plain word is a string (`task:heading`). The env validates
-them itself: `check_env` builds it once, so a bad value fails with the env's own error before
-any work, and an unknown key lists the env's arguments. `--help` shows the Arguments table of
-the env's docstring (`env_help`): the one chosen with `--env`, else both envs'.
+...`, plus one named flag per field of the chosen env's config (its family's `config`:
+TetherBounce-v0's `BounceConfig` by default, `--task`, `--rho`, ...), generated here so that
+the flags cannot drift from the env: `--env` decides which flags exist. Values are Python
+literals (`rho:(5, 100)`, `stiffness:3000`), a plain word is a string (`task:heading`). The env
+validates them itself: `check_env` builds it once, so a bad value fails with the env's own
+error before any work, and an unknown key lists the env's arguments. `--help` shows the
+Arguments table of the env's docstring (`env_help`): the one chosen with `--env`, else every
+family's main env's.
 """
 
 from __future__ import annotations
@@ -24,14 +26,9 @@ from typing import Any, NoReturn
 import gymnasium as gym
 from gymnasium.envs.registration import load_env_creator
 
-from tether_gym.envs import BounceConfig  # the one place the CLIs learn the env's arguments
-from tether_gym.families import FAMILIES
+from tether_gym.families import FAMILIES, config_arguments, family, load
 
 DEFAULT_ENV_ID = "TetherBounce-v0"
-HELP_ENV_IDS = tuple(env_family.env_id for env_family in FAMILIES)
-"""The envs whose arguments `--help` lists when no `--env` is given: each family's main id."""
-ENV_DEFAULTS: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(BounceConfig)}
-"""TetherBounce-v0's arguments (`BounceConfig`'s fields) and their defaults."""
 TRAIN_EXTRA = ("stable_baselines3", "torch", "tensorboard", "yaml", "rich")
 """Import names of the optional extra "train" (pyproject.toml)."""
 SWEEP_EXTRA = (*TRAIN_EXTRA, "ray", "optuna", "pandas")
@@ -80,7 +77,7 @@ def _flag(name: str) -> str:
 
 
 def _takes_range(hint) -> bool:
-    """Whether an `BounceConfig` field's type admits a (low, high) tuple."""
+    """Whether a config field's type admits a (low, high) tuple."""
     options = typing.get_args(hint) if typing.get_origin(hint) is not tuple else (hint,)
     return any(typing.get_origin(option) is tuple for option in options)
 
@@ -99,6 +96,11 @@ def env_arguments(env_id: str) -> dict[str, Any]:
     return {**defaults, **spec.kwargs}
 
 
+def _shown(value: Any) -> str:
+    """An argument's value in `--help`: its repr, a text map (a `layout`) as "<a text map>"."""
+    return "<a text map>" if isinstance(value, str) and "\n" in value else repr(value)
+
+
 def env_help(env_id: str) -> str:
     """The Arguments section of the env's docstring (its table of keyword arguments), and the
     arguments its registration sets."""
@@ -113,34 +115,29 @@ def env_help(env_id: str) -> str:
         section = doc[start + len("## Arguments") : end if end >= 0 else None].strip("\n")
     text = f"{env_id} ({creator.__name__}) takes, as --env-kwargs KEY:VALUE:\n{section}"
     if spec.kwargs:
-        shown = ", ".join(
-            f"{key}=<a text map>"
-            if isinstance(value, str) and "\n" in value
-            else f"{key}={value!r}"
-            for key, value in spec.kwargs.items()
-        )
+        shown = ", ".join(f"{key}={_shown(value)}" for key, value in spec.kwargs.items())
         text += f"\n\n{env_id} is registered with {shown}."
     return text
 
 
 def chosen_env(argv: Sequence[str] | None) -> str | None:
-    """The `--env` given in `argv` (None if none or unknown): picks the arguments `--help`
-    shows."""
+    """The `--env` given in `argv` (None if none, unknown or of no env family): picks the env
+    flags that exist and the arguments `--help` shows."""
     probe = argparse.ArgumentParser(add_help=False)
     probe.add_argument("--env")
     known, _ = probe.parse_known_args(argv)
     if known.env is None:
         return None
     try:
-        gym.spec(known.env)
-    except gym.error.Error:
+        family(known.env)
+    except ValueError:
         return None
     return known.env
 
 
 def env_epilog(env_id: str | None = None) -> str:
-    """`--help`'s closing text: the arguments of `env_id`, else of both envs (`HELP_ENV_IDS`)."""
-    ids = HELP_ENV_IDS if env_id is None else (env_id,)
+    """`--help`'s closing text: the arguments of `env_id`, else of every family's main env."""
+    ids = [env_family.env_id for env_family in FAMILIES] if env_id is None else [env_id]
     hint = (
         ""
         if env_id
@@ -149,17 +146,34 @@ def env_epilog(env_id: str | None = None) -> str:
     return "Env arguments\n\n" + "\n\n".join(env_help(i) for i in ids) + hint
 
 
+def env_flags(env_id: str) -> dict[str, tuple[Any, Any]]:
+    """The named flags of `env_id`: each field of its family's config -> its default (the one
+    the id's registration fixes, else the config's) and its type."""
+    config = load(family(env_id).config)
+    hints = typing.get_type_hints(config)
+    fixed = config_arguments(env_id)
+    return {
+        f.name: (fixed.get(f.name, f.default), hints[f.name])
+        for f in dataclasses.fields(config)
+        if f.init
+    }
+
+
 def add_env_arguments(parser: argparse.ArgumentParser, env_id: str | None = None) -> None:
-    """`--env`, `--env-kwargs` and one flag per `BounceConfig` field, all defaulting to None
-    (not given: the env's own default); the arguments of `env_id` (else of both envs) close
-    `--help` (the parser needs a `RawDescriptionHelpFormatter` to keep their table)."""
+    """`--env`, `--env-kwargs` and one flag per field of the config of `env_id` (else of
+    `DEFAULT_ENV_ID`), all defaulting to None (not given: the env's own default); the
+    arguments of `env_id` (else of every family's main env) close `--help` (the parser needs a
+    `RawDescriptionHelpFormatter` to keep their table). The flags' names are the namespace's
+    `env_flags`."""
     parser.epilog = env_epilog(env_id)
+    flags_of = env_id or DEFAULT_ENV_ID
+    config = load(family(flags_of).config)
     group = parser.add_argument_group(
         "environment",
-        "--env-kwargs and the named flags (the fields of TetherBounce-v0's BounceConfig; --task, "
-        "--dynamics, --rho and --stiffness are TetherNavigate's arguments too) set the env's "
-        "keyword arguments, listed at the end; values are Python literals or plain words, "
-        "validated by the env itself before any work.",
+        f"--env-kwargs and the named flags (the fields of {flags_of}'s {config.__name__}; "
+        "--env ID --help shows another env's) set the env's keyword arguments, listed at the "
+        "end; values are Python literals or plain words, validated by the env itself before "
+        "any work.",
     )
     group.add_argument("--env", metavar="ID", help=f"registered env id (default {DEFAULT_ENV_ID})")
     group.add_argument(
@@ -170,19 +184,20 @@ def add_env_arguments(parser: argparse.ArgumentParser, env_id: str | None = None
         metavar="KEY:VALUE",
         help="env keyword arguments, e.g. task:heading rho:(5,100)",
     )
-    hints = typing.get_type_hints(BounceConfig)
-    for name, default in ENV_DEFAULTS.items():
-        if _takes_range(hints[name]):
+    flags = env_flags(flags_of)
+    for name, (default, hint) in flags.items():
+        if _takes_range(hint):
             nargs, metavar = "+", ("LOW", "HIGH")
             text = f"one value, or LOW HIGH drawn per episode (default {default})"
         else:
-            nargs, metavar, text = None, "VALUE", f"default {default!r}"
+            nargs, metavar, text = None, "VALUE", f"default {_shown(default)}"
         group.add_argument(_flag(name), nargs=nargs, type=parse_value, metavar=metavar, help=text)
+    parser.set_defaults(env_flags=tuple(flags))
 
 
 def given_env_options(args: argparse.Namespace) -> list[str]:
     """The env flags given on the command line (for a resumed run, which keeps its env)."""
-    names = ["env", "env_kwargs", *ENV_DEFAULTS]
+    names = ["env", "env_kwargs", *args.env_flags]
     return [_flag(name) for name in names if getattr(args, name) not in (None, [])]
 
 
@@ -197,7 +212,7 @@ def env_from_args(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
         if not sep or not key.isidentifier():
             raise ValueError(f"--env-kwargs takes key:value pairs, got {item!r}")
         kwargs[key] = parse_value(text)
-    for name in ENV_DEFAULTS:
+    for name in args.env_flags:
         value = getattr(args, name)
         if value is None:
             continue

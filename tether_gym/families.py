@@ -1,48 +1,68 @@
-"""The env families: what evaluation, training and the pretrained catalog ask of each env.
+"""The env families: the one place an env is added, and what the package asks of each env.
 
 An env id belongs to the family of the entry point it is registered with (`family`), so the
-ladder's ids and a new id of an existing env need no entry here; a new env is one `Family`
-in `FAMILIES`. The evaluation code a family runs is named by "module:name" paths (`load`),
-as Gymnasium names an entry point: this module imports no floor of the package, so every
-floor may import it (`tests/contracts/test_layers.py`, `tests/test_families.py`).
+ladder's ids and a new id of an existing env need no entry here. A new env is one `Family`:
+in `FAMILIES` for the package's own, or `register_family` for an env defined elsewhere (a
+plugin, a test's toy env). Registration (`register`), the command line's env flags, the
+agents by name, the evaluation, the warm-up and the run names read the record; the code a
+family runs is named by "module:name" paths (`load`), as Gymnasium names an entry point: this
+module imports no floor of the package, so every floor may import it
+(`tests/contracts/test_layers.py`, `tests/test_families.py`).
 """
 
 from __future__ import annotations
 
 import importlib
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
 from gymnasium.envs.registration import find_highest_version, get_env_id, parse_env_id
 
-from tether_gym.ladder import VERSION
+from tether_gym import ladder
+
+
+@dataclass(frozen=True)
+class WarmUp:
+    """What `tether compile` plays to compile a family's numba kernels ahead of time."""
+
+    env_id: str
+    """The id whose builds are stepped (its registration's arguments under each build)."""
+    builds: str
+    """The "module:name" path of the env arguments whose kernels differ (a tuple of dicts):
+    each is reset and stepped, single and vectorized."""
+    agents: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    """Agent name -> its arguments: the agents whose decisions compile kernels of their own,
+    each deciding on one observation and on a batch."""
+    batch_agents: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    """The same for agents that decide on the env's batch kernel: on a batch only."""
 
 
 @dataclass(frozen=True, eq=False)
 class Family:
-    """One env family: the ids registered with its entry point."""
+    """One env family: its ids, its config, and what evaluates, trains and reports it."""
 
     name: str
     """Its name in messages, e.g. "TetherNavigate"."""
-    env_id: str
-    """Its main id, whose arguments `--help` lists when no `--env` is given."""
+    ids: Mapping[str, Mapping[str, Any]]
+    """Every id it registers -> the keyword arguments its registration fixes; the first is
+    its main id (`env_id`)."""
     entry_point: str
-    config: str
-    """The "module:name" path of its config: the env's arguments checked and completed."""
     """The Gymnasium entry point its ids are registered with."""
+    config: str
+    """The "module:name" path of its config: a dataclass of the env's arguments, checked and
+    completed on construction, with `names()`; its fields are the command line's env flags."""
     runner: str
-    """The "module:name" path of the function that plays one agent on its seeded episodes
-    (`evaluation.runner.evaluate`)."""
+    """The "module:name" path of the function that plays one agent on its seeded episodes,
+    `(agent, env_id, env_kwargs, episodes, seed, bar) -> arrays` (`evaluation.runner`)."""
     result: str
-    """The "module:name" path of its evaluation result type: `from_run` builds one from the
-    runner's arrays, `table` tabulates a list of them."""
-    plots: bool
-    """Whether `tether-evaluate --plot` draws its results (the heading errors)."""
-    agents: tuple[str, ...]
+    """The "module:name" path of its evaluation result type (an `evaluation.results.Result`):
+    `from_run` builds one from the runner's arrays, `table` tabulates a list of them."""
+    agents: Mapping[str, str]
     """The agent names `tether-evaluate --agents` takes on it (besides a saved model), in the
-    order its help lists them."""
+    order its help lists them -> the "module:name" path of each one's factory, called with an
+    `agents.registry.AgentRequest`."""
     baselines: Mapping[str, str]
     """Label -> agent name of the agents a policy is measured against: with a random agent,
     `tether-evaluate`'s default agents and a training run's final table; a pretrained card's
@@ -52,56 +72,81 @@ class Family:
     compare with."""
     yardstick_column: str
     """The yardstick's success rate in a run's evaluations.csv and a sweep's reports."""
-    metrics: tuple[str, ...]
-    """The result fields a periodic evaluation records besides success and return."""
-    planners: bool
-    """Whether the compiled planners (`agents.planners`) play it: its baselines depend on them,
-    and a policy may build on them (a zoo entry's residual, proposals, pretrain)."""
-    pretrained_by_task: Mapping[str, str]
-    """The env's task -> the pretrained agent that "pretrained" means on it (empty: the agent
-    named "pretrained" itself)."""
     card_episodes: int
     """The held-out episodes behind a pretrained card's success rate."""
     card_test_episodes: int
     """The first of them whose successes the card records for tests/agents/test_pretrained.py."""
+    vector_entry_point: str | None = None
+    """The Gymnasium vector entry point its ids are registered with (None: none)."""
+    plots: bool = False
+    """Whether `tether-evaluate --plot` draws its results (the heading errors)."""
+    metrics: tuple[str, ...] = ()
+    """The result fields a periodic evaluation records besides success and return."""
+    planners: bool = False
+    """Whether the compiled planners (`agents.planners`) play it: its baselines depend on them,
+    and a policy may build on them (a zoo entry's residual, proposals, pretrain)."""
+    pretrained_by_task: Mapping[str, str] = field(default_factory=dict)
+    """The env's task -> the pretrained agent that "pretrained" means on it (empty: the agent
+    named "pretrained" itself)."""
+    warm: WarmUp | None = None
+    """What `tether compile` plays for it (None: no kernels to compile)."""
+    run_name_keys: tuple[str, ...] = ()
+    """The env arguments a training run's default name always says (their defaults where not
+    given), in order, before the other arguments given."""
+
+    @property
+    def env_id(self) -> str:
+        """Its main id, whose arguments `--help` lists when no `--env` is given."""
+        return next(iter(self.ids))
 
 
 BOUNCE = Family(
     name="TetherBounce",
-    env_id="TetherBounce-v0",
+    ids={"TetherBounce-v0": {}},
     entry_point="tether_gym.envs:TetherBounceEnv",
+    vector_entry_point="tether_gym.envs:TetherBounceVectorEnv",
     config="tether_gym.envs:BounceConfig",
     runner="tether_gym.evaluation.runner:run_bounce",
     result="tether_gym.evaluation.results:EvalResult",
     plots=True,
-    agents=("oracle", "shooting", "pretrained", "pretrained-low-stiffness", "random"),
+    agents={
+        "oracle": "tether_gym.agents.registry:impulse_oracle",
+        "shooting": "tether_gym.agents.registry:shooting_oracle",
+        "pretrained": "tether_gym.agents.registry:pretrained_agent",
+        "pretrained-low-stiffness": "tether_gym.agents.registry:pretrained_agent",
+        "random": "tether_gym.agents.registry:random_agent",
+    },
     baselines={"impulse oracle": "oracle", "shooting oracle": "shooting"},
     yardstick="impulse oracle",
     yardstick_column="oracle_success_rate",
     metrics=("heading_error_mean_deg",),
-    planners=False,
-    pretrained_by_task={},
     card_episodes=10_000,
     card_test_episodes=1000,
+    warm=WarmUp("TetherBounce-v0", "tether_gym.envs.tether_bounce.env:KERNEL_BUILDS"),
+    run_name_keys=("task", "dynamics"),
 )
 NAVIGATE = Family(
     name="TetherNavigate",
-    env_id=f"TetherNavigate-v{VERSION}",
+    ids={
+        f"TetherNavigate-v{ladder.VERSION}": {"reward_type": "dense"},
+        f"TetherNavigateSparse-v{ladder.VERSION}": {"reward_type": "sparse"},
+        **ladder.ids(),
+    },
     entry_point="tether_gym.envs.tether_navigate:TetherNavigateEnv",
+    vector_entry_point="tether_gym.envs.tether_navigate:TetherNavigateVectorEnv",
     config="tether_gym.envs.tether_navigate.config:NavigateConfig",
     runner="tether_gym.evaluation.runner:run_navigation",
     result="tether_gym.evaluation.results:NavigationResult",
-    plots=False,
-    agents=(
-        "greedy",
-        "lookahead",
-        "pretrained",
-        "pretrained-reach",
-        "pretrained-stop",
-        "aim-search",
-        "direct",
-        "random",
-    ),
+    agents={
+        "greedy": "tether_gym.agents.registry:greedy_planner",
+        "lookahead": "tether_gym.agents.registry:lookahead_planner",
+        "pretrained": "tether_gym.agents.registry:pretrained_agent",
+        "pretrained-reach": "tether_gym.agents.registry:pretrained_agent",
+        "pretrained-stop": "tether_gym.agents.registry:pretrained_agent",
+        "aim-search": "tether_gym.agents.registry:aim_search",
+        "direct": "tether_gym.agents.registry:direct_shot",
+        "random": "tether_gym.agents.registry:random_agent",
+    },
     baselines={"greedy planner": "greedy", "lookahead planner": "lookahead"},
     yardstick="greedy planner",
     yardstick_column="planner_success_rate",
@@ -110,8 +155,42 @@ NAVIGATE = Family(
     pretrained_by_task={"reach": "pretrained-reach", "stop": "pretrained-stop"},
     card_episodes=1000,  # a navigation agent's decisions cost a planner's
     card_test_episodes=200,
+    warm=WarmUp(
+        f"TetherNavigate_PostsReach-v{ladder.VERSION}",
+        "tether_gym.envs.tether_navigate.env:KERNEL_BUILDS",
+        agents={"greedy": {}, "lookahead": {}},
+        batch_agents={"aim-search": {"coast": True}},
+    ),
+    run_name_keys=("task", "dynamics"),
 )
-FAMILIES = (BOUNCE, NAVIGATE)
+FAMILIES: list[Family] = [BOUNCE, NAVIGATE]
+"""Every env family, the package's first (`tether_gym/__init__.py` registers their ids), then
+those `register_family` adds."""
+
+
+def register(env_family: Family) -> None:
+    """Register every id of `env_family` with Gymnasium, with its entry points and the
+    arguments the id fixes."""
+    for env_id, kwargs in env_family.ids.items():
+        gym.register(
+            id=env_id,
+            entry_point=env_family.entry_point,
+            vector_entry_point=env_family.vector_entry_point,
+            kwargs=dict(kwargs),
+        )
+
+
+def register_family(env_family: Family) -> None:
+    """Add an env family defined outside the package: one of `FAMILIES` from now on, its ids
+    registered with Gymnasium. ValueError if a family of its name or entry point exists."""
+    for known in FAMILIES:
+        if env_family.name == known.name or env_family.entry_point == known.entry_point:
+            raise ValueError(
+                f"the env family {env_family.name} ({env_family.entry_point}) is registered "
+                f"already as {known.name} ({known.entry_point})"
+            )
+    FAMILIES.append(env_family)
+    register(env_family)
 
 
 def family(env_id: str) -> Family:

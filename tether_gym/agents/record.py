@@ -22,7 +22,7 @@ import gymnasium as gym
 import numpy as np
 
 from tether_gym.agents.registry import make_agent
-from tether_gym.arguments import ArgumentParser, add_env_arguments, env_from_args
+from tether_gym.arguments import ArgumentParser, add_env_arguments, chosen_env, env_from_args
 
 GIF_COLOURS = 128
 """The GIF's one palette: the drawing's few colours and their anti-aliased blends."""
@@ -86,7 +86,7 @@ def write_gif(frames: list[np.ndarray], path: Path, fps: float, size: int) -> No
     )
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
     parser = ArgumentParser(
         prog="python -m tether_gym.agents.record",
         description="Write an animated GIF of an agent's episodes.",
@@ -101,13 +101,13 @@ def build_parser() -> argparse.ArgumentParser:
     add("--size", type=int, default=640, help="pixels across (default 640)")
     add("--fps", type=int, default=20, help="frames per second, drawn and played (default 20)")
     add("--overwrite", action="store_true", help="replace an existing file")
-    add_env_arguments(parser)
+    add_env_arguments(parser, env_id)
     return parser
 
 
 def main(argv: list[str] | None = None) -> None:
     """`python -m tether_gym.agents.record`: print the GIF's path, frame count and size."""
-    parser = build_parser()
+    parser = build_parser(chosen_env(argv))
     args = parser.parse_args(argv)
     if args.out.exists() and not args.overwrite:
         parser.error(f"{args.out} exists; pass --overwrite to replace it")

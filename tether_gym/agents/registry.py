@@ -1,10 +1,14 @@
-"""The agents by name: the baselines, the planners, the pretrained agents, a random agent or a
-saved SB3 model's path, as `--agents` lists them (`make_agent`). In the agents layer, so that
-the evaluation and the recorder (`agents.record`) build the same agents."""
+"""The agents by name: each env family's (its `Family.agents`, name -> factory: the baselines,
+the planners, the pretrained agents, a random agent) or a saved SB3 model's path, as `--agents`
+lists them (`make_agent`). In the agents layer, so that the evaluation and the recorder
+(`agents.record`) build the same agents. The package's factories are here; another family's
+may live anywhere its record names."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 
@@ -16,7 +20,18 @@ from tether_gym.agents.planners import GreedyPlanner, LookaheadPlanner
 from tether_gym.agents.random_agent import RandomAgent
 from tether_gym.agents.saved import load_agent
 from tether_gym.arguments import DEFAULT_ENV_ID, require_extra
-from tether_gym.families import FAMILIES, check_agent, family
+from tether_gym.families import FAMILIES, check_agent, family, load
+
+
+@dataclass(frozen=True)
+class AgentRequest:
+    """What an agent factory (a family's `agents` entry) is called with: the agent's name, the
+    env it plays and the seed of its own draws."""
+
+    name: str
+    env_id: str
+    env_kwargs: dict[str, Any]
+    seed: int
 
 
 def action_size(env_id: str, env_kwargs: dict) -> int:
@@ -27,9 +42,50 @@ def action_size(env_id: str, env_kwargs: dict) -> int:
     return size
 
 
+def impulse_oracle(request: AgentRequest) -> ImpulseOracle:
+    """TetherBounce's "oracle"."""
+    return ImpulseOracle()
+
+
+def shooting_oracle(request: AgentRequest) -> ShootingOracle:
+    """TetherBounce's "shooting"."""
+    return ShootingOracle(request.env_kwargs)
+
+
+def greedy_planner(request: AgentRequest) -> GreedyPlanner:
+    """TetherNavigate's "greedy"."""
+    return GreedyPlanner(request.env_kwargs, request.env_id)
+
+
+def lookahead_planner(request: AgentRequest) -> LookaheadPlanner:
+    """TetherNavigate's "lookahead"."""
+    return LookaheadPlanner(request.env_kwargs, request.env_id)
+
+
+def aim_search(request: AgentRequest) -> AimSearch:
+    """TetherNavigate's "aim-search" (in aim control)."""
+    return AimSearch(request.env_kwargs, request.env_id)
+
+
+def direct_shot(request: AgentRequest) -> DirectShot:
+    """TetherNavigate's "direct" (in aim control)."""
+    return DirectShot(request.env_kwargs, request.env_id)
+
+
+def pretrained_agent(request: AgentRequest) -> Any:
+    """A shipped agent (`pretrained.AGENTS`); "pretrained" is the one the env's family means
+    (`pretrained.for_env`: on TetherNavigate the one of the env's task, with its planner)."""
+    return pretrained.load(pretrained.for_env(request.name, request.env_id, request.env_kwargs))
+
+
+def random_agent(request: AgentRequest) -> RandomAgent:
+    """Uniform actions in the env's (Box) action space, from the request's seed."""
+    return RandomAgent(request.seed, action_size(request.env_id, request.env_kwargs))
+
+
 def agent_choices(env_id: str) -> tuple[str, ...]:
     """The agent names `make_agent` takes on `env_id` (besides a saved model's path)."""
-    return family(env_id).agents
+    return tuple(family(env_id).agents)
 
 
 def looks_like_path(spec: str) -> bool:
@@ -39,29 +95,18 @@ def looks_like_path(spec: str) -> bool:
 
 
 def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT_ENV_ID):
-    """ "oracle", "shooting" (TetherBounce-v0), "greedy", "lookahead", "aim-search", "direct"
-    (TetherNavigate, the last two in aim control), a pretrained agent (`pretrained.AGENTS`: on
-    TetherNavigate "pretrained" is the one of the env's task, with its planner), "random" or
-    the path of a saved SB3 model zip. ValueError for an unknown name, listing the env's, and
-    for an agent of another env family (`families.check_agent`)."""
-    navigators = {"greedy": GreedyPlanner, "lookahead": LookaheadPlanner, "aim-search": AimSearch,
-                  "direct": DirectShot}  # fmt: skip
+    """The agent named `spec` on `env_id`, built by its family's factory (`Family.agents`),
+    or the saved SB3 model zip at the path `spec`. ValueError for an unknown name, listing the
+    env's, and for an agent of another env family (`families.check_agent`)."""
     known = {name for env_family in FAMILIES for name in env_family.agents}
-    if spec not in known and not looks_like_path(spec):
+    if spec in known:
+        check_agent(spec, env_id)
+        factory = load(family(env_id).agents[spec])
+        return factory(AgentRequest(spec, env_id, env_kwargs, seed))
+    if not looks_like_path(spec):
         raise ValueError(
             f"unknown agent {spec!r}: {env_id} takes {', '.join(agent_choices(env_id))}, "
             "or a saved model's .zip path"
         )
-    if spec in pretrained.AGENTS:
-        return pretrained.load(pretrained.for_env(spec, env_id, env_kwargs))
-    check_agent(spec, env_id)
-    if spec == "oracle":
-        return ImpulseOracle()
-    if spec == "shooting":
-        return ShootingOracle(env_kwargs)
-    if spec in navigators:
-        return navigators[spec](env_kwargs, env_id)
-    if spec == "random":
-        return RandomAgent(seed, action_size(env_id, env_kwargs))
     require_extra(f"the model {spec!r}", ("stable_baselines3", "torch"))
     return load_agent(spec)

@@ -4,9 +4,10 @@
 
 numba compiles a kernel at its first call and caches it (`kernel_cache`); a first run thus
 spends its first step compiling. This plays each kernel once, for images, CI and anyone who
-would rather wait now: both envs' single and vector steps for every control mode's set-up and
-every dynamics (serial and parallel builds), and the planners' decisions one at a time and in
-batches. The two parts compile side by side in two processes.
+would rather wait now: every env family's single and vector steps for each of its builds (its
+`Family.warm`: TetherNavigate's for every control mode's set-up and every dynamics; serial and
+parallel builds), and its agents' decisions (the planners') one at a time and in batches. The
+two parts compile side by side in two processes.
 """
 
 from __future__ import annotations
@@ -20,18 +21,8 @@ import numpy as np
 
 from tether_gym.agents.registry import make_agent
 from tether_gym.arguments import ArgumentParser
-from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
+from tether_gym.families import FAMILIES, load
 
-NAVIGATE = "TetherNavigate_PostsReach-v3"
-BOUNCE = "TetherBounce-v0"
-BOUNCE_BUILDS = ({"dynamics": "hybrid"}, {"dynamics": "impulse"})
-NAVIGATE_BUILDS = tuple(
-    {"control": mode.name, "dynamics": dynamics, **({"coast": True} if mode.coasts else {})}
-    for mode in {mode.solver: mode for mode in CONTROL_MODES.values()}.values()
-    for dynamics in ("hybrid", "impulse")
-)
-"""The env arguments whose kernels differ: one control mode per compiled set-up (modes that
-share a solver share its builds), each dynamics."""
 PARALLEL_COPIES = 1024
 """Copies enough for every batch kernel to run across threads."""
 
@@ -61,28 +52,35 @@ def env_kernels(
 
 
 def single() -> None:
-    """The single envs' steps, and the planners' decisions one at a time."""
-    for kwargs in BOUNCE_BUILDS:
-        _steps(BOUNCE, kwargs, None)
-    for kwargs in NAVIGATE_BUILDS:
-        obs = _steps(NAVIGATE, kwargs, None)
-    for name in ("greedy", "lookahead"):
-        make_agent(name, {}, env_id=NAVIGATE).predict(obs)
+    """Every family's single env steps (`WarmUp.builds`), and its agents' decisions one at a
+    time (`WarmUp.agents`)."""
+    for env_family in FAMILIES:
+        warm = env_family.warm
+        if warm is None:
+            continue
+        for kwargs in load(warm.builds):
+            obs = _steps(warm.env_id, kwargs, None)
+        for name, agent_kwargs in warm.agents.items():
+            make_agent(name, dict(agent_kwargs), env_id=warm.env_id).predict(obs)
 
 
 def vector() -> None:
-    """The native vector envs' steps with autoreset, serial and parallel, and the planners'
-    decisions in batches (the aim search's on the navigation kernel's batch step)."""
-    for kwargs in BOUNCE_BUILDS:
-        for copies in (4, PARALLEL_COPIES):
-            _steps(BOUNCE, kwargs, copies)
-    for kwargs in NAVIGATE_BUILDS:
-        for copies in (4, PARALLEL_COPIES):
-            obs = _steps(NAVIGATE, kwargs, copies)
-    batch = {key: np.asarray(value)[:64] for key, value in obs.items()}
-    for name in ("greedy", "lookahead"):
-        make_agent(name, {}, env_id=NAVIGATE).predict(batch)
-    make_agent("aim-search", {"coast": True}, env_id=NAVIGATE).predict(batch)
+    """Every family's native vector env steps with autoreset, serial and parallel, and its
+    agents' decisions in batches (`WarmUp.agents` and `WarmUp.batch_agents`: the aim search's
+    on the navigation kernel's batch step)."""
+    for env_family in FAMILIES:
+        warm = env_family.warm
+        if warm is None:
+            continue
+        for kwargs in load(warm.builds):
+            for copies in (4, PARALLEL_COPIES):
+                obs = _steps(warm.env_id, kwargs, copies)
+        if isinstance(obs, dict):
+            batch = {key: np.asarray(value)[:64] for key, value in obs.items()}
+        else:
+            batch = np.asarray(obs)[:64]
+        for name, agent_kwargs in {**warm.agents, **warm.batch_agents}.items():
+            make_agent(name, dict(agent_kwargs), env_id=warm.env_id).predict(batch)
 
 
 PARTS: dict[str, Callable[[], None]] = {"single": single, "vector": vector}
@@ -104,4 +102,4 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-__all__ = ["NAVIGATE_BUILDS", "PARTS", "env_kernels", "main"]
+__all__ = ["PARTS", "env_kernels", "main"]

@@ -4,21 +4,22 @@ drawn (`plot`)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from tether_gym.evaluation.results import EvalResult, NavigationResult
+from tether_gym.evaluation.results import EvalResult, Result
 from tether_gym.evaluation.statistics import paired
 from tether_gym.tasks.bounce import DEADSPIN
 
 
-def format_table(results: list[EvalResult] | list[NavigationResult]) -> str:
+def format_table(results: Sequence[Result]) -> str:
     """The results as one Markdown table: their type's (`EvalResult`'s if there are none)."""
     return (type(results[0]) if results else EvalResult).table(results)
 
 
-def paired_table(results: list[EvalResult] | list[NavigationResult], reference: str) -> str:
+def paired_table(results: Sequence[Result], reference: str) -> str:
     """Every other agent against the one named `reference` on the same episodes, as Markdown:
     the episodes it wins (succeeds where the reference fails) and loses, and the exact McNemar
     p-value (two-sided binomial test of the wins among the episodes where the two differ). On

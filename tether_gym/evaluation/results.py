@@ -1,6 +1,7 @@
-"""An evaluation's results, one type per env family: the summary an agent's table row shows
-and the per-episode arrays behind it (`EvalResult` on TetherBounce, `NavigationResult` on
-TetherNavigate), each built from its runner's arrays (`from_run`) and tabulated (`table`)."""
+"""An evaluation's results, one type per env family (its `Family.result`, a `Result`): the
+summary an agent's table row shows and the per-episode arrays behind it (`EvalResult` on
+TetherBounce, `NavigationResult` on TetherNavigate), each built from its runner's arrays
+(`from_run`) and tabulated (`table`)."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from tether_gym.tasks.bounce import DEADSPIN
 
 def _summary_fields(*own: str) -> tuple[str, ...]:
     """A family's summary fields in the order its files write them: the agent, its episodes and
-    its success (`_Result`'s), the family's `own`, then its reward and speed (`_Result`'s)."""
+    its success (`Result`'s), the family's `own`, then its reward and speed (`Result`'s)."""
     return ("name", "episodes", "success_rate", "success_ci", *own, "reward_mean",
             "episodes_per_second")  # fmt: skip
 
@@ -34,7 +35,7 @@ def _cell(attribute: str, spec: str) -> Callable[[Any], str]:
 
 
 @dataclass
-class _Result:
+class Result:
     """What every family's result holds: the agent, its episodes, its success and reward (the
     summary and the per-episode arrays) and its speed; a family's result type adds its own."""
 
@@ -87,7 +88,7 @@ class _Result:
 
 
 @dataclass
-class EvalResult(_Result):
+class EvalResult(Result):
     """One agent's evaluation: the summary and the per-episode arrays behind it."""
 
     summary_fields: ClassVar[tuple[str, ...]] = SUMMARY_FIELDS
@@ -132,7 +133,7 @@ class EvalResult(_Result):
 
 
 @dataclass
-class NavigationResult(_Result):
+class NavigationResult(Result):
     """One agent's evaluation on TetherNavigate: the summary and the per-episode arrays."""
 
     summary_fields: ClassVar[tuple[str, ...]] = NAVIGATION_FIELDS

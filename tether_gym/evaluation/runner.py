@@ -1,10 +1,10 @@
 """Play agents on the same fixed, seeded episodes: the native vector env (`BATCH` copies) with
 copy i seeded BATCH * seed + i, so the first k episodes of an evaluation do not depend on its
 length, and two seeds share no episodes (Gymnasium's seed + i would share all but one copy's).
-The env's family (`tether_gym.families`) names the runner and the result type: TetherBounce's
-episodes are one bounce each (`run_bounce`: heading and deadspin metrics, `EvalResult`);
-TetherNavigate's last several maneuvers, copy i playing its first episodes in turn
-(`run_navigation`: navigation metrics, `NavigationResult`)."""
+The env's family (`tether_gym.families`) names the runner and the result type (another family's
+may live in its own module): TetherBounce's episodes are one bounce each (`run_bounce`: heading
+and deadspin metrics, `EvalResult`); TetherNavigate's last several maneuvers, copy i playing its
+first episodes in turn (`run_navigation`: navigation metrics, `NavigationResult`)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import gymnasium as gym
 import numpy as np
 
 from tether_gym.arguments import DEFAULT_ENV_ID
-from tether_gym.evaluation.results import EvalResult, NavigationResult
+from tether_gym.evaluation.results import Result
 from tether_gym.families import family, load
 from tether_gym.seeds import EVALUATION_BATCH
 
@@ -123,10 +123,10 @@ def evaluate(
     seed: int = 0,
     progress: bool = False,
     env_id: str = DEFAULT_ENV_ID,
-) -> list[EvalResult] | list[NavigationResult]:
+) -> list[Result]:
     """Run every agent on the same `episodes` seeded episodes of `env_id(**env_kwargs)` with
-    the runner of the env's family: its result type's (`EvalResult` on TetherBounce,
-    `NavigationResult` on TetherNavigate)."""
+    the runner of the env's family (`Family.runner`): its result type's (`Family.result`,
+    `EvalResult` on TetherBounce, `NavigationResult` on TetherNavigate)."""
     if not isinstance(episodes, (int, np.integer)) or episodes < 1:
         raise ValueError(f"episodes must be an integer in [1, inf), got {episodes!r}")
     env_family = family(env_id)

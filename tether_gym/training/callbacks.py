@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 from stable_baselines3.common.callbacks import BaseCallback
 
-from tether_gym.evaluation.results import EvalResult, NavigationResult
+from tether_gym.evaluation.results import Result
 from tether_gym.evaluation.runner import evaluate
 from tether_gym.families import family
 from tether_gym.seeds import EVAL_SEED
@@ -43,7 +43,7 @@ class YardstickEvalCallback(BaseCallback):
         self.family = family(self.env_id)
         self.yardstick_rate = float("nan")
 
-    def _evaluate(self, name: str, agent: object) -> EvalResult | NavigationResult:
+    def _evaluate(self, name: str, agent: object) -> Result:
         (result,) = evaluate(
             {name: agent}, self.env_kwargs, self.episodes, EVAL_SEED, env_id=self.env_id
         )

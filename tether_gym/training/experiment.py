@@ -24,7 +24,7 @@ from tether_gym.agents.saved import read_config
 from tether_gym.agents.warm import env_kernels
 from tether_gym.arguments import check_env, did_you_mean
 from tether_gym.evaluation.reports import format_table
-from tether_gym.evaluation.results import EvalResult, NavigationResult
+from tether_gym.evaluation.results import Result
 from tether_gym.evaluation.runner import evaluate
 from tether_gym.seeds import EVAL_SEED, EVALUATION_BATCH, TEST_SEED
 from tether_gym.training.callbacks import Report, YardstickEvalCallback
@@ -147,9 +147,7 @@ def make_model(config: RunConfig, run_dir: Path, resume: bool) -> BaseAlgorithm:
     )
 
 
-def final_results(
-    run_dir: Path, model: BaseAlgorithm, config: RunConfig
-) -> list[EvalResult] | list[NavigationResult]:
+def final_results(run_dir: Path, model: BaseAlgorithm, config: RunConfig) -> list[Result]:
     """The policy (best and last) and the env's `baselines` on the same fresh test episodes
     (`TEST_SEED`)."""
     agents: dict[str, object] = {}

@@ -73,13 +73,14 @@ RESUME_OPTIONS = ("timesteps", "eval_episodes", "eval_freq", "save_replay_buffer
 
 
 def default_name(env_id: str, env_kwargs: dict[str, Any], seed: int, algo: str = "ppo") -> str:
-    """runs/<name>: `<algo>_<task>_<dynamics>` (after the env id if not the default), the other
-    env arguments given, and the seed."""
+    """runs/<name>: the algorithm (then the env id if not the default), the values of the
+    family's `run_name_keys` (`<algo>_<task>_<dynamics>`), the other env arguments given, and
+    the seed."""
     parts = [algo] if env_id == DEFAULT_ENV_ID else [algo, env_id]
-    defaults = env_arguments(env_id)
-    parts += [str(env_kwargs.get(key, defaults.get(key))) for key in ("task", "dynamics")]
+    defaults, keys = env_arguments(env_id), family(env_id).run_name_keys
+    parts += [str(env_kwargs.get(key, defaults.get(key))) for key in keys]
     for key, value in env_kwargs.items():
-        if key not in ("task", "dynamics"):
+        if key not in keys:
             values = value if isinstance(value, list) else [value]
             text = "-".join(
                 str(v) if isinstance(v, bool) or not isinstance(v, (int, float)) else f"{v:g}"

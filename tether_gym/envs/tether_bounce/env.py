@@ -174,3 +174,7 @@ class TetherBounceVectorEnv(KernelVectorEnv):
         """`kwargs`: the arguments of `TetherBounceEnv` (its Arguments table)."""
         self.config = BounceConfig(**kwargs)
         super().__init__(TetherBounceKernel(self.config), num_envs, render_mode, block)
+
+
+KERNEL_BUILDS = ({"dynamics": "hybrid"}, {"dynamics": "impulse"})
+"""The env arguments whose kernels differ (`tether compile`'s builds, `Family.warm`)."""

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from tether_gym.envs.base import KernelEnv, KernelVectorEnv
-from tether_gym.envs.tether_navigate.config import NavigateConfig
+from tether_gym.envs.tether_navigate.config import DYNAMICS, NavigateConfig
+from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.tasks import navigate as task
 
@@ -345,3 +346,12 @@ class TetherNavigateVectorEnv(GoalMixin, KernelVectorEnv):
         """`kwargs`: the arguments of `TetherNavigateEnv` (its Arguments table)."""
         self.config = NavigateConfig(**kwargs)
         super().__init__(NavigateKernel(self.config), num_envs, render_mode, block)
+
+
+KERNEL_BUILDS = tuple(
+    {"control": mode.name, "dynamics": dynamics, **({"coast": True} if mode.coasts else {})}
+    for mode in {mode.solver: mode for mode in CONTROL_MODES.values()}.values()
+    for dynamics in DYNAMICS
+)
+"""The env arguments whose kernels differ (`tether compile`'s builds, `Family.warm`): one
+control mode per compiled set-up (modes that share a solver share its builds), each dynamics."""
