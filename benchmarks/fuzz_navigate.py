@@ -74,18 +74,18 @@ import numba
 import numpy as np
 
 import tether_gym
+from tether_gym.envs.kernels import PUCK_MASS
+from tether_gym.envs.tether_navigate.arguments import NavigateConfig
 from tether_gym.envs.tether_navigate.config import (
     DYNAMICS,
     INERTIA_RATIO,
     OFFSET,
     PATH_TOLERANCE,
     POST_RADIUS,
-    PUCK_MASS,
     PUCK_RADIUS,
     RHO_RANGE,
     TABLE_HEIGHT,
     TABLE_WIDTH,
-    NavigateConfig,
 )
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES as MODES
 from tether_gym.families import NAVIGATE

@@ -59,17 +59,16 @@ import numpy as np
 import pymunk
 
 import tether_gym  # noqa: F401  (registers the env ids)
-from tether_gym.envs.kernels import DEFAULT_RHO
+from tether_gym.envs.kernels import DEFAULT_RHO, PUCK_MASS
+from tether_gym.envs.tether_navigate.arguments import NavigateConfig
 from tether_gym.envs.tether_navigate.config import (
     FLIGHT_HORIZON,
     INERTIA_RATIO,
     OFFSET,
     POST_RADIUS,
-    PUCK_MASS,
     PUCK_RADIUS,
     TABLE_HEIGHT,
     TABLE_WIDTH,
-    NavigateConfig,
 )
 from tether_gym.physics.pymunk_maneuver import TAUT_STEPS, Maneuver, ManeuverPlan, replay
 from tether_gym.physics.pymunk_world import Table

@@ -134,7 +134,7 @@ NAVIGATE = Family(
     },
     entry_point="tether_gym.envs.tether_navigate:TetherNavigateEnv",
     vector_entry_point="tether_gym.envs.tether_navigate:TetherNavigateVectorEnv",
-    config="tether_gym.envs.tether_navigate.config:NavigateConfig",
+    config="tether_gym.envs.tether_navigate.arguments:NavigateConfig",
     runner="tether_gym.evaluation.runner:run_navigation",
     result="tether_gym.evaluation.results:NavigationResult",
     agents={

@@ -7,7 +7,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
-from tether_gym.envs.tether_navigate.config import NavigateConfig
+from tether_gym.envs.tether_navigate.arguments import NavigateConfig
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.controls.velocity import AIM_ACTION
 from tether_gym.tasks.navigate import TASKS

@@ -28,6 +28,7 @@ from gymnasium import spaces
 from tether_gym.agents.planners import FAIL, KINDS, GreedyPlanner, LookaheadPlanner, observed_states
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_SPEED, PUCK_RADIUS
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
+from tether_gym.families import current_id
 
 BASE_KEY = "base_action"
 """The observation entry of a residual policy: its planner's action."""
@@ -309,5 +310,6 @@ def with_planner(agent, config: dict[str, Any]):
     planned = playing(params)
     if planned is None:
         return agent
-    planner, options = planned.build(params, config["env_kwargs"], config["env_id"])
+    # the run's env today: a run of an older version of the env plays its newest
+    planner, options = planned.build(params, config["env_kwargs"], current_id(config["env_id"]))
     return planned.agent(agent, planner, *options)

@@ -44,6 +44,7 @@ from tether_gym.agents.planner_kernels import (
     SEGMENTS,
     aim,
 )
+from tether_gym.envs.tether_navigate.arguments import NavigateConfig
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     FLIGHT_HORIZON,
@@ -56,7 +57,6 @@ from tether_gym.envs.tether_navigate.config import (
     STATE,
     TABLE_HEIGHT,
     TABLE_WIDTH,
-    NavigateConfig,
 )
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.controls.setup import ACTION

@@ -14,7 +14,6 @@ from pathlib import Path
 import numpy as np
 
 from tether_gym.agents.planned import reads_planner, with_planner
-from tether_gym.families import current_id
 
 CONFIG = "config.yaml"
 """A training run's config, in the run folder and in each checkpoint folder beside its model."""
@@ -55,8 +54,6 @@ def read_config(path: Path) -> dict:
         raise ValueError(f"cannot read {str(path)!r}: {error}") from None
     if not isinstance(data, dict):
         raise ValueError(f"{str(path)!r} does not hold a config mapping")
-    if "env_id" in data:  # the id the run's model plays today (`families.current_id`)
-        data = {**data, "trained_env_id": data["env_id"], "env_id": current_id(data["env_id"])}
     return data
 
 

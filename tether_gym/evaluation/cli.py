@@ -39,7 +39,7 @@ from tether_gym.arguments import (
 )
 from tether_gym.evaluation.reports import format_table, paired_table, plot
 from tether_gym.evaluation.runner import evaluate
-from tether_gym.families import env_config, family
+from tether_gym.families import current_id, env_config, family
 
 CHECKPOINTS = ("best", "last")
 """The folders of a training run that hold a model (`runs/<name>/best/model.zip`)."""
@@ -73,7 +73,7 @@ def trained_env(
     if found is None:
         return None
     path, config = found
-    return Trained(config["env_id"], config.get("env_kwargs") or {}, str(path))
+    return Trained(current_id(config["env_id"]), config.get("env_kwargs") or {}, str(path))
 
 
 def env_to_play(args: argparse.Namespace, specs: list[str]) -> tuple[str, dict[str, Any]]:

@@ -16,10 +16,10 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import tether_gym  # noqa: F401
 from tests.helpers import rollouts
 from tests.helpers.envs import vector_env
+from tether_gym.envs.kernels import PUCK_MASS
 from tether_gym.envs.tether_navigate import TetherNavigateEnv, TetherNavigateVectorEnv
 from tether_gym.envs.tether_navigate.config import (
     INERTIA_RATIO,
-    PUCK_MASS,
     PUCK_RADIUS,
     TABLE_HEIGHT,
     TABLE_WIDTH,

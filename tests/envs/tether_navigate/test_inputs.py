@@ -14,10 +14,10 @@ import pytest
 import tether_gym  # noqa: F401
 from tests.helpers.envs import vector_env
 from tether_gym.envs.tether_navigate import TetherNavigateEnv
+from tether_gym.envs.tether_navigate.arguments import NavigateConfig
 from tether_gym.envs.tether_navigate.config import (
     POST_RADIUS,
     PUCK_RADIUS,
-    NavigateConfig,
 )
 from tether_gym.envs.tether_navigate.kernel import MAX_SPIN
 from tether_gym.envs.tether_navigate.spaces import OBS

@@ -40,6 +40,8 @@ from benchmarks.pymunk_navigate import (
     play,
     replay_from,
 )
+from tether_gym.envs.kernels import PUCK_MASS
+from tether_gym.envs.tether_navigate.arguments import NavigateConfig
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     CONTACT_POINTS,
@@ -49,11 +51,9 @@ from tether_gym.envs.tether_navigate.config import (
     OFFSET,
     PATH_TOLERANCE,
     POST_RADIUS,
-    PUCK_MASS,
     PUCK_RADIUS,
     TABLE_HEIGHT,
     TABLE_WIDTH,
-    NavigateConfig,
 )
 from tether_gym.physics.events import (
     free_flight_row,

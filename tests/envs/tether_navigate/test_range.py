@@ -12,12 +12,12 @@ import pytest
 
 import tether_gym  # noqa: F401  (registers the env ids)
 from tether_gym.envs.base import KernelError
+from tether_gym.envs.kernels import PUCK_MASS
 from tether_gym.envs.tether_navigate.config import (
     INERTIA_RATIO,
     OFFSET,
     PATH_TOLERANCE,
     POST_RADIUS,
-    PUCK_MASS,
     PUCK_RADIUS,
     TABLE_HEIGHT,
     TABLE_WIDTH,

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from tether_gym.envs.base import KernelEnv, KernelVectorEnv
-from tether_gym.envs.tether_navigate.config import DYNAMICS, NavigateConfig
+from tether_gym.envs.tether_navigate.arguments import NavigateConfig
+from tether_gym.envs.tether_navigate.config import DYNAMICS
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.tasks import navigate as task

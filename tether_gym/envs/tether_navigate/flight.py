@@ -24,15 +24,14 @@ import math
 import numba
 import numpy as np
 
+from tether_gym.envs.kernels import IMPULSE, PUCK_MASS
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     COAST_STRETCHES,
     FLIGHT_HORIZON,
-    IMPULSE,
     INERTIA_RATIO,
     MAX_WALL_HITS,
     PATH_TIME,
-    PUCK_MASS,
     PUCK_RADIUS,
     TABLE_HEIGHT,
     TABLE_WIDTH,

@@ -23,6 +23,7 @@ from numba import prange
 
 from tether_gym.envs.base import Kernel
 from tether_gym.envs.kernels import check_finite, fused_autoreset, parallel_chunk
+from tether_gym.envs.tether_navigate.arguments import NavigateConfig
 from tether_gym.envs.tether_navigate.config import (
     INERTIA_RATIO,
     MAX_ANCHORS,
@@ -32,7 +33,6 @@ from tether_gym.envs.tether_navigate.config import (
     STATE,
     TABLE_HEIGHT,
     TABLE_WIDTH,
-    NavigateConfig,
     table_breach,
 )
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES, PLAYS, control_mode

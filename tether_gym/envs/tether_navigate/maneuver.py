@@ -9,17 +9,15 @@ import math
 
 import numba
 
+from tether_gym.envs.kernels import HYBRID, IMPULSE, PUCK_MASS
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     CONTACT_POINTS,
-    HYBRID,
-    IMPULSE,
     INERTIA_RATIO,
     OFFSET,
     PATH_POINTS,
     PATH_TOLERANCE,
     POST_RADIUS,
-    PUCK_MASS,
     PUCK_RADIUS,
     TABLE_HEIGHT,
     TABLE_WIDTH,

@@ -50,6 +50,7 @@ from tether_gym.envs.drawing import (
     SceneRenderer,
     Still,
 )
+from tether_gym.envs.tether_navigate.arguments import NavigateConfig
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     PATH_POINTS,
@@ -57,7 +58,6 @@ from tether_gym.envs.tether_navigate.config import (
     PUCK_RADIUS,
     TABLE_HEIGHT,
     TABLE_WIDTH,
-    NavigateConfig,
 )
 from tether_gym.envs.tether_navigate.spaces import OUT
 from tether_gym.physics.events import time_to_wall_row, wall_bounce_row
