@@ -16,7 +16,7 @@ import json
 from pathlib import Path
 
 from tether_gym import ladder
-from tether_gym.envs.tether_navigate.controls import CONTROLS
+from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.evaluation.cli import main as evaluate_main
 from tether_gym.seeds import TEST_SEED
 
@@ -43,7 +43,7 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
     for env_id in dense_ids():
-        for control in CONTROLS:
+        for control in CONTROL_MODES:
             agents = ["greedy", "lookahead", "random"] if control == "setup" else ["random"]
             path = args.out / f"{env_id}_{control}.json"
             if not path.exists() or args.overwrite:

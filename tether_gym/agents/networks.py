@@ -45,7 +45,7 @@ from torch import nn
 
 from tether_gym.agents.planned import PROPOSAL_FEATURES, PROPOSALS_KEY
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_POSTS
-from tether_gym.envs.tether_navigate.controls import AIMED, control_mode
+from tether_gym.envs.tether_navigate.controls import aimed_modes, control_mode
 from tether_gym.envs.tether_navigate.spaces import GOAL_KEYS, OBS
 
 ANCHORS = slice(OBS.anchor0_present, OBS.anchor0_present + 3 * MAX_ANCHORS)
@@ -117,8 +117,8 @@ class GoalAim(nn.Module):
 
     def __init__(self, features_extractor: nn.Module, control: str, speed: float | None = None):
         super().__init__()
-        if control not in AIMED:
-            raise ValueError(f"AimPolicy: control must be one of {AIMED}, got {control!r}")
+        if control not in aimed_modes():
+            raise ValueError(f"AimPolicy: control must be one of {aimed_modes()}, got {control!r}")
         self.columns = getattr(features_extractor, "desired_goal", None)
         if self.columns is None:
             raise ValueError(

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from stable_baselines3.common.vec_env import VecEnv
 
 from tether_gym.agents.planned import PLANNED, Planned
-from tether_gym.envs.tether_navigate.controls import AIMED
+from tether_gym.envs.tether_navigate.controls import aimed_modes
 from tether_gym.families import env_config, family, load
 from tether_gym.training.config import RunConfig
 from tether_gym.training.pretrain import check_pretrain, clone_planner
@@ -174,9 +174,9 @@ class Aim(Variant):
         if not self.asked(config.hyperparams):
             return
         control = getattr(env_config(config.env_id, config.env_kwargs), "control", None)
-        if control not in AIMED:
+        if control not in aimed_modes():
             raise ValueError(
-                f"policy AimPolicy: TetherNavigate with control one of {AIMED} "
+                f"policy AimPolicy: TetherNavigate with control one of {aimed_modes()} "
                 f"(--env-kwargs control:aim), got {config.env_id} with control {control!r}"
             )
         if config.hyperparams.get("normalize"):

@@ -21,7 +21,7 @@ from tether_gym.envs.tether_navigate.config import (
     RHO_SPEED,
     Layout,
 )
-from tether_gym.envs.tether_navigate.controls import AIMED, CONTROLS, control_mode
+from tether_gym.envs.tether_navigate.controls import CONTROL_MODES, aimed_modes, control_mode
 from tether_gym.physics.checks import check_float
 from tether_gym.physics.geometry import stiffness_for_rho
 from tether_gym.tasks.navigate import REWARD_TYPES, TASKS
@@ -65,8 +65,9 @@ class NavigateConfig:
 
     def __post_init__(self):
         set_ = object.__setattr__
+        modes = tuple(CONTROL_MODES)
         for name, options in (("task", TASKS), ("reward_type", REWARD_TYPES),
-                              ("dynamics", DYNAMICS), ("control", CONTROLS)):  # fmt: skip
+                              ("dynamics", DYNAMICS), ("control", modes)):  # fmt: skip
             if getattr(self, name) not in options:
                 raise ValueError(f"{name} must be one of {options}, got {getattr(self, name)!r}")
         mode = control_mode(self.control)
@@ -101,7 +102,7 @@ class NavigateConfig:
         if not isinstance(self.coast, (bool, np.bool_)):
             raise ValueError(f"coast must be True or False, got {self.coast!r}")
         if self.coast and not mode.coasts:
-            coasting = " or ".join(repr(name) for name in AIMED)
+            coasting = " or ".join(repr(name) for name in aimed_modes())
             raise ValueError(f"coast=True needs control={coasting} (it coasts to the aim)")
         set_(self, "wheel_rate", check_float("wheel_rate", self.wheel_rate, 0.0, 1e4))
 

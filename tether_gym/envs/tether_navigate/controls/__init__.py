@@ -4,9 +4,9 @@ Each mode is a `ControlMode`, as HighwayEnv's action types are: its action's fie
 `space()`, `decode` (a normalized action in physical terms, by name), the compiled set-up it
 plays (`solver`, one episode's set-up from a normalized action, and `build`, its kernels' key),
 and what it asks of the env (`aimed`: the reaction wheel, whether `coast` applies,
-`env_kwargs`). `CONTROL_MODES` is the one table: a new mode is one record there, and the names
-(`CONTROLS`), the aimed modes (`AIMED`), the envs' checks, the agents', the warm-up and the
-benchmarks read it. `control_mode(name)` is the factory:
+`env_kwargs`). `CONTROL_MODES` is the one table: a new mode is one record there (a new set-up
+also one entry of `SOLVERS`), and the envs' checks, the agents', the warm-up and the benchmarks
+read it (`aimed_modes()`). `control_mode(name)` is the factory:
 
 - `setup`: the set-up itself (`controls.setup`).
 - `velocity`: the peg and the motion after the bounce, turned into the set-up by the inverse of
@@ -103,10 +103,11 @@ CONTROL_MODES = {
     )
 }
 """name -> `ControlMode`: every control mode, the first the default."""
-CONTROLS = tuple(CONTROL_MODES)
-"""The modes' names."""
-AIMED = tuple(name for name, mode in CONTROL_MODES.items() if mode.aimed)
-"""The modes that command the motion after the bounce (`ControlMode.aimed`)."""
+
+
+def aimed_modes() -> tuple[str, ...]:
+    """The names of the modes that command the motion after the bounce (`ControlMode.aimed`)."""
+    return tuple(name for name, mode in CONTROL_MODES.items() if mode.aimed)
 
 
 def control_mode(control: str | ControlMode) -> ControlMode:
@@ -115,7 +116,7 @@ def control_mode(control: str | ControlMode) -> ControlMode:
     if isinstance(control, ControlMode):
         return control
     if not isinstance(control, str) or control not in CONTROL_MODES:
-        raise ValueError(f"control must be one of {CONTROLS}, got {control!r}")
+        raise ValueError(f"control must be one of {tuple(CONTROL_MODES)}, got {control!r}")
     return CONTROL_MODES[control]
 
 
@@ -142,5 +143,5 @@ PLAYS = {
 the contact its env plays, not every mode's."""
 
 
-__all__ = ["AIMED", "CONTROLS", "CONTROL_MODES", "PLAYS", "SOLVERS", "ControlMode",
-           "control_mode", "play"]  # fmt: skip
+__all__ = ["CONTROL_MODES", "PLAYS", "SOLVERS", "ControlMode", "aimed_modes", "control_mode",
+           "play"]  # fmt: skip
