@@ -7,6 +7,7 @@ with reproducers a developer can replay.
         [--vector-block 32] [--compare 4] [--arc-sample 0.02] [--defaults] [--seed 0]
         [--ids ID ...] [--reproducers 2] [--against REV]
         [--json results/fuzz/FILE.json] [--overwrite]
+    python benchmarks/fuzz_navigate.py --replay results/fuzz/FILE.json [--json OUT.json]
 
 `--steps` single-env steps and `--vector-steps` vector transitions (copies x steps, in vector
 envs of `--num-envs` copies) are spread evenly over every combination of the 14 TetherNavigate
@@ -1052,6 +1053,23 @@ def replay(reproducer: dict, arc: bool = True) -> tuple[Counter, dict | None]:
     raise AssertionError("unreachable")
 
 
+def replay_file(path: Path) -> list[dict]:
+    """Every reproducer of the hole classes in a fuzz JSON, replayed on this tree with its
+    contact held to its arc (`replay`): its class, where it was found, its arc check then and
+    the findings now (a fix, or a check corrected since, shows as the class gone)."""
+    data = json.loads(Path(path).read_text())
+    rows = []
+    for combo in data["combos"]:
+        for kind in ("single", "vector"):
+            for name, found in (combo.get(kind) or {}).get("reproducers", {}).items():
+                for reproducer in found if name in HOLES else []:
+                    now, _ = replay(reproducer)
+                    rows.append({"class": name, "kind": kind, "reproducer": reproducer,
+                                 "arc_then": reproducer.get("arc"),
+                                 "found_now": dict(now)})  # fmt: skip
+    return rows
+
+
 # --- the command -----------------------------------------------------------------------------
 
 
@@ -1155,6 +1173,9 @@ def main(argv: list[str] | None = None) -> None:
                         help="reproducers per class and combination kept in the JSON")  # fmt: skip
     parser.add_argument("--against", metavar="REV", default=None,
                         help="fuzz REV's package (a temporary git worktree) instead")  # fmt: skip
+    parser.add_argument("--replay", type=Path, default=None, metavar="FUZZ_JSON",
+                        help="replay the reproducers of an earlier run's JSON on this tree "
+                        "(into --json) instead of fuzzing")  # fmt: skip
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--overwrite", action="store_true")
     given = sys.argv[1:] if argv is None else list(argv)
@@ -1165,6 +1186,17 @@ def main(argv: list[str] | None = None) -> None:
         parser.error("--steps, --vector-steps and --compare must be >= 0, --num-envs >= 1")
     if not 0.0 <= args.arc_sample <= 1.0 or args.vector_block < 1:
         parser.error("--arc-sample must be in [0, 1], --vector-block >= 1")
+    if args.replay is not None:
+        rows = replay_file(args.replay)
+        for row in rows:
+            print(f"{row['class']} ({row['kind']}, {row['reproducer']['env_id']}): now "
+                  f"{row['found_now'] or 'nothing'}")  # fmt: skip
+        if args.json is not None:
+            args.json.parent.mkdir(parents=True, exist_ok=True)
+            out = {"command": shlex.join(["python", "benchmarks/fuzz_navigate.py", *given]),
+                   **_git(), "replayed": str(args.replay), "rows": rows}  # fmt: skip
+            args.json.write_text(json.dumps(out, indent=1) + "\n")
+        return
     unknown = set(args.ids or ()) - set(NAVIGATE.ids)
     if unknown:
         parser.error(f"unknown ids {sorted(unknown)}; choose among {list(NAVIGATE.ids)}")
