@@ -81,7 +81,13 @@ WALL_RESTITUTION = NavigateConfig().wall_restitution
 POSITION_TOLERANCE, VELOCITY_TOLERANCE = 2e-3, 0.01
 """m, and a fraction of the kernel's speed after the maneuver."""
 PUCK = dict(mass=PUCK_MASS, radius=PUCK_RADIUS, inertia_ratio=INERTIA_RATIO, offset=OFFSET)
-AGREE, SENSITIVE, PARTED, UNEXPLAINED = "agree", "sensitive", "parted", "unexplained"
+AGREE, SENSITIVE, PARTED, GIVEN_UP, UNEXPLAINED = (
+    "agree",
+    "sensitive",
+    "parted",
+    "given up",
+    "unexplained",
+)
 CLASSES = {
     AGREE: "the episode's replay ends the maneuver within tolerance of the kernel",
     SENSITIVE: "the first maneuver of an episode's replay outside tolerance, where the two "
@@ -92,6 +98,9 @@ CLASSES = {
     "maneuver amplifies",
     PARTED: "a later maneuver of an episode whose replay left the kernel's trajectory, where "
     "the world replaying it from the kernel's state agrees with the kernel",
+    GIVEN_UP: "a maneuver whose contact the kernel gave up (info['completed'] False: still taut "
+    "at its time budget, or its arc needing more points than the path holds), released there, "
+    "where the world, which has neither budget, plays the contact on",
     UNEXPLAINED: "any other maneuver outside tolerance",
 }
 
@@ -270,7 +279,7 @@ def compare(episode: KernelEpisode, alone: str = "needed") -> list[Row]:
             row["kind"] = PARTED if row["alone_agrees"] else UNEXPLAINED
         elif not agrees:
             parted = True
-            row["kind"] = UNEXPLAINED
+            row["kind"] = UNEXPLAINED if info["completed"] else GIVEN_UP
             if j > 0 and row["alone_agrees"]:  # the two engines from the replay's state
                 start = chained[j - 1].state
                 there = kernel_from(episode, j, start)
