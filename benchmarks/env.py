@@ -111,7 +111,7 @@ def main() -> None:
             lambda: make_vec("TetherBounce-v0"),
         ),
     }
-    ids = ("TetherNavigate-v3", "TetherNavigate-v1", "TetherNavigate-v0")  # a past main
+    ids = ("TetherNavigate-v3", "TetherNavigate-v2", "TetherNavigate-v1", "TetherNavigate-v0")
     navigate = next((i for i in ids if i in gym.registry), None)
     for control in navigate_controls(navigate):  # none before the env; setup only at v0
         given = {} if control is None else {"control": control}
