@@ -4,9 +4,10 @@
 ...`, plus one named flag per field of the chosen env's config (its family's `config`:
 TetherBounce-v0's `BounceConfig` by default, `--task`, `--rho`, ...), generated here so that
 the flags cannot drift from the env: `--env` decides which flags exist. Values are Python
-literals (`rho:(5, 100)`, `stiffness:3000`), a plain word is a string (`task:heading`). The env
-validates them itself: `check_env` builds it once, so a bad value fails with the env's own
-error before any work, and an unknown key lists the env's arguments. `--help` shows the
+literals (`rho:(5, 100)`, `stiffness:3000`), a plain word is a string (`task:heading`).
+`check_env` resolves them once into the env's config (`families.env_config`, the checks the env
+itself runs, without building it), so a bad value fails with the env's own error before any
+work, and an unknown key lists the env's arguments. `--help` shows the
 Arguments table of the env's docstring (`env_help`): the one chosen with `--env`, else every
 family's main env's.
 """
@@ -26,7 +27,7 @@ from typing import Any, NoReturn
 import gymnasium as gym
 from gymnasium.envs.registration import load_env_creator
 
-from tether_gym.families import FAMILIES, config_arguments, family, load
+from tether_gym.families import FAMILIES, config_arguments, env_config, family, load
 
 DEFAULT_ENV_ID = "TetherBounce-v0"
 TRAIN_EXTRA = ("stable_baselines3", "torch", "tensorboard", "yaml", "rich")
@@ -201,8 +202,10 @@ def given_env_options(args: argparse.Namespace) -> list[str]:
     return [_flag(name) for name in names if getattr(args, name) not in (None, [])]
 
 
-def env_from_args(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
-    """The env id and the keyword arguments given, validated by the env (ValueError).
+def env_from_args(args: argparse.Namespace, check: bool = True) -> tuple[str, dict[str, Any]]:
+    """The env id and the keyword arguments given, checked by `check_env` (ValueError); with
+    `check` False only the id and the keywords' names are (a caller that merges more arguments
+    resolves the result once).
 
     Several values of a flag make a list, and a tuple becomes a list: as YAML stores them.
     """
@@ -221,13 +224,27 @@ def env_from_args(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
         kwargs[name] = value[0] if isinstance(value, list) and len(value) == 1 else value
     kwargs = {k: list(v) if isinstance(v, tuple) else v for k, v in kwargs.items()}
     env_id = args.env or DEFAULT_ENV_ID
-    check_env(env_id, kwargs)
+    if check:
+        check_env(env_id, kwargs)
+    else:
+        check_names(env_id, kwargs)
     return env_id, kwargs
 
 
-def check_env(env_id: str, env_kwargs: dict[str, Any]) -> None:
-    """Build the env once: its own error for a bad argument, as a ValueError (an unknown id,
-    and an unknown keyword with the env's valid ones)."""
+def check_env(env_id: str, env_kwargs: dict[str, Any]) -> Any:
+    """The env's config of `env_kwargs` (`families.env_config`), resolved without building the
+    env: ValueError for an unknown id, an unknown keyword (with the env's valid ones), a render
+    mode the env lacks, or a value its config refuses (the env's own message)."""
+    check_names(env_id, env_kwargs)
+    try:
+        return env_config(env_id, env_kwargs)
+    except TypeError as error:
+        raise ValueError(f"{env_id}: {error}") from None
+
+
+def check_names(env_id: str, env_kwargs: dict[str, Any]) -> None:
+    """ValueError for an unknown id, an unknown keyword (with the env's valid ones) or a render
+    mode the env lacks."""
     valid = env_arguments(env_id)
     unknown = [key for key in env_kwargs if key not in valid]
     if unknown:
@@ -235,7 +252,9 @@ def check_env(env_id: str, env_kwargs: dict[str, Any]) -> None:
         raise ValueError(
             f"{env_id} has no argument {unknown[0]!r}{hint}; its arguments: {', '.join(valid)}"
         )
-    try:
-        gym.make(env_id, **env_kwargs).close()
-    except (TypeError, gym.error.Error) as error:
-        raise ValueError(f"{env_id}: {error}") from None
+    render_mode = env_kwargs.get("render_mode")
+    entry_point = gym.spec(env_id).entry_point
+    creator = entry_point if callable(entry_point) else load_env_creator(entry_point)
+    modes = creator.metadata.get("render_modes", [])
+    if render_mode is not None and render_mode not in modes:
+        raise ValueError(f"render_mode must be one of {list(modes)} or None, got {render_mode!r}")

@@ -174,6 +174,31 @@ def test_env_kwargs_and_named_flags_make_one_config(tmp_path):
     assert config["env_kwargs"] == {"rho": [20, 200], "restitution": 0.9, "task": "heading"}
 
 
+def test_a_runs_env_arguments_are_resolved_once_without_building_the_env(tmp_path, monkeypatch):
+    """The command line, the rung's zoo recipe and the aim policy's control merge into one
+    config, checked once (`RunConfig.env`) and read from there by the variants' checks."""
+    import gymnasium as gym
+
+    from tether_gym import arguments
+
+    resolved = []
+
+    def env_config(env_id, env_kwargs):
+        resolved.append((env_id, dict(env_kwargs)))
+        return real(env_id, env_kwargs)
+
+    real = arguments.env_config
+    monkeypatch.setattr(arguments, "env_config", env_config)
+    monkeypatch.setattr(gym, "make", lambda *a, **k: pytest.fail("an env was built to check"))
+    args = train.build_parser().parse_args(
+        ["--env", "TetherNavigate_PostsReach-v3", "--rho", "400", "--runs-dir", str(tmp_path)]
+    )
+    config, _ = train.run_from_args(args)
+    assert resolved == [("TetherNavigate_PostsReach-v3", config.env_kwargs)]
+    assert config.env_kwargs["control"] == "aim" and config.env_kwargs["rho"] == 400
+    assert config.env.control == "aim" and config.env.rho == 400
+
+
 def test_resume_refuses_a_new_config(tmp_path, capsys):
     (tmp_path / "config.yaml").write_text("{}")
     with pytest.raises(SystemExit):

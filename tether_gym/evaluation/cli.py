@@ -84,11 +84,11 @@ def env_to_play(args: argparse.Namespace, specs: list[str]) -> tuple[str, dict[s
     if first is None:
         return env_from_args(args)
     env_id, env_kwargs = env_from_args(
-        argparse.Namespace(**{**vars(args), "env": args.env or first.env_id})
+        argparse.Namespace(**{**vars(args), "env": args.env or first.env_id}), check=False
     )
     if env_id == first.env_id and given_env_options(args) in ([], ["--env"]):
         env_kwargs = dict(first.env_kwargs)
-        check_env(env_id, env_kwargs)
+    check_env(env_id, env_kwargs)
     return env_id, env_kwargs
 
 

@@ -4,9 +4,12 @@ folder's `config.yaml` (`RunConfig.as_dict`) and read back from it (`RunConfig.f
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
+
+from tether_gym.arguments import check_env
 
 CHECKPOINT_KEYS = ("num_timesteps", "train_seconds", "eval_success_rate", "torch_threads")
 """What a checkpoint's `config.yaml` adds to the run's (`tether_gym.training.folders`)."""
@@ -58,6 +61,12 @@ class RunConfig:
     def as_dict(self) -> dict[str, Any]:
         """The plain data of `config.yaml`."""
         return dataclasses.asdict(self)
+
+    @functools.cached_property
+    def env(self) -> Any:
+        """The env's config: `env_kwargs` over the registration's, resolved and checked once
+        (`arguments.check_env`, ValueError) and read from here by the checks and variants."""
+        return check_env(self.env_id, self.env_kwargs)
 
     def replace(self, **changes: Any) -> RunConfig:
         return dataclasses.replace(self, **changes)

@@ -22,7 +22,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from tether_gym.agents.saved import read_config
 from tether_gym.agents.warm import env_kernels
-from tether_gym.arguments import check_env, did_you_mean
+from tether_gym.arguments import did_you_mean
 from tether_gym.evaluation.reports import format_table
 from tether_gym.evaluation.results import Result
 from tether_gym.evaluation.runner import evaluate
@@ -50,7 +50,7 @@ def check_config(config: RunConfig | Mapping[str, Any]) -> None:
     config = RunConfig.of(config)
     if config.algo not in ALGOS:
         raise ValueError(f"algo must be one of {sorted(ALGOS)}, got {config.algo!r}")
-    check_env(config.env_id, config.env_kwargs)
+    _ = config.env  # the env arguments, resolved and checked first (ValueError)
     signature = inspect.signature(ALGOS[config.algo].__init__)
     allowed = set(signature.parameters) - {"self", "env", "_init_setup_model"}
     unknown = set(config.hyperparams) - allowed - set(zoo_keys())

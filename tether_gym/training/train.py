@@ -187,7 +187,7 @@ def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
         )
         check_run(config, args.resume, resume=True)
         return config, args.resume
-    env_id, env_kwargs = env_from_args(args)
+    env_id, env_kwargs = env_from_args(args, check=False)  # checked once merged: check_config
     conf_file = args.conf_file or default_conf(args.algo or "ppo")
     overrides = parse_overrides(args.hyperparams)
     control = control_asked(overrides)

@@ -19,7 +19,7 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from tether_gym.agents.planned import PLANNED, Planned
 from tether_gym.envs.tether_navigate.controls import aimed_modes
-from tether_gym.families import env_config, family, load
+from tether_gym.families import family, load
 from tether_gym.training.config import RunConfig
 from tether_gym.training.pretrain import check_pretrain, clone_planner
 
@@ -92,7 +92,7 @@ class PlannedVariant(Variant):
         play; the variant's own check names the env they solve)."""
         if not family(config.env_id).planners:
             return
-        control = env_config(config.env_id, config.env_kwargs).control
+        control = config.env.control
         if control != self.control:
             raise ValueError(
                 f"{self.key}: the planners act in control={self.control!r}, not {control}"
@@ -173,7 +173,7 @@ class Aim(Variant):
     def check(self, config: RunConfig) -> None:
         if not self.asked(config.hyperparams):
             return
-        control = getattr(env_config(config.env_id, config.env_kwargs), "control", None)
+        control = getattr(config.env, "control", None)
         if control not in aimed_modes():
             raise ValueError(
                 f"policy AimPolicy: TetherNavigate with control one of {aimed_modes()} "
@@ -183,7 +183,7 @@ class Aim(Variant):
             raise ValueError("policy AimPolicy: not with normalize (it reads the goal in metres)")
 
     def policy_kwargs(self, config: RunConfig) -> dict[str, Any]:
-        return {"control": env_config(config.env_id, config.env_kwargs).control}
+        return {"control": config.env.control}
 
 
 def variants() -> tuple[Variant, ...]:
