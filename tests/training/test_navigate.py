@@ -20,6 +20,7 @@ from stable_baselines3.common.torch_layers import CombinedExtractor
 from tests.helpers import ROOT
 from tests.helpers.envs import vector_env
 from tests.helpers.training import TINY_NAVIGATE_NET, TINY_PPO, TINY_SAC, saved_timesteps
+from tether_gym.agents import planned
 from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtractor, ProposalPolicy
 from tether_gym.agents.saved import load_agent
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS
@@ -31,7 +32,6 @@ from tether_gym.training import (
     experiment,
     folders,
     pretrain,
-    proposals,
     residual,
     summary,
     train,
@@ -220,8 +220,8 @@ def test_a_planner_inside_an_agent_plans_for_the_ladder_id_s_task_and_table():
               "hyperparams": {"proposals": "greedy"}}  # fmt: skip
     planners = [
         residual.make_planner("lookahead", config["env_kwargs"], env_id),
-        proposals.make_proposer("greedy", config["env_kwargs"], env_id),
-        proposals.with_planner(ZeroPolicy(), config).planner,
+        planned.make_proposer("greedy", config["env_kwargs"], env_id),
+        planned.with_planner(ZeroPolicy(), config).planner,
     ]
     for planner in planners:
         assert planner.config.task == "stop" and planner.config.layout is not None
@@ -260,10 +260,10 @@ def test_a_zero_residual_plays_the_planner_through_the_vec_env_and_the_agent():
     [(["residual:greedy", "residual_scale:0.2"], "PPO residual on greedy",
       lambda agent: isinstance(agent, residual.ResidualAgent) and agent.scale == 0.2),
      (["proposals:greedy", "proposals_k:4"], "PPO over greedy's proposals",
-      lambda agent: isinstance(agent, proposals.ProposalAgent) and agent.k == 4),
+      lambda agent: isinstance(agent, planned.ProposalAgent) and agent.k == 4),
      (["proposals:greedy", "proposals_k:4", "policy:ProposalPolicy"],
       "PPO over greedy's proposals",
-      lambda agent: isinstance(agent, proposals.ProposalAgent) and agent.k == 4
+      lambda agent: isinstance(agent, planned.ProposalAgent) and agent.k == 4
       and isinstance(agent.policy.model.policy, ProposalPolicy))],
 )  # fmt: skip
 @pytest.mark.slow

@@ -13,6 +13,7 @@ import torch
 from stable_baselines3.common.torch_layers import CombinedExtractor
 
 from tests.helpers.envs import vector_env
+from tether_gym.agents import planned
 from tether_gym.agents.networks import NavigateExtractor, ProposalPolicy
 from tether_gym.agents.planned import PROPOSALS_KEY
 from tether_gym.agents.planners import KINDS, GreedyPlanner, observed_states
@@ -37,16 +38,16 @@ def test_the_proposals_are_the_best_of_distinct_groups_in_rank_order():
     planner = GreedyPlanner(KWARGS)
     _, obs = native_env(16, seed=3)
     k = 8
-    features, actions = proposals.propose(planner, obs, k)
-    features = features.reshape(16, k, proposals.PROPOSAL_FEATURES)
+    features, actions = planned.propose(planner, obs, k)
+    features = features.reshape(16, k, planned.PROPOSAL_FEATURES)
     candidates, all_actions, _, cost, _ = planner.expand(observed_states(obs, planner.config), 0)
     for i in range(16):
         present = features[i, :, 0] == 1
         assert present[0] and np.all(present[:-1] >= present[1:]), "present slots come first"
         shown = features[i, present, COST]
         assert np.all(np.diff(shown) >= 0), "slots are in rank order"
-        least = min(cost[candidates.rows == i].min(), proposals.COST_CAP)
-        assert shown[0] == pytest.approx(least / proposals.COST_CAP, rel=1e-6)
+        least = min(cost[candidates.rows == i].min(), planned.COST_CAP)
+        assert shown[0] == pytest.approx(least / planned.COST_CAP, rel=1e-6)
         # one proposal per (peg, kind): the bearing names the peg, the one-hot the kind
         pegs = np.round(actions[i, present, 0], 4).tolist()
         kinds = np.argmax(features[i, present][:, KIND], axis=1).tolist()
@@ -72,7 +73,7 @@ def test_the_vec_env_plays_the_picked_proposal_and_the_agent_plays_the_same():
     truncated = 0
     for step in range(8):
         pick = np.array([step % k, 0, k - 1, 1])
-        features, actions = proposals.propose(planner, ref, k)
+        features, actions = planned.propose(planner, ref, k)
         np.testing.assert_array_equal(obs[PROPOSALS_KEY], features)
         obs, rewards, dones, infos = env.step(pick)
         ref, ref_rewards, _, _, _ = native.step(actions[np.arange(4), pick])
@@ -81,10 +82,10 @@ def test_the_vec_env_plays_the_picked_proposal_and_the_agent_plays_the_same():
             final = infos[i]["terminal_observation"]
             if infos[i]["TimeLimit.truncated"]:
                 batch = {key: value[None] for key, value in final.items() if key != PROPOSALS_KEY}
-                expected = proposals.propose(planner, batch, k)[0][0]
+                expected = planned.propose(planner, batch, k)[0][0]
                 truncated += 1
             else:
-                expected = np.zeros(k * proposals.PROPOSAL_FEATURES)
+                expected = np.zeros(k * planned.PROPOSAL_FEATURES)
             np.testing.assert_array_equal(final[PROPOSALS_KEY], expected)
     assert truncated > 0, "a truncated episode's terminal observation must be checked"
 
@@ -92,8 +93,8 @@ def test_the_vec_env_plays_the_picked_proposal_and_the_agent_plays_the_same():
         def predict(self, obs, state=None, episode_start=None, deterministic=True):
             return np.full(len(obs[PROPOSALS_KEY]), 2), state
 
-    agent = proposals.ProposalAgent(Third(), planner, k)
-    _, actions = proposals.propose(planner, ref, k)
+    agent = planned.ProposalAgent(Third(), planner, k)
+    _, actions = planned.propose(planner, ref, k)
     np.testing.assert_array_equal(agent.predict(ref)[0], actions[:, 2])
     single = {key: value[1] for key, value in ref.items()}
     np.testing.assert_array_equal(agent.predict(single)[0], actions[1, 2])
@@ -118,9 +119,9 @@ def test_depth_two_shows_the_best_next_maneuver_of_each_proposal():
     planner = GreedyPlanner(reach)
     _, obs = native_env(6, seed=11, **reach)
     k = 4
-    shallow, _ = proposals.propose(planner, obs, k, depth=1)
-    deep, actions = proposals.propose(planner, obs, k, depth=2)
-    shallow, deep = (f.reshape(6, k, proposals.PROPOSAL_FEATURES) for f in (shallow, deep))
+    shallow, _ = planned.propose(planner, obs, k, depth=1)
+    deep, actions = planned.propose(planner, obs, k, depth=2)
+    shallow, deep = (f.reshape(6, k, planned.PROPOSAL_FEATURES) for f in (shallow, deep))
     np.testing.assert_array_equal(deep[..., :-2], shallow[..., :-2])
     assert not shallow[..., -2:].any()
     states = observed_states(obs, planner.config)
@@ -131,13 +132,13 @@ def test_depth_two_shows_the_best_next_maneuver_of_each_proposal():
             if deep[i, j, 1] or deep[i, j, 2]:  # the episode ends: no next maneuver
                 continue
             _, _, _, cost, _ = planner.expand(after, 1)
-            least = min(cost.min(), proposals.COST_CAP)
-            assert deep[i, j, -2] == pytest.approx(least / proposals.COST_CAP, rel=1e-6)
+            least = min(cost.min(), planned.COST_CAP)
+            assert deep[i, j, -2] == pytest.approx(least / planned.COST_CAP, rel=1e-6)
             assert deep[i, j, -1] == (cost.min() < 2.0)
             successes += deep[i, j, -1]
     assert successes > 0, "some proposal must be followed by a predicted success"
     with pytest.raises(ValueError, match="proposals_depth must be 1 or 2"):
-        proposals.ProposalAgent(None, planner, k, 3)
+        planned.ProposalAgent(None, planner, k, 3)
 
 
 def scorer_policy(k: int = 4, **policy_kwargs):
@@ -161,7 +162,7 @@ def test_the_scorer_scores_each_slot_alike_and_never_an_empty_one(extractor):
     for layer in policy.mlp_extractor.score:  # away from the near-equal start
         if isinstance(layer, torch.nn.Linear):
             torch.nn.init.normal_(layer.weight)
-    slots = obs[PROPOSALS_KEY].reshape(2, k, proposals.PROPOSAL_FEATURES)
+    slots = obs[PROPOSALS_KEY].reshape(2, k, planned.PROPOSAL_FEATURES)
     slots[:, :, 0] = 1.0  # all present, and slot 1 unlike slot 2
     slots[:, 1, 3:] += 0.5
     order = [2, 0, 3, 1]

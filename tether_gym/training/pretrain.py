@@ -23,7 +23,7 @@ import torch
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
 from tether_gym.agents.aim_search import AimSearch
-from tether_gym.agents.planned import BASE_KEY, PLANNERS
+from tether_gym.agents.planned import BASE_KEY, PLANNERS, RESIDUAL
 from tether_gym.seeds import PRETRAIN_SEED
 
 DEFAULTS = {"decisions": 50_000, "epochs": 20, "batch_size": 512, "learning_rate": 1e-3}
@@ -109,7 +109,7 @@ def clone_planner(
         planner, config["env_id"], config["env_kwargs"], config["n_envs"],
         options["decisions"], model.gamma,
     )  # fmt: skip
-    if config["hyperparams"].get("residual") is not None:
+    if RESIDUAL.asked(config["hyperparams"]):
         obs[BASE_KEY] = actions
         actions = np.zeros_like(actions)
     policy = model.policy

@@ -29,17 +29,11 @@ from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
 from tether_gym.agents.planned import (
-    COST_CAP,
     PROPOSAL_FEATURES,
-    PROPOSALS_K,
     PROPOSALS_KEY,
-    ProposalAgent,
     check_count,
     check_depth,
-    make_proposer,
     propose,
-    settings,
-    with_planner,
 )
 from tether_gym.agents.planners import GreedyPlanner
 
@@ -91,16 +85,3 @@ class ProposalVecEnv(VecEnvWrapper):
             for i, row in zip(truncated, features, strict=True):
                 infos[i]["terminal_observation"][PROPOSALS_KEY] = row
         return obs, rewards, dones, infos
-
-
-__all__ = [
-    "COST_CAP",
-    "PROPOSALS_K",
-    "PROPOSAL_FEATURES",
-    "ProposalAgent",
-    "ProposalVecEnv",
-    "make_proposer",
-    "propose",
-    "settings",
-    "with_planner",
-]

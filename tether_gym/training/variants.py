@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 from stable_baselines3.common.vec_env import VecEnv
 
-from tether_gym.agents.planned import PLANNED, Planned
+from tether_gym.agents.planned import PLANNED, RESIDUAL, Planned
 from tether_gym.envs.tether_navigate.controls import aimed_modes
 from tether_gym.families import family, load
 from tether_gym.training.config import RunConfig
@@ -109,7 +109,7 @@ class Residual(PlannedVariant):
             raise ValueError(f"residual: the planners solve TetherNavigate, not {config.env_id}")
 
     def label(self, config: RunConfig) -> str:
-        return f"{config.algo.upper()} residual on {config.hyperparams['residual']}"
+        return f"{config.algo.upper()} residual on {config.hyperparams[self.key]}"
 
 
 class Proposals(PlannedVariant):
@@ -132,7 +132,7 @@ class Proposals(PlannedVariant):
             raise ValueError("policy ProposalPolicy: not with normalize (it reads slot flags)")
 
     def label(self, config: RunConfig) -> str:
-        return f"{config.algo.upper()} over {config.hyperparams['proposals']}'s proposals"
+        return f"{config.algo.upper()} over {config.hyperparams[self.key]}'s proposals"
 
 
 class Pretrain(PlannedVariant):
@@ -143,17 +143,17 @@ class Pretrain(PlannedVariant):
         params = config.hyperparams
         if config.algo != "ppo" or not family(config.env_id).planners or params.get("normalize"):
             raise ValueError("pretrain: PPO on TetherNavigate without normalize only")
-        check_pretrain(params["pretrain"], config.env_kwargs)
-        residual = params.get("residual")
-        if residual is not None and params["pretrain"]["planner"] != residual:
+        check_pretrain(params[self.key], config.env_kwargs)
+        residual = params.get(RESIDUAL.key)
+        if residual is not None and params[self.key]["planner"] != residual:
             raise ValueError("pretrain: a residual policy's burn-in demonstrates its own planner")
 
     def label(self, config: RunConfig) -> str:
-        return f"{config.algo.upper()} from {config.hyperparams['pretrain']['planner']} demos"
+        return f"{config.algo.upper()} from {config.hyperparams[self.key]['planner']} demos"
 
     def before_learning(self, model: BaseAlgorithm, config: RunConfig, evaluate) -> None:
         clock = time.perf_counter()
-        losses = clone_planner(model, config.as_dict(), config.hyperparams["pretrain"])
+        losses = clone_planner(model, config.as_dict(), config.hyperparams[self.key])
         success = evaluate(model)
         print(
             f"[pretrain] cloned in {time.perf_counter() - clock:.0f} s (action loss "
