@@ -127,3 +127,13 @@ def test_a_first_run_is_announced_once(tmp_path, capsys, monkeypatch):
     kernel(1)
     kernel_cache.announce("other kernels", kernel)
     assert capsys.readouterr().err == ""
+
+
+def test_tether_compile_s_parts_announce_nothing_themselves(tmp_path, capsys, monkeypatch):
+    """`tether compile` says once what it compiles; its parts' kernels do not repeat it."""
+    monkeypatch.setattr(kernel_cache, "_ANNOUNCED", set())
+    monkeypatch.setenv(kernel_cache.QUIET, "1")
+    kernel = load_kernel(tmp_path)
+    assert kernel_cache.compiles(kernel)
+    kernel_cache.announce("the test's kernels", kernel)
+    assert capsys.readouterr().err == ""

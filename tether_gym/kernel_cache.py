@@ -114,13 +114,16 @@ def compiles(*kernels) -> bool:
 
 
 _ANNOUNCED: set[str] = set()
+QUIET = "TETHER_GYM_COMPILING"
+"""Set (to anything) in the environment of `tether compile`'s parts, which announce what they
+compile themselves: `announce` then says nothing."""
 
 
 def announce(what: str, *kernels) -> None:
     """Say once per process, in one line on stderr, that `what` compiles, when the first call
     of `kernels` will compile them (a first run: nothing else would tell a long first step
     from a hang)."""
-    if what in _ANNOUNCED or not compiles(*kernels):
+    if what in _ANNOUNCED or os.environ.get(QUIET) or not compiles(*kernels):
         return
     _ANNOUNCED.add(what)
     print(
@@ -131,6 +134,6 @@ def announce(what: str, *kernels) -> None:
 
 
 __all__ = [
-    "CACHE_SUFFIXES", "KERNEL_SOURCES", "STAMP", "announce", "compiles", "kernel_sources",
+    "CACHE_SUFFIXES", "KERNEL_SOURCES", "QUIET", "STAMP", "announce", "compiles", "kernel_sources",
     "refresh", "sources_digest",
 ]  # fmt: skip

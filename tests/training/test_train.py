@@ -199,6 +199,18 @@ def test_a_runs_env_arguments_are_resolved_once_without_building_the_env(tmp_pat
     assert config.env.control == "aim" and config.env.rho == 400
 
 
+def test_the_timesteps_announced_are_those_sb3_trains_whole_rounds_of():
+    """`--timesteps 5000` with 2 envs x 64 steps trains 40 rollouts, 5,120 timesteps."""
+    import gymnasium as gym
+    from stable_baselines3 import PPO, SAC
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    sb3_venv = DummyVecEnv([lambda: gym.make("TetherBounce-v0")] * 2)
+    assert experiment.whole_rounds(PPO("MlpPolicy", sb3_venv, n_steps=64), 5000) == 5120
+    assert experiment.whole_rounds(PPO("MlpPolicy", sb3_venv, n_steps=64), 5120) == 5120
+    assert experiment.whole_rounds(SAC("MlpPolicy", sb3_venv, train_freq=3), 5000) == 5004
+
+
 def test_resume_refuses_a_new_config(tmp_path, capsys):
     (tmp_path / "config.yaml").write_text("{}")
     with pytest.raises(SystemExit):

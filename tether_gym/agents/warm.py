@@ -12,6 +12,7 @@ two parts compile side by side in two processes.
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from collections.abc import Callable, Sequence
@@ -22,6 +23,7 @@ import numpy as np
 from tether_gym.agents.registry import make_agent
 from tether_gym.arguments import ArgumentParser
 from tether_gym.families import FAMILIES, load
+from tether_gym.kernel_cache import QUIET
 
 PARALLEL_COPIES = 1024
 """Copies enough for every batch kernel to run across threads."""
@@ -93,8 +95,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.part:
         PARTS[args.part]()
         return 0
+    builds = ", ".join(
+        f"{f.name} ({len(load(f.warm.builds))} builds)" for f in FAMILIES if f.warm is not None
+    )
+    print(
+        f"tether compile: the single and vector steps of {builds} and the planners, side by "
+        "side (minutes the first time, seconds once cached)",
+        file=sys.stderr,
+    )
     command = [sys.executable, "-m", "tether_gym", "compile", "--part"]
-    parts = {part: subprocess.Popen([*command, part]) for part in PARTS}
+    quiet = {**os.environ, QUIET: "1"}
+    parts = {part: subprocess.Popen([*command, part], env=quiet) for part in PARTS}
     failed = [part for part, process in parts.items() if process.wait() != 0]
     if failed:
         parser.error(f"compiling part {', '.join(failed)} failed (see above)")

@@ -18,6 +18,7 @@ import torch
 import yaml
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from tether_gym.agents.saved import read_config
@@ -177,6 +178,19 @@ def use_threads(threads: int = 1) -> None:
     torch.set_num_threads(threads)
 
 
+def whole_rounds(model: BaseAlgorithm, timesteps: int) -> int:
+    """The timesteps `model.learn(timesteps)` trains: SB3 collects whole rounds (an on-policy
+    rollout of `n_steps` per env, an off-policy `train_freq` of steps per env) until it has at
+    least `timesteps`."""
+    if isinstance(model, OnPolicyAlgorithm):
+        per_env = model.n_steps
+    else:
+        frequency = model.train_freq
+        per_env = frequency.frequency if frequency.unit.value == "step" else 1
+    size = per_env * model.n_envs
+    return -(-timesteps // size) * size
+
+
 def train(
     config: RunConfig | Mapping[str, Any],
     run_dir: Path,
@@ -225,7 +239,9 @@ def train(
     remaining = config.timesteps - start_timesteps
     copies = (config.n_envs, min(config.eval_episodes, EVALUATION_BATCH))  # training, evaluation
     env_kernels(config.env_id, config.env_kwargs, copies)  # a first run compiles: not training
-    print(f"training {label(config)} for {remaining:,} timesteps into {run_dir}", flush=True)
+    trained = whole_rounds(model, remaining)
+    rounded = "" if trained == remaining else f" ({remaining:,} asked, rounded up to whole rounds)"
+    print(f"training {label(config)} for {trained:,} timesteps{rounded} into {run_dir}", flush=True)
     start = time.perf_counter()
     if not resume:
         for variant in asked(config):
