@@ -7,6 +7,8 @@ a native vector env: `TetherBounce-v0` (one bounce per episode), `TetherNavigate
 numba's cached kernels if the sources they were built from changed (`tether_gym.kernel_cache`).
 """
 
+import gymnasium as gym
+
 from tether_gym import kernel_cache
 from tether_gym.families import FAMILIES, register
 
@@ -16,3 +18,11 @@ kernel_cache.refresh()
 
 for env_family in FAMILIES:
     register(env_family)
+
+# The JAX backend (`tether_gym.jax`, the `jax` extra): entry points by name, so that importing
+# tether_gym does not import jax.
+gym.register(
+    id="tether_gym/TetherBounce-jax-v0",
+    entry_point="tether_gym.jax.bounce:TetherBounceJaxEnv",
+    vector_entry_point="tether_gym.jax.bounce:TetherBounceJaxVectorEnv",
+)
