@@ -233,7 +233,7 @@ def bounce(s: dict, setup: dict, params: EnvParams):
         lambda: jnp.asarray(params.damping_ratio, speed.dtype),
         lambda: physics.damping_ratio(s["restitution"]),
     )
-    vx, vy, w, bounced, completed, _ = physics.hybrid_core(
+    vx, vy, w, bounced, completed = physics.hybrid_core(
         beta, alpha, offset, kappa, speed, spin, zeta, PUCK_RADIUS, PUCK_MASS, TETHER_LENGTH,
         s["stiffness"],
     )  # fmt: skip

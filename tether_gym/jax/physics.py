@@ -14,11 +14,11 @@ a cap stated where it is written. The dtype is that of the arguments: float64 un
 
 The hybrid contact as one bounded loop. The numba contact takes RK4 steps of length h until the
 tension T is no longer positive, then takes the last step again with lengths that the Illinois
-method finds on T (at most `ILLINOIS_ITERATIONS`). Here both phases are one `lax.while_loop`:
+method finds on T (at most `SLACK_ITERATIONS`). Here both phases are one `lax.while_loop`:
 each iteration is one RK4 step from the last accepted state, of length h while stepping and of
 the Illinois estimate while refining, so the root search needs no inner loop and a lane that
 refines costs what a lane that steps costs. A contact's loop runs at most its budget (the numba
-`contact_budget` in steps of h, at most `MAX_STEPS`) plus `ILLINOIS_ITERATIONS` iterations.
+`contact_budget` in steps of h, at most `MAX_STEPS`) plus `SLACK_ITERATIONS` iterations.
 
 What a lane pays under `jax.vmap`. A vmapped `while_loop` runs until its last lane is done, each
 lane paying one step per iteration, so that one long contact (a grazing tether that carries the
@@ -42,38 +42,32 @@ import jax.numpy as jnp
 from jax import custom_batching, lax
 
 from tether_gym.physics.hybrid import (
+    DAMPING_BRACKET,
+    DAMPING_ITERATIONS,
+    DAMPING_RESIDUAL,
     MAX_HALF_PERIODS,
     MAX_STEPS,
     RK4_STEPS_PER_HALF_PERIOD,
+    SLACK_BRACKET,
+    SLACK_ITERATIONS,
+    SLACK_TENSION,
     effective_mass,
 )
 from tether_gym.physics.impulse import impulse_change
 
 effective_mass = effective_mass.py_func  # plain arithmetic: the one formula, traced
 
-ILLINOIS_ITERATIONS = 60
-"""At most this many Illinois iterations locate the slack instant inside the last step (the
-literal of `physics.hybrid._contact`)."""
-SLACK_TENSION = 1e-13
-"""The slack instant is found where |T| <= this times the peak tension so far..."""
-SLACK_BRACKET = 1e-15
-"""...or where its bracket is narrower than this times h (both `physics.hybrid._contact`)."""
 CASCADE = 8
 """A batch's contacts run at full width while more than 1/CASCADE of them are active, then
-narrowed CASCADE times, and so on (`_cascade`)."""
-DAMPING_ITERATIONS = 200
-"""At most this many Illinois iterations solve `restitution_from_damping(zeta) = e`..."""
-DAMPING_RESIDUAL = 1e-15
-"""...stopped where the residual is at most this..."""
-DAMPING_BRACKET = 4e-16
-"""...or the bracket narrower than this times its upper end (all `physics.hybrid.damping_ratio`)."""
+narrowed CASCADE times, and so on (`_cascade`): a lane pays for at most about CASCADE lanes'
+steps at each width."""
 
 
-def _tolerance(value: float, ulps: float, dtype) -> float:
-    """A relative tolerance of the numba code, `value`, or `ulps` units in the last place of
-    `dtype` where that is coarser: float64 keeps the numba value, float32 (whose resolution
-    is coarser than those values) stops its searches at its own."""
-    return max(value, ulps * float(jnp.finfo(dtype).eps))
+def _tolerance(value: float, dtype: jnp.dtype) -> float:
+    """A float64 tolerance of the numba searches (`value`) in `dtype`: scaled by how much coarser
+    `dtype` rounds than float64, so float64 keeps the numba value and float32 stops at its own
+    resolution instead of iterating to the cap."""
+    return value * max(1.0, float(jnp.finfo(dtype).eps / jnp.finfo(jnp.float64).eps))
 
 
 def runtime_one(like):
@@ -189,8 +183,8 @@ def damping_ratio(restitution):
         f_high = jnp.where(above & (side == 1), 0.5 * f_high, f_high)
         f_low = jnp.where(~above & (side == -1), 0.5 * f_low, f_low)
         side = jnp.where(above, 1, -1).astype(jnp.int32)
-        done = (jnp.abs(f) <= _tolerance(DAMPING_RESIDUAL, 4.0, e.dtype)) | (
-            high - low <= _tolerance(DAMPING_BRACKET, 1.0, e.dtype) * high
+        done = (jnp.abs(f) <= _tolerance(DAMPING_RESIDUAL, e.dtype)) | (
+            high - low <= _tolerance(DAMPING_BRACKET, e.dtype) * high
         )
         return low, f_low, high, f_high, side, mid, n + 1, done
 
@@ -307,7 +301,6 @@ class _Contact(NamedTuple):
     tries: jax.Array
     done: jax.Array
     completed: jax.Array
-    iterations: jax.Array
 
 
 class _Problem(NamedTuple):
@@ -336,7 +329,7 @@ def _start(y, c, offset, kappa, speed, radius, mass, rest_length, k, active):
     count = jnp.zeros((), jnp.int32)
     carry = _Contact(
         y, a, tension, zero, count, jnp.asarray(False), zero, zero, zero, zero, count, count,
-        ~active | ~(budget > 0), ~active, count,
+        ~active | ~(budget > 0), ~active,
     )  # fmt: skip
     return _Problem(p, h, budget), carry
 
@@ -371,9 +364,9 @@ def _advance(problem: _Problem, s: _Contact) -> _Contact:
     side = jnp.where(above, 1, -1).astype(jnp.int32)
     tries = s.tries + 1
     found = (active & s.refining) & (
-        (jnp.abs(g) <= _tolerance(SLACK_TENSION, 4.0, g.dtype) * s.peak)
-        | (high - low <= _tolerance(SLACK_BRACKET, 4.0, g.dtype) * h)
-        | (tries >= ILLINOIS_ITERATIONS)
+        (jnp.abs(g) <= _tolerance(SLACK_TENSION, g.dtype) * s.peak)
+        | (high - low <= _tolerance(SLACK_BRACKET, g.dtype) * h)
+        | (tries >= SLACK_ITERATIONS)
     )
     moved = accept | found
     return _Contact(
@@ -391,7 +384,6 @@ def _advance(problem: _Problem, s: _Contact) -> _Contact:
         tries=jnp.where(start_refining, 0, tries),
         done=s.done | found | out_of_budget,
         completed=s.completed | found,
-        iterations=s.iterations + active,
     )
 
 
@@ -456,21 +448,21 @@ def _scatter(full: _Contact, index: jax.Array, part: _Contact) -> _Contact:
 
 def _contact(y, c, offset, kappa, speed, radius, mass, rest_length, k, active):
     """Integrate a contact from tautening (`physics.hybrid._contact` in the open):
-    (vx, vy, spin, completed, iterations) at the slack instant, or where the budget runs out
-    (completed False); `iterations` is what the lane's loop ran. A lane not `active` (its tether
+    (vx, vy, spin, completed) at the slack instant, or where the budget runs out
+    (completed False). A lane not `active` (its tether
     never went taut) returns y's velocities at once."""
     end = _integrate(*_start(y, c, offset, kappa, speed, radius, mass, rest_length, k, active))
-    return end.y[2], end.y[3], end.y[6], end.completed, end.iterations
+    return end.y[2], end.y[3], end.y[6], end.completed
 
 
 def hybrid_core(beta, alpha, offset, kappa, speed, spin, zeta, radius, mass, rest_length, k):
-    """One hybrid bounce: (vx, vy, spin, bounced, completed, iterations) after it
-    (`physics.hybrid.hybrid_core`), `iterations` the RK4 steps its loop took (0 unbounced)."""
+    """One hybrid bounce: (vx, vy, spin, bounced, completed) after it
+    (`physics.hybrid.hybrid_core`)."""
     y = initial_state(beta, alpha, offset, radius, rest_length, speed, spin)
     _, _, vx, vy, rx, ry, w = y
     bounced = ~(stretch_rate(vx, vy, w, rx, ry, jnp.cos(beta), jnp.sin(beta)) <= 0.0)
     c = 2.0 * zeta * jnp.sqrt(k * effective_mass(mass, kappa, offset * jnp.sin(alpha)))
-    vx, vy, w, completed, iterations = _contact(
+    vx, vy, w, completed = _contact(
         y, c, offset, kappa, speed, radius, mass, rest_length, k, bounced
     )
-    return vx, vy, w, bounced, completed, iterations
+    return vx, vy, w, bounced, completed
