@@ -14,11 +14,12 @@ uniform random actions in [-1, 1], the median over `--repeats` of:
 Compile times are measured in fresh processes at one batch (`--compile-batch`): the first
 `jit` of the fused step with an empty persistent compilation cache (trace, lower, compile),
 then again with the cache that first run filled. The device, jax's version, the machine's load
-and every figure are printed and, with `--json PATH`, written there (refused if the file exists,
-unless `--overwrite`). The same script runs on a CUDA device: jax's default device runs the JAX
-side (printed), numba stays on the host's CPU.
+and every figure are printed and, with `--json PATH`, written there with the command and the
+commit (refused if the file exists, unless `--overwrite`). `--quick` is a smoke run (batches 1
+and 64, one repeat, no compile times). The same script runs on a CUDA device: jax's default
+device runs the JAX side (printed), numba stays on the host's CPU.
 
-    python benchmarks/jax_throughput.py --json /tmp/jax_throughput.json
+    python benchmarks/jax_throughput.py --batches 1 64 1024 16384 --json results/jax/throughput.json
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import importlib.metadata
 import json
 import os
 import platform
+import shlex
 import statistics
 import subprocess
 import sys
@@ -41,11 +43,12 @@ import numba
 import numpy as np
 
 import tether_gym  # noqa: F401  (registers the ids)
+from benchmarks.jax_agreement import git
 
 BATCHES = (1, 64, 1024, 16384, 65536)
 DYNAMICS = ("impulse", "hybrid")
 JAX_ID, NUMBA_ID = "tether_gym/TetherBounce-jax-v0", "TetherBounce-v0"
-MIN_SECONDS = 1.0
+MIN_SECONDS = 0.5
 """Each timed block of steps lasts at least about this long (at least one step)."""
 ACTION_POOL = 8
 """Batches of random actions the Python-driven envs cycle through."""
@@ -189,16 +192,21 @@ def parse_args() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--batches", type=int, nargs="+", default=BATCHES)
     parser.add_argument("--dynamics", nargs="+", default=DYNAMICS, choices=DYNAMICS)
-    parser.add_argument("--repeats", type=int, default=5, help="timings per figure (median)")
+    parser.add_argument("--repeats", type=int, default=3, help="timings per figure (median)")
     parser.add_argument("--precision", choices=("float64", "float32"), default="float64",
                         help="the JAX side's (jax_enable_x64 on or off)")  # fmt: skip
     parser.add_argument("--compile-batch", type=int, default=1024)
     parser.add_argument("--no-compile", action="store_true", help="skip the compile times")
+    parser.add_argument("--quick", action="store_true",
+                        help="batches 1 and 64, one repeat, no compile times")  # fmt: skip
     parser.add_argument("--json", type=Path, help="write the figures here")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --json")
     parser.add_argument("--compile-only", choices=DYNAMICS, help=argparse.SUPPRESS)
     parser.add_argument("--cache-dir", help=argparse.SUPPRESS)
-    return parser.parse_args()
+    args = parser.parse_args()
+    if args.quick:
+        args.batches, args.repeats, args.no_compile = (1, 64), 1, True
+    return args
 
 
 def main() -> None:
@@ -211,7 +219,8 @@ def main() -> None:
     if args.json and args.json.exists() and not args.overwrite:
         raise SystemExit(f"{args.json} exists: pass --overwrite to replace it")
     jax.config.update("jax_enable_x64", args.precision == "float64")
-    report = {"machine": machine(), "precision": args.precision, "load_before": load(),
+    report = {"command": shlex.join(["python", "benchmarks/jax_throughput.py", *sys.argv[1:]]),
+              **git(), "machine": machine(), "precision": args.precision, "load_before": load(),
               "repeats": args.repeats, "rates": [], "compile": {}}  # fmt: skip
     print(json.dumps(report["machine"]), f"precision {args.precision}, load {load()}")
     if not args.no_compile:
@@ -240,6 +249,7 @@ def main() -> None:
     report["load_after"] = load()
     print(f"load after: {report['load_after']}")
     if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(report, indent=2) + "\n")
 
 
