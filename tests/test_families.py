@@ -17,7 +17,9 @@ from tests.helpers import ROOT
 from tether_gym.families import BOUNCE, FAMILIES, NAVIGATE, family, load
 
 PACKAGE = ROOT / "tether_gym"
-HEAVY = ("torch", "stable_baselines3", "numba", "tether_gym.agents", "tether_gym.training")
+HEAVY = (
+    "torch", "stable_baselines3", "numba", "jax", "tether_gym.agents", "tether_gym.training",
+)  # fmt: skip
 """What importing the registry must not import."""
 
 
@@ -27,9 +29,16 @@ def test_every_registered_id_maps_to_its_family():
         for env_id, spec in gym.registry.items()
         if str(spec.entry_point).startswith("tether_gym.")
     ]
-    expected = {"TetherBounce-v0": BOUNCE, **dict.fromkeys(NAVIGATE.ids, NAVIGATE)}
+    backends = {env_id: BOUNCE for backend in BOUNCE.backends for env_id in backend.ids}
+    expected = {"TetherBounce-v0": BOUNCE, **dict.fromkeys(NAVIGATE.ids, NAVIGATE), **backends}
+    assert "tether_gym/TetherBounce-jax-v0" in backends
     assert {env_id: family(env_id) for env_id in ours} == expected
     assert all(gym.spec(i).kwargs == NAVIGATE.ids[i] for i in NAVIGATE.ids)
+    for backend in BOUNCE.backends:
+        for env_id in backend.ids:
+            spec = gym.spec(env_id)
+            assert spec.entry_point == backend.entry_point
+            assert spec.vector_entry_point == backend.vector_entry_point
     assert all(family(env_family.env_id) is env_family for env_family in FAMILIES)
 
 

@@ -1,7 +1,8 @@
 """The env families: the one place an env is added, and what the package asks of each env.
 
 An env id belongs to the family of the entry point it is registered with (`family`), so the
-ladder's ids and a new id of an existing env need no entry here. A new env is one `Family`:
+ladder's ids and a new id of an existing env need no entry here. A new env is one `Family`,
+its implementations on other backends (the JAX kernels) its `Backend`s:
 in `FAMILIES` for the package's own, or `register_family` for an env defined elsewhere (a
 plugin, a test's toy env). Registration (`register`), the command line's env flags, the
 agents by name, the evaluation, the warm-up and the run names read the record; the code a
@@ -37,6 +38,22 @@ class WarmUp:
     each deciding on one observation and on a batch."""
     batch_agents: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     """The same for agents that decide on the env's batch kernel: on a batch only."""
+
+
+@dataclass(frozen=True)
+class Backend:
+    """A second implementation of a family's env (its kernel in another framework, from an
+    optional extra), registered under ids of its own from the family record; importing the
+    package imports none of its code (entry points by name)."""
+
+    name: str
+    """Its name in messages, e.g. "jax"."""
+    extra: str
+    """The package extra that installs it (`pip install "tether-gym[jax]"`)."""
+    ids: Mapping[str, Mapping[str, Any]]
+    """Every id it registers -> the keyword arguments its registration fixes."""
+    entry_point: str
+    vector_entry_point: str | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,11 +110,19 @@ class Family:
     run_name_keys: tuple[str, ...] = ()
     """The env arguments a training run's default name always says (their defaults where not
     given), in order, before the other arguments given."""
+    backends: tuple[Backend, ...] = ()
+    """Its env on other backends (`Backend`), each under ids of its own; its ids above are the
+    reference implementation's (numba)."""
 
     @property
     def env_id(self) -> str:
         """Its main id, whose arguments `--help` lists when no `--env` is given."""
         return next(iter(self.ids))
+
+    @property
+    def entry_points(self) -> tuple[str, ...]:
+        """The entry points of its ids: its own, then its backends'."""
+        return (self.entry_point, *(backend.entry_point for backend in self.backends))
 
 
 BOUNCE = Family(
@@ -124,6 +149,15 @@ BOUNCE = Family(
     card_test_episodes=1000,
     warm=WarmUp("TetherBounce-v0", "tether_gym.envs.tether_bounce.env:KERNEL_BUILDS"),
     run_name_keys=("task", "dynamics"),
+    backends=(
+        Backend(
+            name="jax",
+            extra="jax",
+            ids={"tether_gym/TetherBounce-jax-v0": {}},
+            entry_point="tether_gym.jax.bounce:TetherBounceJaxEnv",
+            vector_entry_point="tether_gym.jax.bounce:TetherBounceJaxVectorEnv",
+        ),
+    ),
 )
 NAVIGATE = Family(
     name="TetherNavigate",
@@ -169,22 +203,23 @@ those `register_family` adds."""
 
 
 def register(env_family: Family) -> None:
-    """Register every id of `env_family` with Gymnasium, with its entry points and the
-    arguments the id fixes."""
-    for env_id, kwargs in env_family.ids.items():
-        gym.register(
-            id=env_id,
-            entry_point=env_family.entry_point,
-            vector_entry_point=env_family.vector_entry_point,
-            kwargs=dict(kwargs),
-        )
+    """Register every id of `env_family` and of its backends with Gymnasium, with their entry
+    points and the arguments the id fixes."""
+    for implementation in (env_family, *env_family.backends):
+        for env_id, kwargs in implementation.ids.items():
+            gym.register(
+                id=env_id,
+                entry_point=implementation.entry_point,
+                vector_entry_point=implementation.vector_entry_point,
+                kwargs=dict(kwargs),
+            )
 
 
 def register_family(env_family: Family) -> None:
     """Add an env family defined outside the package: one of `FAMILIES` from now on, its ids
     registered with Gymnasium. ValueError if a family of its name or entry point exists."""
     for known in FAMILIES:
-        if env_family.name == known.name or env_family.entry_point == known.entry_point:
+        if env_family.name == known.name or set(env_family.entry_points) & set(known.entry_points):
             raise ValueError(
                 f"the env family {env_family.name} ({env_family.entry_point}) is registered "
                 f"already as {known.name} ({known.entry_point})"
@@ -204,7 +239,7 @@ def family(env_id: str) -> Family:
             f"unknown env id {env_id!r} ({error}); the env families: {known}"
         ) from None
     for candidate in FAMILIES:
-        if candidate.entry_point == entry_point:
+        if entry_point in candidate.entry_points:
             return candidate
     raise ValueError(f"{env_id!r} ({entry_point}) is in no env family; the families: {known}")
 

@@ -1,7 +1,8 @@
-"""The package's layers import downward only: the seeds, physics, tasks, envs, the env
-families, the env arguments the commands share, agents, evaluation, training, and the `tether`
-dispatcher on top. Playing an agent never needs training's code (torch, stable-baselines3's
-algorithms), and training builds on the agents and their evaluation, not the other way round."""
+"""The package's layers import downward only: the seeds, physics, tasks, envs, their JAX
+backend, the env families, the env arguments the commands share, agents, evaluation, training,
+and the `tether` dispatcher on top. Playing an agent never needs training's code (torch,
+stable-baselines3's algorithms), and training builds on the agents and their evaluation, not
+the other way round."""
 
 from __future__ import annotations
 
@@ -14,8 +15,8 @@ from tests.helpers import ROOT
 
 PACKAGE = ROOT / "tether_gym"
 LAYERS = (
-    "seeds", "physics", "tasks", "envs", "families", "arguments", "agents", "evaluation",
-    "training", "cli",
+    "seeds", "physics", "tasks", "envs", "jax", "families", "arguments", "agents",
+    "evaluation", "training", "cli",
 )  # fmt: skip
 """Lowest first: a module may import its own layer and those before it."""
 

@@ -67,6 +67,18 @@ MAX_HALF_PERIODS = 400
 MAX_STEPS = 1 << 22
 """At most this many steps for one bounce, whatever the time scales (a stiff, heavily damped
 contact)."""
+SLACK_ITERATIONS = 60
+"""At most this many Illinois iterations locate the slack instant inside the last step; they
+stop sooner where |T| <= `SLACK_TENSION` times the peak tension so far (T's rounding near zero)
+or the bracket is narrower than `SLACK_BRACKET` times the step (a few units in the last place)."""
+SLACK_TENSION = 1e-13
+SLACK_BRACKET = 1e-15
+DAMPING_ITERATIONS = 200
+"""At most this many Illinois iterations solve `restitution_from_damping(zeta) = e` in
+`damping_ratio`; they stop sooner where the residual is at most `DAMPING_RESIDUAL` or the
+bracket narrower than `DAMPING_BRACKET` times its upper end (float64's resolution)."""
+DAMPING_RESIDUAL = 1e-15
+DAMPING_BRACKET = 4e-16
 
 
 @numba.njit(cache=True)
@@ -141,7 +153,7 @@ def damping_ratio(restitution):
     f_low = restitution_from_damping(low) - restitution
     f_high = restitution_from_damping(high) - restitution
     side, mid = 0, high
-    for _ in range(200):
+    for _ in range(DAMPING_ITERATIONS):
         mid = (low * f_high - high * f_low) / (f_high - f_low)
         f = restitution_from_damping(mid) - restitution
         if f > 0.0:
@@ -154,7 +166,7 @@ def damping_ratio(restitution):
             if side == -1:
                 f_low *= 0.5
             side = -1
-        if abs(f) <= 1e-15 or high - low <= 4e-16 * high:
+        if abs(f) <= DAMPING_RESIDUAL or high - low <= DAMPING_BRACKET * high:
             break
     return mid
 
@@ -322,7 +334,7 @@ def _contact(
         if slack:
             # The tether goes slack inside this step: find where T = 0 by the Illinois method.
             low, g_low, high, g_high, side = 0.0, tension, h, new_tension, 0
-            for _ in range(60):
+            for _ in range(SLACK_ITERATIONS):
                 flat = g_high == g_low  # T = 0 at tautening (c = 0) and below resolution after
                 tau = low if flat else (low * g_high - high * g_low) / (g_high - g_low)
                 if not low < tau < high:  # a flat bracket: bisect
@@ -341,7 +353,7 @@ def _contact(
                     if side == -1:
                         g_low *= 0.5
                     side = -1
-                if abs(g) <= 1e-13 * peak or high - low <= 1e-15 * h:
+                if abs(g) <= SLACK_TENSION * peak or high - low <= SLACK_BRACKET * h:
                     break
             span = tau
         touch, which = math.inf, -1

@@ -1,0 +1,407 @@
+"""TetherBounce-v0 in JAX: the kernel of `envs.tether_bounce.kernel` over pytrees, its Gymnasium
+`FuncEnv`, single env and vector env.
+
+The same episode, observation, action, reward and info as the numba kernel, from the same
+declarations: the fields (`STATE`, `OBSERVATION`, `OUTCOME`, `ACTION`, `PARAMS`), the
+configuration and its checks (`BounceConfig`), the puck, the task constants
+(`tasks.bounce`). Written for XLA: both sides of every task and branch computed and selected,
+the dynamics chosen when the step is traced (`EnvParams.dynamics` is static), the hybrid
+contact a bounded loop (`jax.physics`). float64 under `jax_enable_x64`, float32 otherwise;
+observations are float32 as the space says.
+
+- `sample_episode(uniforms, params)`: an episode from `UNIFORMS` uniforms, consumed in the numba
+  kernel's order (the task if mixed, the goal's two, one per randomized quantity), so the same
+  uniforms give the numba kernel's episode.
+- `step_episode(episode, action, params)`: the outcome row of one bounce.
+- `observe(episode)`: the observation.
+
+`jax.vmap` them for a batch, over states and actions or over `EnvParams` too (a stack of
+`EnvParams.make(...)` sweeps a parameter).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from gymnasium.utils import EzPickle
+from jax import lax
+from jax.typing import ArrayLike
+
+from tether_gym.envs.kernels import PUCK_MASS, PUCK_RADIUS
+from tether_gym.envs.tether_bounce.kernel import (
+    ACTION,
+    MAX_LAUNCH,
+    OBSERVATION,
+    OUTCOME,
+    PARAMS,
+    SPEED_SCALE,
+    SPIN_SCALE,
+    STATE,
+    TETHER_LENGTH,
+    BounceConfig,
+    TetherBounceKernel,
+)
+from tether_gym.jax import physics
+from tether_gym.jax.base import (
+    JaxVectorEnv,
+    KernelFuncEnv,
+    KernelJaxEnv,
+    as_row,
+    float_dtype,
+)
+from tether_gym.physics.geometry import stiffness_for_rho
+from tether_gym.tasks.bounce import (
+    DEADSPIN,
+    DEADSPIN_TOLERANCE,
+    HEADING_TOLERANCE,
+    MIN_HEADING,
+    SLACK_PENALTY,
+    SPEED_TOLERANCE,
+    TARGET_SPEED,
+    TASKS,
+    VELOCITY,
+)
+
+stiffness_for_rho = stiffness_for_rho.py_func  # plain arithmetic: the one formula, traced
+
+JAX_DYNAMICS = ("impulse", "hybrid")
+"""The dynamics of the JAX kernel (not pymunk's engine)."""
+RANDOMIZED = ("inertia_ratio", "restitution", "ln_rho")
+"""The quantities drawn from a (low, high) range, in the numba kernel's order; the spin
+disturbance, drawn in +-it, comes after them."""
+UNIFORMS = 1 + 2 + len(RANDOMIZED) + 1
+"""Uniforms an episode may draw: the task (if mixed), the goal's heading and speed, one per
+randomized quantity and the spin. Every episode is handed this many, and uses them in the
+numba kernel's order (`kernel._sample`)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class EnvParams:
+    """TetherBounce's arguments as the kernels read them: the numba kernel's `PARAMS` row by
+    name (a pytree of scalars), with `dynamics` static (`"impulse"` or `"hybrid"`: it picks the
+    code that is traced). Build it with `make(**env_arguments)`, validated by `BounceConfig`;
+    a stack of them is a sweep that `jax.vmap` runs:
+
+        sweep = jax.tree.map(lambda *v: jnp.stack(v), *(EnvParams.make(rho=r) for r in rhos))
+    """
+
+    task: ArrayLike
+    """Index into TASKS, -1 for mixed."""
+    dynamics: str
+    inertia_ratio_low: ArrayLike
+    inertia_ratio_high: ArrayLike
+    restitution_low: ArrayLike
+    restitution_high: ArrayLike
+    ln_rho_low: ArrayLike
+    """Natural log."""
+    ln_rho_high: ArrayLike
+    stiffness: ArrayLike
+    """N/m, -1 where drawn per episode."""
+    spin_disturbance: ArrayLike
+    damping_ratio: ArrayLike
+    """The hybrid damper's ratio for a fixed restitution."""
+
+    @classmethod
+    def from_config(cls, config: BounceConfig) -> EnvParams:
+        """The params of a validated configuration (`BounceConfig.params`)."""
+        if config.dynamics not in JAX_DYNAMICS:
+            raise ValueError(
+                f"dynamics must be one of {JAX_DYNAMICS} for the JAX kernel, got "
+                f"{config.dynamics!r}"
+            )
+        values = PARAMS.decode(config.params())
+        return cls(**{
+            name: config.dynamics if name == "dynamics" else np.float64(value)
+            for name, value in values.items()
+        })  # fmt: skip
+
+    @classmethod
+    def make(cls, **kwargs) -> EnvParams:
+        """The params of TetherBounce's arguments (its Arguments table, without render_mode);
+        bad ones raise the numba env's `ValueError`."""
+        return cls.from_config(BounceConfig(**kwargs))
+
+    def replace(self, **changes) -> EnvParams:
+        return dataclasses.replace(self, **changes)
+
+
+jax.tree_util.register_dataclass(
+    EnvParams,
+    data_fields=[f.name for f in dataclasses.fields(EnvParams) if f.name != "dynamics"],
+    meta_fields=["dynamics"],
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class EnvState:
+    """One episode: its `STATE` row (task, goal, physical parameters: the numba kernel's
+    columns) and the `OUTCOME` row of its step (zeros before it)."""
+
+    episode: jax.Array
+    outcome: jax.Array
+
+    def replace(self, **changes) -> EnvState:
+        return dataclasses.replace(self, **changes)
+
+
+jax.tree_util.register_dataclass(EnvState, data_fields=["episode", "outcome"], meta_fields=[])
+
+
+def _draw(u, k, low, high):
+    """`low`, or a draw in [low, high] from u[k] where the range is not empty: (value, next k)
+    (`kernel._draw`)."""
+    drawn = low != high
+    return jnp.where(drawn, low + u[k] * (high - low), low), k + drawn
+
+
+def sample_goal(u_heading, u_speed):
+    """(heading, speed) from two uniforms (`tasks.bounce.sample_goal`)."""
+    v = 2.0 * u_heading - 1.0
+    heading = jnp.copysign(MIN_HEADING + jnp.abs(v) * (math.pi - MIN_HEADING), v)
+    return heading, TARGET_SPEED[0] + u_speed * (TARGET_SPEED[1] - TARGET_SPEED[0])
+
+
+def env_stiffness(rho):
+    """The spring constant (N/m) whose rho is `rho` at the fastest launch
+    (`kernel.env_stiffness`)."""
+    return stiffness_for_rho(rho, PUCK_MASS, TETHER_LENGTH, MAX_LAUNCH)
+
+
+def sample_episode(uniforms: jax.Array, params: EnvParams) -> jax.Array:
+    """An episode's `STATE` row from its `UNIFORMS` uniforms (`kernel._sample`)."""
+    u = jnp.asarray(uniforms, dtype=float_dtype())
+    mixed = params.task < 0
+    task = jnp.where(mixed, jnp.minimum(jnp.floor(u[0] * 3.0), 2.0), params.task)
+    k = mixed.astype(jnp.int32)
+    heading, speed = sample_goal(u[k], u[k + 1])
+    kappa, k = _draw(u, k + 2, params.inertia_ratio_low, params.inertia_ratio_high)
+    e, k = _draw(u, k, params.restitution_low, params.restitution_high)
+    ln_rho, k = _draw(u, k, params.ln_rho_low, params.ln_rho_high)
+    spin, _ = _draw(u, k, -params.spin_disturbance, params.spin_disturbance)
+    fixed = params.stiffness > 0.0
+    stiffness = jnp.where(fixed, params.stiffness, env_stiffness(jnp.exp(ln_rho)))
+    return as_row(STATE, {
+        "task": task, "target_heading": heading, "target_speed": speed, "inertia_ratio": kappa,
+        "restitution": e, "stiffness": stiffness, "log10_rho": ln_rho / math.log(10.0),
+        "spin": spin,
+    }, u.dtype)  # fmt: skip
+
+
+def observe(episode: jax.Array) -> jax.Array:
+    """The observation (float32) of an episode (`kernel._observe`): the task one-hot, the goal
+    its task uses, the physical parameters."""
+    s = dict(zip(STATE.names, episode, strict=True))
+    task = s["task"]
+    aims = task != DEADSPIN
+    values = {f"task_{name}": task == code for code, name in enumerate(TASKS)}
+    values.update(
+        target_heading_cos=jnp.where(aims, jnp.cos(s["target_heading"]), 0.0),
+        target_heading_sin=jnp.where(aims, jnp.sin(s["target_heading"]), 0.0),
+        target_speed=jnp.where(task == VELOCITY, s["target_speed"] * SPEED_SCALE, 0.0),
+        inertia_ratio=s["inertia_ratio"],
+        restitution=s["restitution"],
+        log10_rho=s["log10_rho"],
+        spin=s["spin"] * SPIN_SCALE,
+    )
+    return as_row(OBSERVATION, values)
+
+
+def decode_action(action: jax.Array) -> dict[str, jax.Array]:
+    """The set-up of a normalized action, by `ACTION` name: clipped to [-1, 1] and mapped
+    linearly onto the physical ranges (`kernel._decode`). A NaN stays NaN."""
+    a = jnp.clip(jnp.asarray(action, dtype=float_dtype()), -1.0, 1.0)
+    setup = ACTION.low + 0.5 * (a + 1.0) * (ACTION.high - ACTION.low)
+    return dict(zip(ACTION.names, setup, strict=True))
+
+
+def bounce(s: dict, setup: dict, params: EnvParams):
+    """The bounce of a set-up with the episode's parameters: (vx, vy, spin, bounced,
+    completed), by the dynamics of `params` (`kernel._bounce_impulse`, `_bounce_hybrid`)."""
+    beta, alpha, offset = setup["tether_angle"], setup["offset_angle"], setup["offset"]
+    speed, kappa, spin = setup["launch_speed"], s["inertia_ratio"], s["spin"]
+    if params.dynamics == "impulse":
+        vx, vy, w, bounced = physics.impulse_core(
+            beta, alpha, offset, kappa, speed, spin, s["restitution"], PUCK_RADIUS
+        )
+        return vx, vy, w, bounced, jnp.ones_like(bounced)
+    zeta = lax.cond(
+        params.restitution_low == params.restitution_high,
+        lambda: jnp.asarray(params.damping_ratio, speed.dtype),
+        lambda: physics.damping_ratio(s["restitution"]),
+    )
+    vx, vy, w, bounced, completed = physics.hybrid_core(
+        beta, alpha, offset, kappa, speed, spin, zeta, PUCK_RADIUS, PUCK_MASS, TETHER_LENGTH,
+        s["stiffness"],
+    )  # fmt: skip
+    return vx, vy, w, bounced, completed
+
+
+def deflection_and_speed_ratio(vx, vy, speed):
+    """The signed angle in (-pi, pi] from +y to (vx, vy), and |v| / speed
+    (`physics.geometry.deflection_and_speed_ratio`)."""
+    angle = jnp.arctan2(-vx, vy)
+    angle = jnp.where(angle <= -math.pi, angle + 2.0 * math.pi, angle)
+    return angle, jnp.sqrt(vx * vx + vy * vy) / speed
+
+
+def fold_angle(angle):
+    """An angle folded into (-pi, pi] (`physics.geometry.fold_angle`)."""
+    return math.pi - jnp.remainder(math.pi - angle, 2.0 * math.pi)
+
+
+def score(s: dict, deflection, ratio, launch_speed, bounced) -> dict[str, jax.Array]:
+    """The task's outcome (`tasks.bounce.score`): success, the errors and the reward terms by
+    their `OUTCOME` names, every task's computed and the episode's selected."""
+    task = s["task"]
+    dead, velocity = task == DEADSPIN, task == VELOCITY
+    error = fold_angle(deflection - s["target_heading"])
+    heading_term = 1.0 - jnp.abs(error) / math.pi
+    on_heading = jnp.abs(error) < HEADING_TOLERANCE
+    speed_error = ratio * launch_speed / s["target_speed"] - 1.0
+    speed_term = 1.0 - jnp.minimum(jnp.abs(speed_error), 1.0)
+    on_speed = jnp.abs(speed_error) < SPEED_TOLERANCE
+    success = (
+        jnp.where(
+            dead, ratio < DEADSPIN_TOLERANCE, jnp.where(velocity, on_heading & on_speed, on_heading)
+        )
+        & bounced
+    )
+    return {
+        "is_success": success,
+        "heading_error": jnp.where(dead, 0.0, error),
+        "speed_error": jnp.where(velocity, speed_error, 0.0),
+        "term_heading": jnp.where(dead, 0.0, jnp.where(velocity, 0.5 * heading_term, heading_term)),
+        "term_speed": jnp.where(velocity, 0.5 * speed_term, 0.0),
+        "term_deadspin": jnp.where(dead, 1.0 - jnp.minimum(ratio, 1.0), 0.0),
+        "term_success": jnp.where(success, 1.0, 0.0),
+        "term_slack": jnp.where(bounced, 0.0, -SLACK_PENALTY),
+    }
+
+
+def step_episode(episode: jax.Array, action: jax.Array, params: EnvParams) -> jax.Array:
+    """The `OUTCOME` row of one step (`kernel._step_impulse`, `_step_hybrid`): decode, bounce,
+    score; every episode ends here. NaN in the action gives NaN in the set-up, the velocities
+    and the reward (the Gymnasium envs refuse it before the step)."""
+    s = dict(zip(STATE.names, episode, strict=True))
+    setup = decode_action(action)
+    vx, vy, w, bounced, completed = bounce(s, setup, params)
+    one = physics.runtime_one(setup["launch_speed"])
+    deflection, ratio = (
+        physics.keep(x, one) for x in deflection_and_speed_ratio(vx, vy, setup["launch_speed"])
+    )
+    terms = score(s, deflection, ratio, setup["launch_speed"], bounced)
+    reward = (
+        terms["term_heading"] + terms["term_speed"] + terms["term_deadspin"]
+        + terms["term_success"] + terms["term_slack"]
+    )  # fmt: skip
+    row = as_row(OUTCOME, {
+        **terms, **setup, "reward": reward, "terminated": 1.0, "truncated": 0.0,
+        "deflection": deflection, "speed_ratio": ratio, "spin": w, "bounced": bounced,
+        "completed": completed, "residual_speed": ratio, "vx": vx, "vy": vy,
+    }, episode.dtype)  # fmt: skip
+    return physics.keep(row, one)
+
+
+class TetherBounceFunctional(KernelFuncEnv):
+    """TetherBounce-v0 as a Gymnasium `FuncEnv`: the arguments of `TetherBounceEnv` (its
+    Arguments table; `dynamics` "impulse" or "hybrid"), validated by `BounceConfig`; the state
+    an `EnvState`, the params an `EnvParams` (`default_params` those of the arguments)."""
+
+    n_uniforms = UNIFORMS
+
+    def __init__(self, **kwargs):
+        self.config = BounceConfig(**kwargs)
+        EnvParams.from_config(self.config)  # refuses the dynamics JAX lacks
+        self.kernel = TetherBounceKernel(self.config)
+        self.observation_space = self.kernel.observation_space()
+        self.action_space = self.kernel.action_space()
+        super().__init__()
+
+    def get_default_params(self, **kwargs) -> EnvParams:
+        return EnvParams.from_config(self.config)
+
+    def initial_from_uniforms(self, uniforms: jax.Array, params: EnvParams) -> EnvState:
+        """A new episode (`sample_episode`), before its step."""
+        episode = sample_episode(uniforms, params)
+        return EnvState(episode, jnp.zeros(len(OUTCOME), episode.dtype))
+
+    def transition(
+        self, state: EnvState, action: jax.Array, rng=None, params: EnvParams | None = None
+    ) -> EnvState:
+        """The episode after its step: the same episode, the step's outcome."""
+        params = self.default_params if params is None else params
+        return state.replace(outcome=step_episode(state.episode, action, params))
+
+    def observation(self, state: EnvState, rng=None, params: EnvParams | None = None):
+        return observe(state.episode)
+
+
+class TetherBounceJaxEnv(KernelJaxEnv, EzPickle):
+    """
+    ## Description
+
+    TetherBounce-v0 (`tether_gym.envs.tether_bounce.TetherBounceEnv`: read its tables) on its
+    JAX kernel, through Gymnasium's functional API (`TetherBounceFunctional` wrapped by
+    `FunctionalJaxEnv`): one bounce per episode, the same tasks, observation, action, reward
+    and info, with impulse or hybrid dynamics.
+
+    ## Action Space
+
+    `Box(-1, 1, (4,), float32)`: launch speed, tether angle, offset angle, offset, clipped and
+    mapped linearly as in TetherBounce-v0. A NaN or infinite action raises `ValueError`
+    here; inside a jitted step (`TetherBounceFunctional.transition`) it gives NaN outcomes.
+
+    ## Observation Space
+
+    `Box(float32, (10,))`, TetherBounce-v0's: the task one-hot, the goal, the physical
+    parameters. Observations, rewards and info values come as jax arrays.
+
+    ## Rewards
+
+    TetherBounce-v0's named terms, in `info["reward_terms"]`, and the same `info`.
+
+    ## Starting State
+
+    The task, its goal and the randomized physical parameters, drawn from the env's
+    `jax.random` key (seeded by `reset(seed=...)`): the same distribution as TetherBounce-v0,
+    not the same draws. `reset(options=...)` takes TetherBounce-v0's keys.
+
+    ## Episode End
+
+    Every episode terminates after its one step; a second `step` raises `RuntimeError`.
+
+    ## Arguments
+
+    TetherBounce-v0's (`task`, `dynamics` "hybrid" or "impulse", `inertia_ratio`,
+    `restitution`, `rho`, `stiffness`, `spin_disturbance`); `render_mode` must be None (no
+    rendering: TetherBounce-v0 draws the bounce), and there is no pymunk dynamics.
+
+    ## Precision
+
+    float64 under `jax_enable_x64` (agreeing with TetherBounce-v0 to rounding), float32
+    otherwise: good to about 1e-5 with impulse dynamics, not to be trusted with hybrid
+    dynamics, whose stiff spring reads its stretch as the difference of two lengths near 1 m.
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    metadata = {"render_modes": [], "render_fps": 30, "jax": True}
+
+    def __init__(self, render_mode: str | None = None, **kwargs):
+        EzPickle.__init__(self, render_mode=render_mode, **kwargs)
+        super().__init__(TetherBounceFunctional(**kwargs), render_mode)
+
+
+class TetherBounceJaxVectorEnv(JaxVectorEnv):
+    """`num_envs` copies of `TetherBounceJaxEnv` stepped by one jitted call with a masked
+    same-step autoreset (`jax.base.JaxVectorEnv`), returning numpy arrays: every step ends all
+    episodes and starts the next ones. Arguments after `num_envs` are TetherBounce-v0's."""
+
+    def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs):
+        super().__init__(TetherBounceFunctional(**kwargs), num_envs, render_mode)
