@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tether_gym.evaluation import results_file
 from tether_gym.evaluation.statistics import t_interval
 from tether_gym.families import family
 from tether_gym.seeds import TEST_SEED
@@ -131,15 +132,15 @@ def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
                         "success_rate": float(values.mean()),
                         "success_ci": list(t_interval(values)), "worst": float(values.min()),
                         "per_seed": values.tolist()})  # fmt: skip
-    return {
+    setup = {
         "algo": args.algo, "env_id": args.env, "env_kwargs": runs[0]["env_kwargs"],
         "hyperparams": dict(kv.split(":", 1) for kv in args.hyperparams),
         "timesteps": args.timesteps, "seeds": list(range(args.seeds)), "test_seed": TEST_SEED,
-        "command": " ".join(["python benchmarks/baselines.py", *sys.argv[1:]]),
-        "train_seconds": [round(run["train_seconds"], 1) for run in runs],
         "jobs": args.jobs, "num_threads": args.num_threads,
-        "results": results, "curves": [read_curve(run_dir) for run_dir in run_dirs],
     }  # fmt: skip
+    details = {"train_seconds": [round(run["train_seconds"], 1) for run in runs],
+               "curves": [read_curve(run_dir) for run_dir in run_dirs]}  # fmt: skip
+    return results_file.record(results_file.script_command(__file__), results, setup, details)
 
 
 def paired_against(args: argparse.Namespace, run_dirs: list[Path], env_kwargs: dict) -> dict:
@@ -177,6 +178,7 @@ def plot(summaries: list[dict], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    summaries = [{**s["setup"], **s["details"]} for s in summaries]
     algos = sorted({summary["algo"] for summary in summaries})
     figure, panels = plt.subplots(1, len(algos), figsize=(5.5 * len(algos), 4.2), squeeze=False)
     for axes, algo in zip(panels[0], algos, strict=True):
@@ -232,7 +234,7 @@ def main() -> None:
     if args.plot:
         if args.figure is None:
             parser.error("--plot needs --figure")
-        plot([json.loads(path.read_text()) for path in args.plot], args.figure)
+        plot([results_file.read(path) for path in args.plot], args.figure)
         return
     name = args.name or config_name(args)
     out = args.out / f"{name}.json"
@@ -243,14 +245,14 @@ def main() -> None:
         list(pool.map(lambda seed: run_seed(args, seed, run_dirs[seed]), range(args.seeds)))
     summary = summarize(args, run_dirs)
     if args.paired:
-        summary["paired"] = paired_against(args, run_dirs, summary["env_kwargs"])
-    args.out.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(summary, indent=1) + "\n")
-    for row in summary["results"]:
+        env_kwargs = summary["setup"]["env_kwargs"]
+        summary["details"]["paired"] = paired_against(args, run_dirs, env_kwargs)
+    results_file.write(out, summary)
+    for row in summary["rows"]:
         low, high = row["success_ci"]
         print(f"{row['name']:>24}: {100 * row['success_rate']:5.1f}% [{100 * low:.1f}, "
               f"{100 * high:.1f}] worst {100 * row['worst']:.1f}%")  # fmt: skip
-    print(f"train seconds per seed: {summary['train_seconds']}; wrote {out}")
+    print(f"train seconds per seed: {summary['details']['train_seconds']}; wrote {out}")
 
 
 if __name__ == "__main__":

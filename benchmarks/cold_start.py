@@ -19,8 +19,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
-import shlex
 import statistics
 import subprocess
 import sys
@@ -173,15 +171,13 @@ def main() -> None:
     results = {name: {label: median_of(r) for label, r in by.items()} for name, by in runs.items()}
     print(table(results, args.against))
     if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        record = {
-            "command": shlex.join(["python", "benchmarks/cold_start.py", *sys.argv[1:]]),
-            "machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
-            "repeats": args.repeats,
-            "against": args.against,
-            "results": results,
-        }
-        args.out.write_text(json.dumps(record, indent=2) + "\n")
+        from tether_gym.evaluation import results_file  # imported after the timings
+
+        rows = [{"entry": name, "trees": trees} for name, trees in results.items()]
+        setup = {"against": args.against, "repeats": args.repeats}
+        record = results_file.record(results_file.script_command(__file__), rows, setup,
+                                     {"machine": {"cpus": os.cpu_count()}})  # fmt: skip
+        results_file.write(args.out, record, lambda data: json.dumps(data, indent=2))
 
 
 if __name__ == "__main__":

@@ -56,9 +56,7 @@ if __name__ == "__main__":  # one core (the machine's others are left free), bef
 import argparse
 import json
 import math
-import platform
 import re
-import shlex
 import subprocess
 import sys
 import tempfile
@@ -89,6 +87,7 @@ from tether_gym.envs.tether_navigate.config import (
     TABLE_WIDTH,
 )
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES as MODES
+from tether_gym.evaluation import results_file
 from tether_gym.families import NAVIGATE
 from tether_gym.physics.hybrid import damping_ratio, hybrid_contact_among_row
 from tether_gym.physics.obstacles import on_table
@@ -1057,9 +1056,9 @@ def replay_file(path: Path) -> list[dict]:
     """Every reproducer of the hole classes in a fuzz JSON, replayed on this tree with its
     contact held to its arc (`replay`): its class, where it was found, its arc check then and
     the findings now (a fix, or a check corrected since, shows as the class gone)."""
-    data = json.loads(Path(path).read_text())
+    data = results_file.read(path)
     rows = []
-    for combo in data["combos"]:
+    for combo in data["rows"]:
         for kind in ("single", "vector"):
             for name, found in (combo.get(kind) or {}).get("reproducers", {}).items():
                 for reproducer in found if name in HOLES else []:
@@ -1094,17 +1093,6 @@ def _add_bands(into: dict, bands: dict) -> None:
         for band, entry in found.items():
             _add(groups.setdefault(band, {}), entry)
         into[name] = {band: groups[band] for band in SWEEPS[name].bands() if band in groups}
-
-
-def _git() -> dict:
-    """The commit of the tree whose package is fuzzed, and whether it has changes."""
-
-    def git(*args: str) -> str:
-        run = subprocess.run(["git", "-C", str(PACKAGE_ROOT), *args], capture_output=True,
-                             text=True)  # fmt: skip
-        return run.stdout.strip()
-
-    return {"commit": git("rev-parse", "HEAD"), "dirty": bool(git("status", "--porcelain"))}
 
 
 def _run_against(rev: str, given: list[str]) -> None:
@@ -1192,10 +1180,10 @@ def main(argv: list[str] | None = None) -> None:
             print(f"{row['class']} ({row['kind']}, {row['reproducer']['env_id']}): now "
                   f"{row['found_now'] or 'nothing'}")  # fmt: skip
         if args.json is not None:
-            args.json.parent.mkdir(parents=True, exist_ok=True)
-            out = {"command": shlex.join(["python", "benchmarks/fuzz_navigate.py", *given]),
-                   **_git(), "replayed": str(args.replay), "rows": rows}  # fmt: skip
-            args.json.write_text(json.dumps(out, indent=1) + "\n")
+            command = results_file.script_command(__file__, given)
+            out = results_file.record(command, rows, {"replayed": str(args.replay)},
+                                      root=PACKAGE_ROOT)  # fmt: skip
+            results_file.write(args.json, out)
         return
     unknown = set(args.ids or ()) - set(NAVIGATE.ids)
     if unknown:
@@ -1263,10 +1251,8 @@ def main(argv: list[str] | None = None) -> None:
     print(f"\n{seconds} s")
     if args.json is None:
         return
-    out = {
-        "command": shlex.join(["python", "benchmarks/fuzz_navigate.py", *given]),
-        **_git(), "against": args.against, "seconds": seconds,
-        "compile_seconds": compile_seconds, "seed": args.seed, "steps": args.steps,
+    setup = {
+        "against": args.against, "seed": args.seed, "steps": args.steps,
         "vector_steps": args.vector_steps, "num_envs": args.num_envs,
         "vector_block": args.vector_block, "compare": args.compare,
         "arc_sample": args.arc_sample, "defaults": args.defaults,
@@ -1274,18 +1260,19 @@ def main(argv: list[str] | None = None) -> None:
             name: {"marks": list(s.marks), "log_low": s.log_low, "mark_share": MARK_SHARE}
             for name, s in SWEEPS.items()
         },
-        "python": platform.python_version(), "numpy": np.__version__,
-        "gymnasium": gym.__version__, "numba": numba.__version__,
-        "holes": list(HOLES), "notes": list(NOTES), "definitions": DEFINITIONS,
+    }  # fmt: skip
+    details = {
+        "compile_seconds": compile_seconds, "holes": list(HOLES), "notes": list(NOTES),
+        "definitions": DEFINITIONS,
         "counts": {kind: overall[kind] for kind in overall if overall[kind]},
         "per_rung": {kind: per_rung[kind] for kind in per_rung if per_rung[kind]},
         "per_mode": {kind: per_mode[kind] for kind in per_mode if per_mode[kind]},
         "per_band": {kind: per_band[kind] for kind in per_band if per_band[kind]},
         "arc": {kind: arcs[kind] for kind in arcs if arcs[kind]},
-        "combos": results,
     }  # fmt: skip
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(dumps(out) + "\n")
+    command = results_file.script_command(__file__, given)
+    out = results_file.record(command, results, setup, details, seconds, root=PACKAGE_ROOT)
+    results_file.write(args.json, out, dumps)
 
 
 def _summary(kind: str, overall: dict, arcs: dict) -> str:

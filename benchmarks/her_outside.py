@@ -20,6 +20,7 @@ import gymnasium as gym
 from stable_baselines3 import SAC, HerReplayBuffer
 
 import tether_gym  # noqa: F401  (registers the env ids)
+from tether_gym.evaluation import results_file
 
 
 def success_rate(model, env_id: str, control: str, episodes: int, seed: int) -> float:
@@ -56,12 +57,15 @@ def main() -> None:
     model.learn(args.timesteps)
     seconds = time.perf_counter() - start
     rate = success_rate(model, args.env, args.control, args.episodes, 2_000_000)
-    result = {"env_id": args.env, "control": args.control, "timesteps": args.timesteps,
-              "seed": args.seed, "train_seconds": round(seconds, 1), "episodes": args.episodes,
-              "success_rate": rate}  # fmt: skip
+    setup = {"env_id": args.env, "env_kwargs": {"control": args.control},
+             "timesteps": args.timesteps, "seed": args.seed}  # fmt: skip
+    name = "SAC with HER" if args.json is None else args.json.stem  # the table's agent
+    row = {"name": name, "episodes": args.episodes, "success_rate": rate,
+           "train_seconds": round(seconds, 1)}  # fmt: skip
+    result = results_file.record(results_file.script_command(__file__), [row], setup)
     print(json.dumps(result))
     if args.json is not None:
-        args.json.write_text(json.dumps(result, indent=2) + "\n")
+        results_file.write(args.json, result, lambda data: json.dumps(data, indent=2))
 
 
 if __name__ == "__main__":

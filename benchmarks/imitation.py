@@ -43,6 +43,7 @@ from tether_gym.agents.direct import aim_actions
 from tether_gym.agents.networks import NavigateExtractor
 from tether_gym.envs.tether_navigate.config import PATH_POINTS
 from tether_gym.envs.tether_navigate.spaces import GOAL_KEYS, OBSERVATION, OUT, observe_all
+from tether_gym.evaluation import results_file
 from tether_gym.evaluation.statistics import t_interval
 
 BATCH = 5000
@@ -170,29 +171,31 @@ def main() -> None:
     n_train = args.states - args.held_out
     test = best[n_train:]
     rng = np.random.default_rng(args.seed)
-    result = {
+    setup = {
         "env_id": args.env, "env_kwargs": {"control": "aim", "coast": True},
         "teacher": "aim-search", "candidates": int(best.shape[1]), "states": args.states,
         "held_out": args.held_out, "seed": args.seed,
-        "goal_in_best": rates(np.zeros(len(test), int), test),
-        "random_in_best": rates(rng.integers(best.shape[1], size=len(test)), test),
-        "detour_share": float(1.0 - test[:, 0].mean()),
-        "students": {},
     }  # fmt: skip
+    rows = [
+        {"picker": "goal", **rates(np.zeros(len(test), int), test)},
+        {"picker": "random", **rates(rng.integers(best.shape[1], size=len(test)), test)},
+    ]
+    details = {"detour_share": float(1.0 - test[:, 0].mean())}
     for name, x in (("observation", seen), ("observation + direct preview", shown)):
         picks = [fit(x, best, n_train, args.epochs, seed) for seed in range(args.seeds)]
         per_seed = [rates(pick, test) for pick in picks]
-        result["students"][name] = {
+        rows.append({"picker": "student", "features": name, **{
             key: {"mean": float(np.mean(values)), "ci": list(t_interval(values)),
                   "seeds": values.tolist()}
             for key in ("in_best", "in_best_detour")
             for values in [np.array([r[key] for r in per_seed])]
-        }  # fmt: skip
-    result["seconds"] = round(time.perf_counter() - start, 1)
+        }})  # fmt: skip
+    seconds = round(time.perf_counter() - start, 1)
+    result = results_file.record(results_file.script_command(__file__), rows, setup, details,
+                                 seconds)  # fmt: skip
     print(json.dumps(result, indent=2))
     if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(result, indent=2) + "\n")
+        results_file.write(args.json, result, lambda data: json.dumps(data, indent=2))
 
 
 if __name__ == "__main__":

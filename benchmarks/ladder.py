@@ -12,11 +12,11 @@ its random floor on the same episodes. The table printed at the end is read from
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from tether_gym import ladder
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
+from tether_gym.evaluation import results_file
 from tether_gym.evaluation.cli import main as evaluate_main
 from tether_gym.seeds import TEST_SEED
 
@@ -48,7 +48,7 @@ def main() -> None:
             path = args.out / f"{env_id}_{control}.json"
             if not path.exists() or args.overwrite:
                 run(env_id, control, agents, path, args.episodes, args.overwrite)
-            for result in json.loads(path.read_text())["results"]:
+            for result in results_file.read(path)["rows"]:
                 name = result["name"] if result["name"] != "random" else f"random ({control})"
                 rows.append((env_id, name, result))
     print("| env | agent | success [95% CI] | maneuvers to goal |")

@@ -30,11 +30,8 @@ for _name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_name, "1")
 
 import argparse  # noqa: E402
-import json  # noqa: E402
 import platform  # noqa: E402
-import shlex  # noqa: E402
 import statistics  # noqa: E402
-import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -48,6 +45,7 @@ from tether_gym.agents.planners import (  # noqa: E402
     LookaheadPlanner,
 )
 from tether_gym.envs.tether_navigate.spaces import observe_all  # noqa: E402
+from tether_gym.evaluation import results_file  # noqa: E402
 from tether_gym.evaluation.runner import evaluate  # noqa: E402
 from tether_gym.seeds import TEST_SEED  # noqa: E402
 
@@ -282,8 +280,20 @@ def main() -> None:
     print_table(rates, args.implementations)
     if args.quick:
         return
-    summary = {
-        "command": shlex.join(["python", *sys.argv]),
+    ratio = ratios(rates)
+    rows = [
+        {"planner": planner, "task": task,
+         **{name: {i: by[planner][task] for i, by in found.items()}
+            for name, found in (("decisions_per_second", rates), ("ratio_to_numpy", ratio),
+                                ("agreement", agreement), ("success", success))}}
+        for planner, by_task in rates["numpy"].items() for task in by_task
+    ]  # fmt: skip
+    setup = {
+        "threads": {name: os.environ[name] for name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS")},
+        "repeats": args.repeats,
+        "singles": args.singles,
+    }
+    details = {
         "date": time.strftime("%Y-%m-%d %H:%M:%S"),
         "machine": {
             "processor": platform.processor() or platform.machine(),
@@ -291,16 +301,9 @@ def main() -> None:
             "load_average_before": load_before,
             "load_average_after": os.getloadavg(),
         },
-        "threads": {name: os.environ[name] for name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS")},
-        "repeats": args.repeats,
-        "singles": args.singles,
-        "decisions_per_second": rates,
-        "ratio_to_numpy": ratios(rates),
-        "agreement": agreement,
-        "success": success,
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(summary, indent=1) + "\n")
+    command = results_file.script_command(__file__)
+    results_file.write(args.out, results_file.record(command, rows, setup, details))
     print(f"wrote {args.out}")
 
 

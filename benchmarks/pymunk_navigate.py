@@ -44,11 +44,7 @@ if __name__ == "__main__":  # one core (the machine's others are left free), bef
 
 import argparse
 import itertools
-import json
 import math
-import platform
-import shlex
-import subprocess
 import sys
 import time
 from dataclasses import dataclass
@@ -56,7 +52,6 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-import pymunk
 
 import tether_gym  # noqa: F401  (registers the env ids)
 from tether_gym.envs.kernels import DEFAULT_RHO, PUCK_MASS
@@ -70,6 +65,7 @@ from tether_gym.envs.tether_navigate.config import (
     TABLE_HEIGHT,
     TABLE_WIDTH,
 )
+from tether_gym.evaluation import results_file
 from tether_gym.physics.pymunk_maneuver import TAUT_STEPS, Maneuver, ManeuverPlan, replay
 from tether_gym.physics.pymunk_world import Table
 from tether_gym.physics.state import PuckState
@@ -327,14 +323,6 @@ def summary(rows: list[Row]) -> dict:
     }
 
 
-def _git() -> dict:
-    def git(*args: str) -> str:
-        run = subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True)
-        return run.stdout.strip()
-
-    return {"commit": git("rev-parse", "HEAD"), "dirty": bool(git("status", "--porcelain"))}
-
-
 def table(populations: dict[str, dict]) -> str:
     """The agreement table: one row per population."""
     header = ("population", "maneuvers", "wall taut", "post ends", "episode pos med/worst (m)",
@@ -402,18 +390,15 @@ def main(argv: list[str] | None = None) -> None:
     print(f"\n{seconds} s")
     if args.json is None:
         return
-    out = {
-        "command": shlex.join(["python", "benchmarks/pymunk_navigate.py", *given]),
-        **_git(), "seconds": seconds, "episodes": args.episodes, "rho": args.rho,
-        "wall_restitution": args.wall_restitution,
+    setup = {
+        "episodes": args.episodes, "rho": args.rho, "wall_restitution": args.wall_restitution,
         "seed": args.seed, "taut_steps": TAUT_STEPS,
         "tolerance": {"position": POSITION_TOLERANCE, "velocity": VELOCITY_TOLERANCE},
-        "python": platform.python_version(), "numpy": np.__version__,
-        "gymnasium": gym.__version__, "pymunk": pymunk.version, "classes": CLASSES,
-        "populations": populations, "outside_tolerance": reproducers,
     }  # fmt: skip
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(out, indent=1) + "\n")
+    rows = [{"population": name, **found} for name, found in populations.items()]
+    details = {"classes": CLASSES, "outside_tolerance": reproducers}
+    command = results_file.script_command(__file__, given)
+    results_file.write(args.json, results_file.record(command, rows, setup, details, seconds))
 
 
 if __name__ == "__main__":

@@ -681,8 +681,8 @@ def write_figure(spec: FigureSpec, out: Path, svg: bool = False) -> None:
             figure.savefig(out / f"{spec.name}.svg", metadata={"Date": None, "Creator": None})
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """The `tether-figures` command."""
+def build_parser() -> ArgumentParser:
+    """The `tether-figures` command line."""
     parser = ArgumentParser(
         prog="tether-figures",
         description="Recompute the paper's figures (PNG + CSV) from the tether_gym physics.",
@@ -697,6 +697,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="NAME",
         help=f"draw only these figures (of: {', '.join(FIGURES)})",
     )
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The `tether-figures` command."""
+    parser = build_parser()
     args = parser.parse_args(argv)
     specs = [FIGURES[name] for name in args.only or FIGURES]
     try:

@@ -27,13 +27,14 @@ def test_seeds_train_once_and_are_summarized_with_their_curves(tmp_path):
     subprocess.run(argv, check=True, capture_output=True)
     (summary_file,) = out.glob("*.json")
     summary = json.loads(summary_file.read_text())
-    assert summary["env_id"] == "TetherNavigate_OpenReach-v3" and summary["seeds"] == [0, 1]
-    rows = {row["name"]: row for row in summary["results"]}
+    setup, details = summary["setup"], summary["details"]
+    assert setup["env_id"] == "TetherNavigate_OpenReach-v3" and setup["seeds"] == [0, 1]
+    rows = {row["name"]: row for row in summary["rows"]}
     policy = rows["PPO (best)"]
     assert len(policy["per_seed"]) == 2 and policy["worst"] == min(policy["per_seed"])
     assert abs(policy["success_rate"] - sum(policy["per_seed"]) / 2) < 1e-12
     assert set(rows) >= {"greedy planner", "lookahead planner", "random"}
-    assert [[t for t, _ in curve] for curve in summary["curves"]] == [[512, 1024]] * 2
+    assert [[t for t, _ in curve] for curve in details["curves"]] == [[512, 1024]] * 2
     figure = tmp_path / "curves.png"
     subprocess.run([sys.executable, str(SCRIPT), "--plot", str(summary_file), "--figure",
                     str(figure)], check=True)  # fmt: skip
@@ -51,9 +52,9 @@ def test_seeds_train_once_and_are_summarized_with_their_curves(tmp_path):
     subprocess.run(paired, check=True, capture_output=True)  # the finished runs are read
     assert [log.stat().st_mtime for log in logs] == stamps
     again = json.loads(summary_file.read_text())
-    assert again["results"] == summary["results"]
+    assert again["rows"] == summary["rows"]
     # --paired replays each seed's best model on the test episodes beside the reference
-    pairs = again["paired"]
+    pairs = again["details"]["paired"]
     assert pairs["reference"] == "greedy" and len(pairs["per_seed"]) == 2
     assert pairs["reference_success_rate"] == rows["greedy planner"]["per_seed"][0]
     for row, rate in zip(pairs["per_seed"], policy["per_seed"], strict=True):

@@ -23,13 +23,14 @@ def test_imitation_rates_follow_from_the_labels(tmp_path):
     subprocess.run([sys.executable, str(SCRIPT), *TINY, "--json", str(out)], check=True,
                    capture_output=True)  # fmt: skip
     result = json.loads(out.read_text())
-    assert result["candidates"] == 37 and result["held_out"] == 100
+    assert result["setup"]["candidates"] == 37 and result["setup"]["held_out"] == 100
+    goal, _, *students = result["rows"]
     # always the goal is among the best exactly where no detour is needed
-    assert result["goal_in_best"]["in_best"] == pytest.approx(1.0 - result["detour_share"])
-    assert result["goal_in_best"]["in_best_detour"] == 0.0
-    assert set(result["students"]) == {"observation", "observation + direct preview"}
-    for student in result["students"].values():
-        for rate in student.values():
+    assert goal["in_best"] == pytest.approx(1.0 - result["details"]["detour_share"])
+    assert goal["in_best_detour"] == 0.0
+    assert [s["features"] for s in students] == ["observation", "observation + direct preview"]
+    for student in students:
+        for rate in (student["in_best"], student["in_best_detour"]):
             assert len(rate["seeds"]) == 2 and 0.0 <= min(rate["seeds"]) <= max(rate["seeds"]) <= 1
             assert rate["mean"] == pytest.approx(np.mean(rate["seeds"]))
             assert rate["ci"][0] <= rate["mean"] <= rate["ci"][1]

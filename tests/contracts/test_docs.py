@@ -27,18 +27,16 @@ BLOCKS = [b for page in [*PAGES, ROOT / "README.md"] for b in blocks(page)]
 SCREENSHOTS = ROOT / "build" / "screenshots"
 
 
-def _hooks():
-    spec = importlib.util.spec_from_file_location("docs_hooks", DOCS / "hooks.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+if str(DOCS) not in sys.path:  # the docs' modules, as docs/hooks.py finds them
+    sys.path.insert(0, str(DOCS))
 
+from docgen import cli_reference, docstring_tables, macros, readme, results, tables  # noqa: E402
 
-hooks = _hooks()
+from tether_gym.evaluation import results_file  # noqa: E402
 
 
 def _entry_point(program: str):
-    return hooks._entry_point(program)
+    return cli_reference.entry_point(program)
 
 
 # --- code blocks ---------------------------------------------------------------------------
@@ -103,11 +101,11 @@ SOURCES = [*PAGES, ROOT / "README.md"]
 def _calls(page: Path) -> list[str]:
     """The placeholders of a page, and the README's generated blocks."""
     text = page.read_text()
-    return [*hooks.PLACEHOLDER.findall(text), *(m[1] for m in hooks.README_BLOCK.findall(text))]
+    return [*macros.PLACEHOLDER.findall(text), *(m[1] for m in readme.README_BLOCK.findall(text))]
 
 
 CALLS = [(page, call) for page in SOURCES for call in _calls(page)]
-RESULTS_CALLS = [(p, c) for p, c in CALLS if hooks.parse_call(c)[0] in hooks.RESULTS_MACROS]
+RESULTS_CALLS = [(p, c) for p, c in CALLS if macros.parse_call(c)[0] in macros.RESULTS_MACROS]
 
 
 def test_the_docs_show_results_tables():
@@ -117,15 +115,16 @@ def test_the_docs_show_results_tables():
 
 @pytest.mark.parametrize("page, call", CALLS, ids=[f"{p.name}:{c[:40]}" for p, c in CALLS])
 def test_placeholder_renders(page, call):
-    assert hooks.expand(call).strip()
+    assert macros.expand(call).strip()
 
 
 def _change(path: Path) -> str:
     """Set the first success rate (an imitation benchmark's: always-goal's) of a results file to
     0.123456, a fuzz's first count to 123456, or a cold start's first time to 123456 s: what the
     table then shows."""
-    if path.suffix == ".json" and "holes" in (data := json.loads(path.read_text())):
-        data["counts"]["single"]["counts"][data["holes"][0]] = 123456  # benchmarks/fuzz_navigate
+    if path.suffix == ".json" and "holes" in (data := json.loads(path.read_text()))["details"]:
+        details = data["details"]  # benchmarks/fuzz_navigate
+        details["counts"]["single"]["counts"][details["holes"][0]] = 123456
         path.write_text(json.dumps(data))
         return "123,456"
     if path.suffix == ".md":
@@ -135,17 +134,17 @@ def _change(path: Path) -> str:
         path.write_text(text)
         return "12.3%"
     data = json.loads(path.read_text())
-    if "against" in data:  # benchmarks/cold_start.py: the first entry's process seconds
-        next(iter(data["results"].values()))["this tree"]["wall"] = 123456.0
+    first = data["rows"][0]
+    if "trees" in first:  # benchmarks/cold_start.py: the first entry's process seconds
+        first["trees"]["this tree"]["wall"] = 123456.0
         path.write_text(json.dumps(data))
         return "123456.0"
-    if "decisions_per_second" in data:  # benchmarks/planners.py
-        implementation = next(iter(data["success"].values()))
-        next(iter(next(iter(implementation.values())).values()))["success_rate"] = 0.123456
-    elif "students" in data:  # benchmarks/imitation.py
-        data["goal_in_best"]["in_best"] = 0.123456
+    if "decisions_per_second" in first:  # benchmarks/planners.py
+        next(iter(first["success"].values()))["success_rate"] = 0.123456
+    elif "picker" in first:  # benchmarks/imitation.py: always the goal
+        first["in_best"] = 0.123456
     else:
-        (data["results"][0] if "results" in data else data)["success_rate"] = 0.123456
+        first["success_rate"] = 0.123456
     path.write_text(json.dumps(data))
     return "12.3%"
 
@@ -156,19 +155,19 @@ def _change(path: Path) -> str:
 def test_results_table_renders_from_its_files(page, call, tmp_path):
     """The table is its files': the same files elsewhere give the same table, and changing a
     file's number changes the table."""
-    _, args, _ = hooks.parse_call(call)
+    _, args, _ = macros.parse_call(call)
     sources = args[0]
     assert all(command.strip() for command in sources.values())
-    files = [f for pattern in sources for f in hooks.files_of(pattern, ROOT)]
+    files = [f for pattern in sources for f in results.files_of(pattern, ROOT)]
     for file in files:
         copy = tmp_path / file.relative_to(ROOT)
         copy.parent.mkdir(parents=True, exist_ok=True)
         shutil.copy(file, copy)
-    table = hooks.expand(call)
-    assert hooks.expand(call, tmp_path) == table
-    marks = {_change(hooks.files_of(pattern, tmp_path)[0]) for pattern in sources}
+    table = macros.expand(call)
+    assert macros.expand(call, tmp_path) == table
+    marks = {_change(results.files_of(pattern, tmp_path)[0]) for pattern in sources}
     assert not any(mark in table for mark in marks)
-    changed = hooks.expand(call, tmp_path)
+    changed = macros.expand(call, tmp_path)
     assert changed != table and all(mark in changed for mark in marks)
     unfolded = " ".join(table.replace("\\\n", " ").split())  # the note's commands, unfolded
     for command in sources.values():
@@ -179,21 +178,34 @@ def test_no_results_table_is_typed_by_hand():
     """A table row in a page's source with a percentage is a number typed by hand (the
     README's generated blocks left out)."""
     for page in SOURCES:
-        text = hooks.README_BLOCK.sub("", page.read_text())
+        text = readme.README_BLOCK.sub("", page.read_text())
         for number, line in enumerate(text.splitlines(), 1):
             assert not re.match(r"\s*\|.*\d(\.\d+)?%", line), f"{page.name}:{number}: {line}"
 
 
 def test_readme_table_is_fresh():
     text = (ROOT / "README.md").read_text()
-    assert hooks.readme_text(text) == text, "stale: python docs/hooks.py --readme"
+    assert readme.readme_text(text) == text, "stale: python docs/hooks.py --readme"
+
+
+RESULTS_FILES = sorted((ROOT / "results").rglob("*.json"))
+
+
+@pytest.mark.parametrize("path", RESULTS_FILES, ids=[p.relative_to(ROOT).as_posix()
+                                                      for p in RESULTS_FILES])  # fmt: skip
+def test_every_results_file_has_the_schema(path):
+    """One schema (`tether_gym.evaluation.results_file`): the same top-level keys in every
+    file, a command that names where it comes from."""
+    data = results_file.read(path)
+    assert tuple(data) == results_file.KEYS
+    assert data["command"].split()[0] in ("python", "tether-evaluate"), data["command"]
 
 
 def test_a_results_file_without_its_command_is_refused():
     with pytest.raises(ValueError, match="command"):
-        hooks.success_table({"results/ladder/*.json": " "})
+        tables.success_table({"results/ladder/*.json": " "})
     with pytest.raises(ValueError, match="no results file"):
-        hooks.success_table({"results/none/*.json": "true"})
+        tables.success_table({"results/none/*.json": "true"})
 
 
 # --- the site ------------------------------------------------------------------------------
@@ -214,7 +226,7 @@ def site(tmp_path_factory) -> Path:
 def test_site_builds_with_the_results_and_the_specs(site):
     results = (site / "results" / "index.html").read_text()
     data = json.loads((ROOT / "results/ladder/TetherNavigate_OpenReach-v2_setup.json").read_text())
-    greedy = next(r for r in data["results"] if r["name"] == "greedy")
+    greedy = next(r for r in data["rows"] if r["name"] == "greedy")
     assert f"{100 * greedy['success_rate']:.1f}%" in results
     bounce = (site / "envs" / "tether-bounce" / "index.html").read_text()
     assert "Action Space" in bounce and "tether_bounce.gif" in bounce  # the env's docstring
@@ -330,7 +342,7 @@ def _source_tables(page: Path) -> list[tuple[list[str], list[str]]]:
     docstrings' of its `:::` blocks."""
     text = re.sub(r'^--8<-- "(.+)"$', lambda m: (ROOT / m[1]).read_text(), page.read_text(),
                   flags=re.MULTILINE)  # fmt: skip
-    text = hooks.render(text)
+    text = macros.render(text)
     found = _tables(text)
     for identifier, options in re.findall(r"^::: (\S+)\n((?:    .*\n)*)", text, re.MULTILINE):
         for docstring in _docstrings(identifier, options):
@@ -413,20 +425,28 @@ def test_chromium_shows_the_site(site):
     assert checked >= 40, f"only {checked} tables found in the pages' sources"
 
 
+def _results(rows: list[dict], setup: dict, details: dict | None = None) -> str:
+    """A results file's text (the schema) with these parts."""
+    return json.dumps({"command": "python benchmarks/experiments/x.py", "commit": None,
+                       "dirty": None, "environment": {}, "seconds": None, "setup": setup,
+                       "rows": rows, "details": details or {}})  # fmt: skip
+
+
 def test_a_seeds_table_says_each_seed_s_paired_comparison(tmp_path):
     """A summary with `baselines.py --paired` results gets a line per file under its table:
     each seed's wins and losses against the reference, from the file."""
-    summary = {
-        "env_id": "TetherNavigate_PostsReach-v3", "env_kwargs": {}, "seeds": [0, 1],
-        "timesteps": 1024, "train_seconds": [60.0, 90.0],
-        "results": [{"name": "PPO (best)", "success_rate": 0.5, "success_ci": [0.4, 0.6],
-                     "worst": 0.45, "episodes": 10}],
+    setup = {"env_id": "TetherNavigate_PostsReach-v3", "env_kwargs": {}, "seeds": [0, 1],
+             "timesteps": 1024}  # fmt: skip
+    rows = [{"name": "PPO (best)", "success_rate": 0.5, "success_ci": [0.4, 0.6],
+             "worst": 0.45, "episodes": 10}]  # fmt: skip
+    details = {
+        "train_seconds": [60.0, 90.0],
         "paired": {"reference": "lookahead", "reference_success_rate": 0.4, "episodes": 10,
                    "per_seed": [{"seed": 0, "wins": 3, "losses": 1, "mcnemar_p": 0.625},
                                 {"seed": 1, "wins": 2, "losses": 2, "mcnemar_p": 1.0}]},
     }  # fmt: skip
-    (tmp_path / "summary.json").write_text(json.dumps(summary))
-    table = hooks.seeds_table({"summary.json": "python benchmarks/baselines.py"}, root=tmp_path)
+    (tmp_path / "summary.json").write_text(_results(rows, setup, details))
+    table = tables.seeds_table({"summary.json": "python benchmarks/baselines.py"}, root=tmp_path)
     assert "against lookahead (40.0%) on the same 10 episodes" in table
     assert "seed 0: 3 won, 1 lost (p 0.62); seed 1: 2 won, 2 lost (p 1)" in table
 
@@ -435,24 +455,26 @@ def test_a_ladder_seeds_table_reads_each_summary_s_agent_and_yardsticks(tmp_path
     """One row per summary: the overridden policy beside the algorithm, the learned agent's best
     models over seeds, the planners and random from the same file, and the paired comparison
     counted by seed."""
-    summary = {
+    setup = {
         "algo": "ppo", "env_id": "TetherNavigate_OpenStop-v3",
         "env_kwargs": {"control": "aim", "coast": True},
         "hyperparams": {"policy": "AimPolicy", "policy_kwargs": "dict(log_std_init=-2.5)"},
-        "seeds": [0, 1, 2], "timesteps": 1024, "train_seconds": [60.0, 120.0, 90.0],
-        "results": [{"name": "PPO (best)", "success_rate": 0.5, "success_ci": [0.4, 0.6],
-                     "worst": 0.45},
-                    {"name": "PPO (last)", "success_rate": 0.2, "worst": 0.1},
-                    {"name": "greedy planner", "success_rate": 0.551},
-                    {"name": "lookahead planner", "success_rate": 0.731},
-                    {"name": "random", "success_rate": 0.012}],
+        "seeds": [0, 1, 2], "timesteps": 1024,
+    }  # fmt: skip
+    rows = [{"name": "PPO (best)", "success_rate": 0.5, "success_ci": [0.4, 0.6], "worst": 0.45},
+            {"name": "PPO (last)", "success_rate": 0.2, "worst": 0.1},
+            {"name": "greedy planner", "success_rate": 0.551},
+            {"name": "lookahead planner", "success_rate": 0.731},
+            {"name": "random", "success_rate": 0.012}]  # fmt: skip
+    details = {
+        "train_seconds": [60.0, 120.0, 90.0],
         "paired": {"reference": "direct", "reference_success_rate": 0.6, "episodes": 10,
                    "per_seed": [{"seed": 0, "wins": 1, "losses": 9, "mcnemar_p": 0.02},
                                 {"seed": 1, "wins": 3, "losses": 4, "mcnemar_p": 1.0},
                                 {"seed": 2, "wins": 9, "losses": 0, "mcnemar_p": 0.004}]},
     }  # fmt: skip
-    (tmp_path / "summary.json").write_text(json.dumps(summary))
-    table = hooks.ladder_seeds_table({"*.json": "python benchmarks/baselines.py"}, root=tmp_path)
+    (tmp_path / "summary.json").write_text(_results(rows, setup, details))
+    table = tables.ladder_seeds_table({"*.json": "python benchmarks/baselines.py"}, root=tmp_path)
     row = ("| `TetherNavigate_OpenStop-v3` | control:aim coast:True | PPO AimPolicy, "
            "policy_kwargs as in the command | 3 | "
            "1,024 | 2 | 50.0% [40.0, 60.0] | 45.0% | 55.1% | 73.1% | 1.2% | "
@@ -464,15 +486,14 @@ def test_an_imitation_table_reads_each_picker_s_rates(tmp_path):
     """One row per picker: the yardsticks as rates, the students as the mean over network seeds
     with its interval, both over all held-out states and where a detour is needed."""
     seeds = {"mean": 0.5, "ci": [0.4, 0.6], "seeds": [0.45, 0.5, 0.55]}
-    result = {
-        "env_id": "TetherNavigate_PostsReach-v3", "teacher": "aim-search", "candidates": 37,
-        "states": 1000, "held_out": 100, "detour_share": 0.2,
-        "goal_in_best": {"in_best": 0.8, "in_best_detour": 0.0},
-        "random_in_best": {"in_best": 0.3, "in_best_detour": 0.1},
-        "students": {"observation": {"in_best": seeds, "in_best_detour": seeds}},
-    }  # fmt: skip
-    (tmp_path / "imitation.json").write_text(json.dumps(result))
-    table = hooks.imitation_table({"*.json": "python benchmarks/imitation.py"}, root=tmp_path)
+    setup = {"env_id": "TetherNavigate_PostsReach-v3", "teacher": "aim-search",
+             "candidates": 37, "states": 1000, "held_out": 100}  # fmt: skip
+    rows = [{"picker": "goal", "in_best": 0.8, "in_best_detour": 0.0},
+            {"picker": "random", "in_best": 0.3, "in_best_detour": 0.1},
+            {"picker": "student", "features": "observation", "in_best": seeds,
+             "in_best_detour": seeds}]  # fmt: skip
+    (tmp_path / "imitation.json").write_text(_results(rows, setup, {"detour_share": 0.2}))
+    table = tables.imitation_table({"*.json": "python benchmarks/imitation.py"}, root=tmp_path)
     lines = table.splitlines()
     prefix = "| `TetherNavigate_PostsReach-v3` | aim-search, 37 | 100 of 1,000 | 20.0% | "
     assert prefix + "always the goal (the direct shot) | 80.0% | 0.0% |" in lines
@@ -491,7 +512,7 @@ def test_a_docstring_table_shows_one_row_per_entry():
         "Before.\n\n| Num | Meaning |\n|-----|---------|\n| 0   | the peg whose bearing |\n"
         "|     | is nearest hooks      |\n| 1   | length |\n\nAfter.\n"
     )
-    assert hooks.join_table_rows(text) == (
+    assert docstring_tables.join_table_rows(text) == (
         "Before.\n\n| Num | Meaning |\n|-----|---------|\n"
         "| 0 | the peg whose bearing is nearest hooks |\n| 1 | length |\n\nAfter.\n"
     )
@@ -511,7 +532,7 @@ def test_the_cli_reference_renders_any_argparse_parser():
         "Its arguments:\n| name | meaning |\n|---|---|\n| `a` | one |\n|  | more |\n\n"
         "commands:\n  run     run it\n  stop    stop it\nThe end."
     )
-    text = hooks.parser_markdown(parser)
+    text = cli_reference.parser_markdown(parser)
     assert text.startswith("```text\nusage: tool [-h] [--count COUNT]")
     assert "Does &lt;things>." in text
     assert "| `--count`, `-n COUNT` | how many (default 3) |" in text
@@ -522,7 +543,7 @@ def test_the_cli_reference_renders_any_argparse_parser():
 
 
 def test_the_cli_reference_catches_the_parser_of_a_console_script():
-    parser = hooks.help_parser("python -m tether_gym.training.summary")
+    parser = cli_reference.help_parser("python -m tether_gym.training.summary")
     assert parser.prog == "python -m tether_gym.training.summary"
 
 
@@ -531,8 +552,8 @@ def test_a_long_command_folds_before_its_options_and_unfolds_to_itself():
         "python benchmarks/baselines.py --algo ppo --env ID --hyperparams "
         "'policy_kwargs:dict(net_arch=[256, 256], log_std_init=-2.5)' --timesteps 500000"
     )
-    folded = hooks.fold_command(command)
+    folded = tables.fold_command(command)
     assert folded.splitlines()[0] == "python benchmarks/baselines.py \\"
     assert all(len(line) <= 90 for line in folded.splitlines())
     assert " ".join(folded.replace("\\\n", " ").split()) == command
-    assert hooks.fold_command("tether-train --seed 3") == "tether-train --seed 3"
+    assert tables.fold_command("tether-train --seed 3") == "tether-train --seed 3"

@@ -145,7 +145,7 @@ def test_tether_evaluate_runs_the_oracle_and_random_from_any_folder(fresh_venv, 
     command = [bin_dir / "tether-evaluate", "--agents", "oracle", "random", "--episodes", "100"]
     out = run([*command, "--no-progress-bar", "--json", "results.json"], outside).stdout
     assert "| oracle | 100 |" in out and "| random | 100 |" in out
-    oracle, random = json.loads((outside / "results.json").read_text())["results"]
+    oracle, random = json.loads((outside / "results.json").read_text())["rows"]
     assert oracle["success_rate"] > 0.9 > 0.1 > random["success_rate"]
 
 
@@ -155,7 +155,7 @@ def test_tether_evaluate_runs_the_pretrained_agents_without_training(fresh_venv,
     command = [bin_dir / "tether-evaluate", "--agents", "pretrained", "oracle", "--episodes", "100"]
     out = run([*command, "--no-progress-bar", "--json", "results.json"], outside).stdout
     assert "| pretrained | 100 |" in out
-    pretrained, _ = json.loads((outside / "results.json").read_text())["results"]
+    pretrained, _ = json.loads((outside / "results.json").read_text())["rows"]
     assert pretrained["success_rate"] > 0.9
     command = [bin_dir / "tether-evaluate", "--agents", "pretrained-low-stiffness", "--rho", "5",
                "100", "--episodes", "20", "--no-progress-bar"]  # fmt: skip

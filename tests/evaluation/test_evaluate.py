@@ -154,9 +154,10 @@ def test_cli_writes_outputs_and_never_silently_overwrites(tmp_path, capsys):
     assert "| oracle |" in capsys.readouterr().out
     assert len(csv.read_text().splitlines()) == 3 and png.stat().st_size > 0
     payload = json.loads(js.read_text())
-    assert payload["env_id"] == "TetherBounce-v0"
-    assert payload["env_kwargs"] == {"rho": [20, 200]}
-    assert [r["name"] for r in payload["results"]] == ["oracle", "random"]
+    assert payload["setup"]["env_id"] == "TetherBounce-v0"
+    assert payload["setup"]["env_kwargs"] == {"rho": [20, 200]}
+    assert [r["name"] for r in payload["rows"]] == ["oracle", "random"]
+    assert payload["command"].startswith("tether-evaluate --agents oracle random")
     before = csv.read_text()
     with pytest.raises(SystemExit):
         main(args)
@@ -335,8 +336,8 @@ def evaluate_model(*argv: str, tmp_path: Path) -> dict:
 @pytest.mark.parametrize("env", [[], ["--env", AIM_ENV[0]]])
 def test_a_saved_model_plays_the_env_of_its_run(aim_model, tmp_path, capsys, env):
     payload = evaluate_model(*env, "--agents", str(aim_model), tmp_path=tmp_path)
-    assert (payload["env_id"], payload["env_kwargs"]) == AIM_ENV
-    assert payload["results"][0]["episodes"] == 4
+    assert (payload["setup"]["env_id"], payload["setup"]["env_kwargs"]) == AIM_ENV
+    assert payload["rows"][0]["episodes"] == 4
     assert capsys.readouterr().err == ""
 
 
@@ -345,7 +346,7 @@ def test_a_saved_model_plays_in_its_own_control_mode_where_the_command_line_diff
 ):
     argv = ["--env", AIM_ENV[0], "--env-kwargs", "control:setup", "--agents", str(aim_model)]
     payload = evaluate_model(*argv, tmp_path=tmp_path)
-    assert payload["env_kwargs"] == {"control": "setup"}
+    assert payload["setup"]["env_kwargs"] == {"control": "setup"}
     (warning,) = capsys.readouterr().err.splitlines()
     config = aim_model.parent.parent / "config.yaml"
     assert warning == (

@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
-import json
+import shlex
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +37,7 @@ from tether_gym.arguments import (
     env_from_args,
     given_env_options,
 )
+from tether_gym.evaluation import results_file
 from tether_gym.evaluation.reports import format_table, paired_table, plot
 from tether_gym.evaluation.runner import evaluate
 from tether_gym.families import current_id, env_config, family
@@ -271,14 +272,10 @@ def main(argv: list[str] | None = None) -> None:
                 writer.writerow([s["name"], s["episodes"], s["success_rate"], *s["success_ci"],
                                  *(s[k] for k in names[4:])])  # fmt: skip
     if args.json is not None:
-        results_json = [r.summary() for r in results]
-        payload = {
-            "env_id": env_id,
-            "env_kwargs": env_kwargs,
-            "seed": args.seed,
-            "results": results_json,
-        }
-        args.json.write_text(json.dumps(payload, indent=2) + "\n")
+        command = shlex.join(["tether-evaluate", *(sys.argv[1:] if argv is None else argv)])
+        setup = {"env_id": env_id, "env_kwargs": env_kwargs, "seed": args.seed}
+        rows = [r.summary() for r in results]
+        results_file.write(args.json, results_file.record(command, rows, setup))
     if args.plot is not None:
         plot(results, args.plot, args.plot_against)
 

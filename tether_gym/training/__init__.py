@@ -14,6 +14,7 @@ import it.
   seeds.
 """
 
+import argparse
 import sys
 from collections.abc import Callable
 
@@ -51,6 +52,20 @@ def main(argv: list[str] | None = None) -> int:
         return train_main(argv)
 
     return _quietly_interrupted(command)
+
+
+def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
+    """`tether-train`'s parser (`tether_gym.training.train.build_parser`)."""
+    from tether_gym.training.train import build_parser as build
+
+    return build(env_id)
+
+
+def build_sweep_parser() -> argparse.ArgumentParser:
+    """`tether-sweep`'s parser (`tether_gym.training.sweep.cli.build_parser`)."""
+    from tether_gym.training.sweep.cli import build_parser as build
+
+    return build()
 
 
 def sweep_main(argv: list[str] | None = None) -> int:

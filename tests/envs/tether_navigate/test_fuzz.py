@@ -303,9 +303,10 @@ def test_the_command_writes_its_json_and_keeps_an_existing_one(tmp_path, capsys)
     fz.main(argv)
     data = json.loads(out.read_text())
     assert data["command"].startswith("python benchmarks/fuzz_navigate.py --ids")
-    assert len(data["combos"]) == 10 and data["counts"]["single"]["steps"] == 20
-    assert data["counts"]["vector"]["steps"] == 10 * 8  # 8 transitions each, one step of 8
-    assert set(data["counts"]["single"]["counts"]) == set(CLASSES)
+    counts = data["details"]["counts"]
+    assert len(data["rows"]) == 10 and counts["single"]["steps"] == 20
+    assert counts["vector"]["steps"] == 10 * 8  # 8 transitions each, one step of 8
+    assert set(counts["single"]["counts"]) == set(CLASSES)
     assert data["commit"] and data["seconds"] >= 0
     assert "single env: findings" in capsys.readouterr().out
     before = out.read_text()

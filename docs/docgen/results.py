@@ -1,0 +1,82 @@
+"""The results reader: every table reads its files through `read_results` (the one schema of
+`tether_gym.evaluation.results_file`, or a pretrained agent's model card) and `files_of`."""
+
+from __future__ import annotations
+
+import glob
+from pathlib import Path
+from typing import Any
+
+from tether_gym.evaluation import results_file
+
+
+def read_file(path: Path) -> dict[str, Any]:
+    """A results file as it is (the schema, checked)."""
+    return results_file.read(path)
+
+
+def read_results(path: Path) -> dict[str, Any]:
+    """A results file or card as `{env_id, env_kwargs, seed, agents: {name: row}}`.
+
+    A results file's rows are its agents (each row's `name`); its `setup` gives the env, its
+    arguments and the seed. A pretrained agent's model card (YAML front matter,
+    `tether_gym/agents/pretrained/*.md`) gives the same from its held-out table.
+    """
+    if path.suffix == ".md":
+        return _card(path)
+    data = read_file(path)
+    setup = data["setup"]
+    return {
+        "env_id": setup["env_id"],
+        "env_kwargs": dict(setup.get("env_kwargs") or {}),
+        "seed": setup.get("seed"),
+        "agents": {row["name"]: row for row in data["rows"]},
+    }
+
+
+def _card(path: Path) -> dict[str, Any]:
+    import yaml
+
+    from tether_gym.agents.planned import playing
+
+    front = yaml.safe_load(path.read_text().split("---\n", 2)[1])
+    held_out = front["held_out"]
+    params = front.get("hyperparams") or {}
+    planned = playing(params)
+    name = front["name"]
+    if planned is not None:
+        name += f" ({planned.title.format(planner=params[planned.key])})"
+    agents = {
+        (name if key == "policy" else key): value
+        for key, value in held_out.items()
+        if isinstance(value, dict)
+    }
+    for value in agents.values():
+        value.setdefault("episodes", held_out["episodes"])
+    return {
+        "env_id": front["env_id"],
+        "env_kwargs": front.get("env_kwargs") or {},
+        "seed": held_out["seed"],
+        "agents": agents,
+    }
+
+
+def files_of(pattern: str, root: Path) -> list[Path]:
+    """The files a glob relative to `root` names, sorted; ValueError if there are none."""
+    paths = sorted(Path(p) for p in glob.glob(str(root / pattern)))
+    if not paths:
+        raise ValueError(f"no results file matches {pattern!r} under {root}")
+    return paths
+
+
+def percent(result: dict[str, Any]) -> str:
+    """Success as `98.2% [98.0, 98.5]` (with the 95% interval when the file has it)."""
+    text = f"{100 * result['success_rate']:.1f}%"
+    ci = result.get("success_ci")
+    if ci:
+        text += f" [{100 * ci[0]:.1f}, {100 * ci[1]:.1f}]"
+    return text
+
+
+def kwargs_text(kwargs: dict[str, Any]) -> str:
+    return " ".join(f"{k}:{v}" for k, v in kwargs.items()) if kwargs else "defaults"

@@ -1,0 +1,391 @@
+"""The results tables' macros: each reads its files through `docgen.results` (one schema) and
+ends with the note naming the files and the command that writes them; and the ladder's ids.
+
+A macro's `style` is "page" (the note a collapsed block) or "readme" (one italic line: the
+README is static Markdown).
+"""
+
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+from typing import Any
+
+from docgen import ROOT
+from docgen.results import files_of, kwargs_text, percent, read_file, read_results
+
+LADDER_YARDSTICKS = ("greedy planner", "lookahead planner", "random")
+"""The agents every baseline summary also plays, in the order `ladder_seeds_table` shows."""
+STYLES = ("page", "readme")
+
+
+def sources_line(sources: dict[str, str], style: str = "page") -> str:
+    """The note under a table: its files, grouped by the command that writes them. On a page,
+    a collapsed block (a `??? info`) with each command folded in a code block of its own; in
+    the README, one italic line."""
+    by_command: dict[str, list[str]] = {}
+    for pattern, command in sources.items():
+        by_command.setdefault(command, []).append(pattern)
+    if style not in STYLES:
+        raise ValueError(f"style must be one of {STYLES}, got {style!r}")
+    if style == "readme":
+        parts = [", ".join(f"`{p}`" for p in ps) + f", written by `{c}`"
+                 for c, ps in by_command.items()]  # fmt: skip
+        return "\n\n*Read from " + "; ".join(parts) + ".*\n"
+    files = sum(len(p) for p in by_command.values())
+    title = f"Read from {files} file{'s' * (files > 1)}" + (
+        f", written by {len(by_command)} commands" if len(by_command) > 1 else ""
+    )
+    body = []
+    for command, patterns in by_command.items():
+        body.append(", ".join(f"`{p}`" for p in patterns) + ", written by:")
+        body.append(f"```bash\n{fold_command(command)}\n```")
+    block = "\n\n".join(body)
+    return f'\n\n??? info "{title}"\n\n{textwrap.indent(block, "    ")}\n'
+
+
+def fold_command(command: str, width: int = 88) -> str:
+    """A long shell command folded before its options (` \\` continuations, shell-valid), so it
+    reads without scrolling; quoted arguments are never split. A short one as it is."""
+    if len(command) <= width:
+        return command
+    words, word, quote = [], "", ""
+    for char in command:  # split on spaces outside quotes, keeping each word's own text
+        if quote:
+            quote = "" if char == quote else quote
+        elif char in "'\"":
+            quote = char
+        elif char == " ":
+            words.append(word)
+            word = ""
+            continue
+        word += char
+    words.append(word)
+    lines = [words[0]]
+    for word in words[1:]:
+        if word.startswith("-") or len(lines[-1]) + len(word) + 1 > width:
+            lines.append("  " + word)
+        else:
+            lines[-1] += " " + word
+    return " \\\n".join(lines)
+
+
+def _check_sources(sources: dict[str, str]) -> None:
+    if not isinstance(sources, dict) or not sources:
+        raise ValueError("a results table needs {files glob: command that writes them}")
+    for pattern, command in sources.items():
+        if not (isinstance(command, str) and command.strip()):
+            raise ValueError(f"{pattern}: the command that regenerates it is missing")
+
+
+def success_table(
+    sources: dict[str, str], agents: list[str] | None = None, root: Path = ROOT, style: str = "page"
+) -> str:
+    """One row per results file and agent: env, its arguments, agent, episodes, success
+    [95% CI] (and maneuvers to the goal where the file has them). `sources` maps a glob of
+    results files to the command that writes them; `agents` keeps those agents, in that order.
+    """
+    _check_sources(sources)
+    rows = []
+    for pattern in sources:
+        for path in files_of(pattern, root):
+            data = read_results(path)
+            names = agents if agents is not None else list(data["agents"])
+            for name in names:
+                if name not in data["agents"]:
+                    continue
+                result = data["agents"][name]
+                maneuvers = result.get("maneuvers_mean")
+                rows.append(
+                    f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | {name} | "
+                    f"{result['episodes']:,} | {percent(result)} | "
+                    f"{'-' if maneuvers is None else f'{maneuvers:.2f}'} |"
+                )
+    if not rows:
+        raise ValueError(f"no agent of {agents} in {list(sources)}")
+    header = (
+        "| env | arguments | agent | episodes | success [95% CI] | maneuvers to goal |\n"
+        "|---|---|---|---:|---|---:|\n"
+    )
+    return header + "\n".join(rows) + sources_line(sources, style)
+
+
+def ladder_table(
+    sources: dict[str, str],
+    agents: list[str],
+    by_control: bool = False,
+    root: Path = ROOT,
+    style: str = "page",
+) -> str:
+    """One row per env id, one column per agent: success [95% CI]. With `by_control`, one
+    column per control mode (`env_kwargs["control"]`) and agent. A cell no file fills is
+    blank; two files filling one cell are an error."""
+    _check_sources(sources)
+    table: dict[str, dict[str, str]] = {}
+    columns: list[str] = [] if by_control else list(agents)
+    for pattern in sources:
+        for path in files_of(pattern, root):
+            data = read_results(path)
+            row = table.setdefault(data["env_id"], {})
+            for name in agents:
+                if name not in data["agents"]:
+                    continue
+                column = name
+                if by_control:
+                    column = f"{name}, {data['env_kwargs'].get('control', 'setup')}"
+                    if column not in columns:
+                        columns.append(column)
+                if column in row:
+                    raise ValueError(f"{path.name}: a second result for {data['env_id']}, "
+                                     f"{column}")  # fmt: skip
+                row[column] = percent(data["agents"][name])
+    header = "| env | " + " | ".join(columns) + " |\n|---|" + "---|" * len(columns) + "\n"
+    lines = [
+        f"| `{env_id}` | " + " | ".join(row.get(column, "") for column in columns) + " |"
+        for env_id, row in table.items()
+    ]
+    return header + "\n".join(lines) + sources_line(sources, style)
+
+
+def seeds_table(
+    sources: dict[str, str], agents: list[str] | None = None, root: Path = ROOT, style: str = "page"
+) -> str:
+    """One row per agent of each summary over seeds (`benchmarks/baselines.py`): the runs'
+    timesteps and median train time, and each agent's mean success on the test episodes over
+    the seeds with its 95% t interval and the worst seed (the planners and random play the same
+    episodes in every run). `agents` keeps those agents only."""
+    _check_sources(sources)
+    rows, notes = [], []
+    for pattern in sources:
+        for path in files_of(pattern, root):
+            data = _flat(path)
+            if "paired" in data:
+                notes.append(_paired_line(data))
+            minutes = sorted(data["train_seconds"])[len(data["train_seconds"]) // 2] / 60
+            for result in data["rows"]:
+                if agents is not None and result["name"] not in agents:
+                    continue
+                rows.append(
+                    f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | "
+                    f"{result['name']} | {len(data['seeds'])} | {data['timesteps']:,} | "
+                    f"{minutes:.1f} | {percent(result)} | {100 * result['worst']:.1f}% |"
+                )
+    header = (
+        "| env | arguments | agent | seeds | timesteps | train min (median) | "
+        "success, mean [95% CI] | worst seed |\n|---|---|---|---:|---:|---:|---|---:|\n"
+    )
+    return header + "\n".join(rows) + "".join(notes) + sources_line(sources, style)
+
+
+def ladder_seeds_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """One row per summary over seeds (`benchmarks/baselines.py`), for comparing rungs and
+    control modes at a glance: the env, its arguments and the zoo's overridden policy, the learned
+    agent's best models' mean success with its 95% t interval and worst seed, the median train
+    time, and the planners and random on the same test episodes."""
+    _check_sources(sources)
+    rows = []
+    for pattern in sources:
+        for path in files_of(pattern, root):
+            data = _flat(path)
+            by_name = {result["name"]: result for result in data["rows"]}
+            learned = next(r for name, r in by_name.items() if name.endswith("(best)"))
+            agent = _agent_cell(data["algo"], data.get("hyperparams", {}))
+            minutes = sorted(data["train_seconds"])[len(data["train_seconds"]) // 2] / 60
+            yardsticks = " | ".join(
+                f"{100 * by_name[name]['success_rate']:.1f}%" for name in LADDER_YARDSTICKS
+            )
+            rows.append(
+                f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | "
+                f"{agent} | {len(data['seeds'])} | "
+                f"{data['timesteps']:,} | {minutes:.0f} | {percent(learned)} | "
+                f"{100 * learned['worst']:.1f}% | {yardsticks} | {_paired_cell(data)} |"
+            )
+    header = (
+        "| env | arguments | agent | seeds | timesteps | train min (median) | "
+        "success, mean [95% CI] | worst seed | greedy | lookahead | random | paired |\n"
+        "|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---|\n"
+    )
+    return header + "\n".join(rows) + sources_line(sources, style)
+
+
+def _agent_cell(algo: str, hyperparams: dict[str, str]) -> str:
+    """The algorithm and the policy a summary's runs overrode the zoo with; other overrides by
+    name only (their values are in the command under the table)."""
+    policy = hyperparams.get("policy")
+    others = [key for key in hyperparams if key != "policy"]
+    text = algo.upper() + (f" {policy}" if policy else "")
+    return text + (f", {' '.join(others)} as in the command" if others else "")
+
+
+def _paired_cell(data: dict[str, Any]) -> str:
+    """A summary's paired comparison in a few words: the reference's success and on how many
+    seeds the best model won or lost significantly (McNemar p < 0.05) on the same episodes."""
+    paired = data.get("paired")
+    if paired is None:
+        return "-"
+    seeds = paired["per_seed"]
+    significant = [row for row in seeds if row["mcnemar_p"] < 0.05]
+    ahead = sum(row["wins"] > row["losses"] for row in significant)
+    behind = len(significant) - ahead
+    return (
+        f"{paired['reference']} {100 * paired['reference_success_rate']:.1f}%: "
+        f"ahead on {ahead}, behind on {behind} of {len(seeds)} seeds (p < 0.05)"
+    )
+
+
+def _paired_line(data: dict[str, Any]) -> str:
+    """A summary's paired comparison (`baselines.py --paired`) in words: per seed, the best
+    model's wins and losses against the reference on the same episodes, and McNemar's p."""
+    paired = data["paired"]
+    seeds = "; ".join(
+        f"seed {row['seed']}: {row['wins']} won, {row['losses']} lost (p {row['mcnemar_p']:.2g})"
+        for row in paired["per_seed"]
+    )
+    return (
+        f"\n\n`{data['env_id']}`, each seed's best model against {paired['reference']} "
+        f"({100 * paired['reference_success_rate']:.1f}%) on the same {paired['episodes']:,} "
+        f"episodes: {seeds}."
+    )
+
+
+def planner_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """One row per planner and task of a planner benchmark (`benchmarks/planners.py`): each
+    implementation's decisions per second at each batch size on one core (the ratio to numpy's
+    measured in the same run), the recorded decision states where it picks numpy's maneuver,
+    and its success on the held-out episodes."""
+    _check_sources(sources)
+    blocks = []
+    for pattern in sources:
+        for path in files_of(pattern, root):
+            rows = read_file(path)["rows"]
+            first = rows[0]
+            implementations = list(first["decisions_per_second"])
+            batches = list(first["decisions_per_second"][implementations[0]])
+            columns = [f"{i} batch {b}" for b in batches for i in implementations]
+            columns += [f"{i} same choice" for i in first["agreement"]]
+            columns += [f"{i} success" for i in first["success"]]
+            lines = ["| planner | task | " + " | ".join(columns) + " |",
+                     "|---|---|" + "---:|" * len(columns)]  # fmt: skip
+            for row in rows:
+                rates, cells = row["decisions_per_second"], []
+                for batch in batches:
+                    for implementation in implementations:
+                        rate = rates[implementation][batch]
+                        ratio = rate / rates["numpy"][batch]
+                        cells.append(f"{rate:,.0f}" + ("" if implementation == "numpy"
+                                                      else f" ({ratio:.1f}x)"))  # fmt: skip
+                for a in row["agreement"].values():
+                    cells.append(f"{a['same']:,} of {a['states']:,}")
+                cells += [percent(result) for result in row["success"].values()]
+                lines.append(f"| {row['planner']} | {row['task']} | " + " | ".join(cells) + " |")
+            blocks.append("\n".join(lines))
+    return "\n\n".join(blocks) + sources_line(sources, style)
+
+
+def imitation_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """One row per picker of an imitation benchmark (`benchmarks/imitation.py`): how often its
+    pick among the teacher's candidate aims is among the best on the held-out states, over all
+    of them and where the goal itself is not among the best; the students' mean over network
+    seeds with its 95% t interval."""
+    _check_sources(sources)
+    rows = []
+    for pattern in sources:
+        for path in files_of(pattern, root):
+            data = read_file(path)
+            setup, pickers = data["setup"], {}
+            for row in data["rows"]:
+                pickers[_picker(row)] = row
+            for name, rates in pickers.items():
+                rows.append(
+                    f"| `{setup['env_id']}` | {setup['teacher']}, {setup['candidates']} | "
+                    f"{setup['held_out']:,} of {setup['states']:,} | "
+                    f"{100 * data['details']['detour_share']:.1f}% | {name} | "
+                    f"{_rate_cell(rates['in_best'])} | {_rate_cell(rates['in_best_detour'])} |"
+                )
+    header = (
+        "| env | teacher, candidates | held-out states | direct shot not among the best | picker | "
+        "pick among the best | where a detour is needed |\n"
+        "|---|---|---:|---:|---|---:|---:|\n"
+    )
+    return header + "\n".join(rows) + sources_line(sources, style)
+
+
+def _picker(row: dict[str, Any]) -> str:
+    """An imitation row's picker in words."""
+    if row["picker"] == "goal":
+        return "always the goal (the direct shot)"
+    if row["picker"] == "random":
+        return "a random candidate"
+    return f"student: {row['features']}, {len(row['in_best']['seeds'])} seeds"
+
+
+def _flat(path: Path) -> dict[str, Any]:
+    """A results file's setup, details and rows as one mapping (a summary over seeds)."""
+    data = read_file(path)
+    return {**data["setup"], **data["details"], "rows": data["rows"]}
+
+
+def fuzz_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """The public-API fuzz's findings (`benchmarks/fuzz_navigate.py`): one row per class, and
+    per results file the transitions with that finding among the single env's steps and among
+    the vector env's transitions."""
+    _check_sources(sources)
+    runs = [(path, read_file(path)["details"]) for p in sources for path in files_of(p, root)]
+    classes = list(dict.fromkeys(c for _, data in runs for c in data["holes"] + data["notes"]))
+    header = "| finding | " + " | ".join(
+        f"`{path.stem}` single ({data['counts']['single']['steps']:,} steps) | "
+        f"`{path.stem}` vector ({data['counts']['vector']['steps']:,})"
+        for path, data in runs
+    )
+    rows = [header + " |", "|---|" + "---:|---:|" * len(runs)]
+    for name in classes:
+        cells = []
+        for _, data in runs:
+            for kind in ("single", "vector"):
+                count = data["counts"][kind]["counts"].get(name)
+                cells.append("-" if count is None else f"{count:,}")
+        note = " (not a hole)" if any(name in data["notes"] for _, data in runs) else ""
+        rows.append(f"| `{name}`{note} | " + " | ".join(cells) + " |")
+    return "\n".join(rows) + sources_line(sources, style)
+
+
+def cold_start_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """What a first run costs (`benchmarks/cold_start.py`): per entry point, the seconds of its
+    first call and of its whole process with an empty numba cache, on the revision measured and
+    on the one it was measured against in the same run, and their ratio."""
+    _check_sources(sources)
+    rows = []
+    for path in (path for p in sources for path in files_of(p, root)):
+        data = read_file(path)
+        against = data["setup"]["against"]
+        rows.append(
+            f"| entry | first call, s | process, s | first call at `{against}`, s | "
+            f"process at `{against}`, s | process, ratio |\n|---|---:|---:|---:|---:|---:|"
+        )
+        for row in data["rows"]:
+            name, trees = row["entry"], row["trees"]
+            now, before = trees["this tree"], trees[against]
+            rows.append(
+                f"| {name} | {now['entry']:.1f} | {now['wall']:.1f} | {before['entry']:.1f} | "
+                f"{before['wall']:.1f} | {now['wall'] / before['wall']:.2f} |"
+            )
+    return "\n".join(rows) + sources_line(sources, style)
+
+
+def _rate_cell(rate: float | dict[str, Any]) -> str:
+    """A rate as a percentage, or a mean over seeds with its 95% interval."""
+    if not isinstance(rate, dict):
+        return f"{100 * rate:.1f}%"
+    low, high = rate["ci"]
+    return f"{100 * rate['mean']:.1f}% [{100 * low:.1f}, {100 * high:.1f}]"
+
+
+def ladder_ids() -> str:
+    """TetherNavigate's ladder: each registered id and its arguments, from `tether_gym.ladder`."""
+    from tether_gym import ladder
+
+    lines = ["| id | arguments |", "|---|---|"]
+    for env_id, kwargs in ladder.ids().items():
+        shown = {k: ("the Wall map" if v == ladder.WALL else v) for k, v in kwargs.items()}
+        lines.append(f"| `{env_id}` | {kwargs_text(shown)} |")
+    return "\n".join(lines) + "\n"
