@@ -1,0 +1,246 @@
+"""The JAX kernel of TetherNavigate-v3 against the numba one on the same states and actions:
+the cases, the comparison and the table (`results/jax/navigate_agreement.json`).
+
+A case is a ladder id (its rung, task and reward type), a dynamics and a control mode, a state
+and a normalized action. The states are the numba kernel's: episodes drawn from seeded
+uniforms (`NavigateKernel.reset`), then played on by up to `WARMUP` maneuvers of random actions
+(an ended episode starts anew), so that the puck starts spinning, near walls and posts, late in
+its episode; each case is the state after a random number of those maneuvers. Both kernels then
+play one maneuver from it with the same action: the numba kernel's `step`, and
+`tether_gym.jax.navigate.step_episode` under `jit` and `vmap` (float64).
+
+Differences are |jax - numba| / max(1, |numba|) per outcome column (m, m/s, rad, reward:
+absolute below 1), the folded angles (`tether_angle`, `offset_angle`, `wheel_target`) folded
+into (-pi, pi]; the flags (`FLAGS`) count their disagreements. A case whose flags all agree is
+compared on every continuous column and the observation; one whose flags differ is a changed
+outcome, classed by the flags that differ.
+
+    python -m benchmarks.jax_navigate_agreement [--cases 10000] [--dynamics impulse]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from tether_gym import ladder
+from tether_gym.envs.tether_navigate.arguments import NavigateConfig
+from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_POSTS
+from tether_gym.envs.tether_navigate.kernel import NavigateKernel
+from tether_gym.envs.tether_navigate.spaces import OBSERVATION, OUTCOME
+
+WARMUP = 4
+"""Maneuvers of random actions played before the cases are picked (0 to WARMUP per case)."""
+FLAGS = ("terminated", "truncated", "is_success", "bounced", "completed", "offset_angle_met",
+         "command_met", "at_rest", "hit_post")  # fmt: skip
+COUNTS = ("wall_hits", "maneuvers_left")
+ANGLES = ("tether_angle", "offset_angle", "wheel_target")
+CHUNK = 64
+"""Cases per `vmap` inside `lax.map`."""
+RESULTS = Path("results/jax/navigate_agreement.json")
+
+
+def ladder_ids() -> dict[str, dict]:
+    """Every ladder id with its arguments (`ladder.ids`)."""
+    return ladder.ids()
+
+
+def configuration(env_id: str, dynamics: str, control: str = "setup") -> NavigateConfig:
+    return NavigateConfig(**ladder_ids()[env_id], dynamics=dynamics, control=control)
+
+
+def cases(config: NavigateConfig, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(states, actions): n numba `STATE` records (`WARMUP`, module docstring) and n actions in
+    [-1.1, 1.1] (some clipped)."""
+    kernel = NavigateKernel(config)
+    rng = np.random.default_rng(seed)
+    width = len(kernel.action)
+    state, _ = kernel.reset(rng.random((n, kernel.n_uniforms)))
+    pool = [state.copy()]
+    for _ in range(WARMUP):
+        state, _, out = kernel.step(state, rng.uniform(-1.0, 1.0, (n, width)))
+        ended = (out[:, OUTCOME.index["terminated"]] != 0) | (
+            out[:, OUTCOME.index["truncated"]] != 0
+        )
+        if ended.any():
+            fresh, _ = kernel.reset(rng.random((int(ended.sum()), kernel.n_uniforms)))
+            state[ended] = fresh
+        pool.append(state.copy())
+    pick = rng.integers(0, WARMUP + 1, n)
+    states = np.stack(pool)[pick, np.arange(n)]
+    return states, rng.uniform(-1.1, 1.1, (n, width))
+
+
+def numba_side(config: NavigateConfig, states, actions):
+    """(observation, outcome) of the numba kernel's maneuver from `states`."""
+    _, obs, out = NavigateKernel(config).step(states.copy(), actions)
+    return obs, out
+
+
+_STEPS: dict = {}
+
+
+def _jax_step():
+    from tether_gym.jax import navigate as jn
+
+    if "step" not in _STEPS:
+
+        @jax.jit
+        def step(state, actions, params):
+            def one(pair):
+                s = jn.step_episode(pair[0], pair[1], params)
+                return jn.observe(s, params), s.outcome
+
+            return jax.lax.map(one, (state, actions), batch_size=CHUNK)
+
+        _STEPS["step"] = step
+    return _STEPS["step"]
+
+
+def jax_side(config: NavigateConfig, states, actions):
+    """(observation, outcome) of the JAX kernel, numpy float64."""
+    from tether_gym.jax import navigate as jn
+
+    params = jn.EnvParams.from_config(config)
+    obs, out = _jax_step()(jn.EnvState.from_records(states), np.asarray(actions), params)
+    return np.asarray(obs, np.float64), np.asarray(out, np.float64)
+
+
+def differences(fields, got, want) -> dict[str, np.ndarray]:
+    """Per field: each case's largest difference over its columns (module docstring)."""
+    out = {}
+    for field in fields.fields:
+        i = fields.index[field.name]
+        a, b = got[:, i : i + field.size], want[:, i : i + field.size]
+        if field.name in FLAGS:
+            d = (a != b).astype(np.float64)
+        elif field.name in ANGLES:
+            d = np.abs(np.pi - np.mod(np.pi - (a - b), 2.0 * np.pi))
+        else:
+            d = np.abs(a - b) / np.maximum(1.0, np.abs(b))
+        d = np.where(np.isnan(a) & np.isnan(b), 0.0, d)
+        d = np.where(np.isnan(a) != np.isnan(b), np.inf, d)
+        out[field.name] = d.max(axis=1)
+    return out
+
+
+def canonical(obs: np.ndarray) -> np.ndarray:
+    """Observations with each block of pegs and of posts put in one order among pegs (posts)
+    equidistant from the puck to 1e-9 m: both kernels list them nearest first, and where two
+    are equally far in exact arithmetic (a puck at a cell centre, a layout's symmetric posts)
+    rounding decides, so either order is the same observation."""
+    obs = obs.copy()
+    for prefix, count in (("anchor", MAX_ANCHORS), ("post", MAX_POSTS)):
+        first = OBSERVATION.index[f"{prefix}0_present"]
+        block = obs[:, first : first + 3 * count].reshape(len(obs), count, 3)
+        distance = np.round(np.hypot(block[..., 1], block[..., 2]), 9)
+        order = np.lexsort((block[..., 2], block[..., 1], distance, -block[..., 0]), axis=-1)
+        block = np.take_along_axis(block, order[..., None], axis=1)
+        obs[:, first : first + 3 * count] = block.reshape(len(obs), -1)
+    return obs
+
+
+def compare(config: NavigateConfig, states, actions) -> dict:
+    """The observation's and the outcome's differences per field, `changed` (the cases whose
+    flags or counts differ) and their classes, and `given_up` (numba's contact not completed)."""
+    want = numba_side(config, states, actions)
+    got = jax_side(config, states, actions)
+    result = {
+        "observation": differences(OBSERVATION, canonical(got[0]), canonical(want[0])),
+        "outcome": differences(OUTCOME, got[1], want[1]),
+    }
+    changed = np.zeros(len(states), bool)
+    classes: dict[str, int] = {}
+    per_case = [[] for _ in range(len(states))]
+    for name in (*FLAGS, *COUNTS):
+        moved = result["outcome"][name] != 0.0
+        changed |= moved
+        for i in np.flatnonzero(moved):
+            per_case[i].append(name)
+    for names in per_case:
+        if names:
+            key = "+".join(names)
+            classes[key] = classes.get(key, 0) + 1
+    result["changed"], result["classes"] = changed, classes
+    result["given_up"] = want[1][:, OUTCOME.index["completed"]] == 0.0
+    return result
+
+
+def worst(result: dict, part: str, cases: np.ndarray | None = None) -> tuple[str, float]:
+    """(field, difference): the largest difference of a part over its continuous fields, among
+    `cases` (a mask; all by default)."""
+    found = {
+        name: float(v[cases].max() if cases is not None and cases.any() else
+                    (0.0 if cases is not None else v.max()))
+        for name, v in result[part].items()
+        if name not in (*FLAGS, *COUNTS)
+    }  # fmt: skip
+    name = max(found, key=found.get)
+    return name, found[name]
+
+
+def cell(env_id: str, dynamics: str, control: str, n: int, seed: int) -> dict:
+    """One row of the table."""
+    config = configuration(env_id, dynamics, control)
+    states, actions = cases(config, n, seed)
+    start = time.perf_counter()
+    result = compare(config, states, actions)
+    agree = ~result["changed"] & ~result["given_up"]
+    field, outcome = worst(result, "outcome", agree)
+    given_up = ~result["changed"] & result["given_up"]
+    return {
+        "id": env_id, "dynamics": dynamics, "control": control, "cases": n,
+        "worst_outcome": outcome, "worst_field": field,
+        "worst_observation": worst(result, "observation", agree)[1],
+        "given_up": int(given_up.sum()),
+        "worst_given_up": worst(result, "outcome", given_up)[1] if given_up.any() else 0.0,
+        "changed": int(result["changed"].sum()), "classes": result["classes"],
+        "seconds": round(time.perf_counter() - start, 1),
+    }  # fmt: skip
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", type=int, default=10_000)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--dynamics", nargs="+", default=["impulse", "hybrid"])
+    parser.add_argument("--control", nargs="+", default=["setup"])
+    parser.add_argument("--ids", nargs="+", default=list(ladder_ids()))
+    parser.add_argument("--out", type=Path, default=RESULTS)
+    args = parser.parse_args()
+    jax.config.update("jax_enable_x64", True)
+    rows = []
+    print(f"jax {jax.__version__} on {jax.devices()[0]}, float64, {args.cases} cases a row")
+    for dynamics in args.dynamics:
+        for control in args.control:
+            for k, env_id in enumerate(args.ids):
+                row = cell(env_id, dynamics, control, args.cases, args.seed + k)
+                rows.append(row)
+                print(
+                    f"{env_id:36} {dynamics:8} {control:8} outcome {row['worst_outcome']:8.1e} "
+                    f"({row['worst_field']}) obs {row['worst_observation']:8.1e} given up "
+                    f"{row['given_up']} ({row['worst_given_up']:.1e}) changed {row['changed']} "
+                    f"{row['classes']} {row['seconds']} s",
+                    flush=True,
+                )
+    commit = subprocess.run(
+        ["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=False
+    ).stdout.strip()
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps({
+        "command": " ".join(["python -m benchmarks.jax_navigate_agreement", *sys.argv[1:]]),
+        "commit": commit, "jax": jax.__version__, "device": str(jax.devices()[0]),
+        "precision": "float64", "rows": rows,
+    }, indent=1) + "\n")  # fmt: skip
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,599 @@
+"""TetherNavigate's world-frame physics in JAX: free flight and its events (the tautening, the
+walls, the posts), the flight from the decision to the tautening with the reaction wheel's plan,
+the coast after the release, the impulse contact and the task's terms.
+
+The JAX twin of `physics.events` (`time_to_taut_row`, `time_to_wall_row`, `wall_bounce_row`,
+`free_flight_row`), `envs.tether_navigate.geometry` (`first_post_hit`, `stretch_end`),
+`envs.tether_navigate.flight` (`wheel_crossing`, `_wheel_target`, `_wheel_plan`, `fly`,
+`_offset_angle`, `coast`), `physics.impulse.impulse_contact_row` and `tasks.navigate.terms`: one
+episode's maneuver, `jax.vmap` it for a batch. The formulas are the numba ones, term by term and
+in the same order, and the constants are imported from the numba modules, so that in float64 the
+two agree to rounding (`tests/jax/test_navigate_agreement.py`).
+
+Written for XLA: no Python branch on a traced value (both sides computed, `jnp.where` picks),
+every loop bounded:
+
+- the flight and the wheel's plan: one iteration per straight stretch, at most
+  `MAX_WALL_HITS` + 1 (the numba loops stop there too);
+- the wheel's target: the `WHEEL_GRID` grid angles evaluated at once (the numba loop tries them
+  nearest the command first and stops at the first that works: the same angle, `_nearest`),
+  then `WHEEL_BISECTIONS` bisections;
+- the tautening search: at most `TAUT_STEPS` conservative steps (the numba loop has no cap: its
+  steps are bounded below, `events`), each refined by at most `events.MAX_REFINEMENTS` Illinois
+  iterations. A search that reaches the cap returns no tautening and says so (`capped`);
+- the coast: `COAST_STRETCHES` stretches, unrolled.
+
+A puck is a `Puck` tuple of arrays (x, y, vx, vy, angle, spin), as `physics.state.PuckState`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import jax.numpy as jnp
+from jax import lax
+
+from tether_gym.envs.kernels import IMPULSE, PUCK_MASS
+from tether_gym.envs.tether_navigate.config import (
+    ARM,
+    COAST_STRETCHES,
+    FLIGHT_HORIZON,
+    INERTIA_RATIO,
+    MAX_WALL_HITS,
+    OFFSET,
+    PATH_POINTS,
+    PATH_TIME,
+    POST_RADIUS,
+    PUCK_RADIUS,
+    TABLE_HEIGHT,
+    TABLE_WIDTH,
+)
+from tether_gym.envs.tether_navigate.flight import (
+    AT_ONCE,
+    CONTACT_PERIODS,
+    CROSSING_MARGIN,
+    TARGET_TOLERANCE,
+    WHEEL_BISECTIONS,
+    WHEEL_GRID,
+)
+from tether_gym.jax.physics import impulse_response, keep, runtime_one
+from tether_gym.physics.events import (
+    BOTTOM,
+    LEFT,
+    MAX_REFINEMENTS,
+    NO_WALL,
+    RIGHT,
+    ROUNDOFF,
+    TOP,
+    TOUCH_TOLERANCE,
+)
+from tether_gym.physics.obstacles import TOUCH
+from tether_gym.tasks import navigate as task
+
+TAUT_STEPS = 1 << 14
+"""At most this many conservative steps in one tautening search (`time_to_taut`). The numba
+search has no cap (each step is at least tol / reach long, `physics.events`); a search that
+reaches this one reports no tautening and `capped` (the agreement benchmark counts them)."""
+
+
+class Puck(NamedTuple):
+    """The puck in the world frame (`physics.state.PuckState`'s fields)."""
+
+    x: jnp.ndarray
+    y: jnp.ndarray
+    vx: jnp.ndarray
+    vy: jnp.ndarray
+    angle: jnp.ndarray
+    spin: jnp.ndarray
+
+
+def select(cond, a, b):
+    """`a` where `cond`, else `b`, field by field for tuples (NamedTuples kept)."""
+    if isinstance(a, tuple):
+        picked = (select(cond, x, y) for x, y in zip(a, b, strict=True))
+        return type(a)(*picked) if hasattr(a, "_fields") else tuple(picked)
+    return jnp.where(cond, a, b)
+
+
+def fold_angle(angle):
+    """One angle folded into (-pi, pi] (`physics.geometry.fold_angle`)."""
+    return math.pi - jnp.remainder(math.pi - angle, 2.0 * math.pi)
+
+
+def hypot(x, y):
+    """glibc's `hypot` (2.35 on, without FMA: `sysdeps/ieee754/dbl-64/e_hypot.c`), which numba's
+    `math.hypot` calls, bit for bit in float64 (finite arguments, not near over- or underflow):
+    its products kept from XLA's contraction into fused multiply-adds (`physics.keep`). Where
+    a tie decides (the observation's nearest-first order of pegs and posts at cell centres, as
+    a layout puts them), `jnp.hypot`'s few ulps would order them otherwise."""
+    one = runtime_one(x)
+    x, y = jnp.abs(x), jnp.abs(y)
+    ax, ay = jnp.where(x < y, y, x), jnp.where(x < y, x, y)
+    h = jnp.sqrt(keep(ax * ax, one) + keep(ay * ay, one))
+    near = h <= 2.0 * ay
+    d1 = h - ay
+    t1a, t2a = keep(ax * (2.0 * d1 - ax), one), keep((d1 - 2.0 * (ax - ay)) * d1, one)
+    d2 = h - ax
+    t1b = keep(2.0 * d2 * (ax - 2.0 * ay), one)
+    t2b = keep((4.0 * d2 - ay) * ay, one) + keep(d2 * d2, one)
+    t1, t2 = jnp.where(near, t1a, t1b), jnp.where(near, t2a, t2b)
+    safe = jnp.where(h > 0.0, h, 1.0)
+    return jnp.where(ay <= ax * 2.0**-54, ax + ay, h - (t1 + t2) / (2.0 * safe))
+
+
+def free_flight(p: Puck, t) -> Puck:
+    """`events.free_flight_row`."""
+    return Puck(p.x + p.vx * t, p.y + p.vy * t, p.vx, p.vy, p.angle + p.spin * t, p.spin)
+
+
+def time_to_wall(p: Puck):
+    """(t, wall): `events.time_to_wall_row` on the navigation table."""
+    inf = jnp.inf
+    left = p.vx < 0.0
+    right = p.vx > 0.0
+    vx = jnp.where(left | right, p.vx, 1.0)
+    t_x = jnp.where(
+        left,
+        jnp.maximum((PUCK_RADIUS - p.x) / vx, 0.0),
+        jnp.where(right, jnp.maximum((TABLE_WIDTH - PUCK_RADIUS - p.x) / vx, 0.0), inf),
+    )
+    wall_x = jnp.where(left, LEFT, jnp.where(right, RIGHT, NO_WALL))
+    bottom = p.vy < 0.0
+    top = p.vy > 0.0
+    vy = jnp.where(bottom | top, p.vy, 1.0)
+    t_y = jnp.where(
+        bottom,
+        jnp.maximum((PUCK_RADIUS - p.y) / vy, 0.0),
+        jnp.where(top, jnp.maximum((TABLE_HEIGHT - PUCK_RADIUS - p.y) / vy, 0.0), inf),
+    )
+    wall_y = jnp.where(bottom, BOTTOM, jnp.where(top, TOP, NO_WALL))
+    first_x = t_x <= t_y
+    t = jnp.where(first_x, t_x, t_y)
+    wall = jnp.where(first_x, wall_x, wall_y)
+    finite = t < inf
+    return jnp.where(finite, t, inf), jnp.where(finite, wall, NO_WALL)
+
+
+def wall_bounce(p: Puck, wall, restitution) -> Puck:
+    """`events.wall_bounce_row`."""
+    flip_x = ((wall == LEFT) & (p.vx < 0.0)) | ((wall == RIGHT) & (p.vx > 0.0))
+    flip_y = ~flip_x & (((wall == BOTTOM) & (p.vy < 0.0)) | ((wall == TOP) & (p.vy > 0.0)))
+    vx = jnp.where(flip_x, -restitution * p.vx, p.vx)
+    vy = jnp.where(flip_y, -restitution * p.vy, p.vy)
+    return p._replace(vx=vx, vy=vy)
+
+
+def first_post_hit(p: Puck, posts, n_posts, t_end, touching: bool):
+    """`geometry.first_post_hit`: the posts (MAX_POSTS, 2), the first `n_posts` present."""
+    reach = POST_RADIUS + PUCK_RADIUS
+    present = jnp.arange(posts.shape[0]) < n_posts
+    v2 = p.vx * p.vx + p.vy * p.vy
+    px, py = p.x - posts[:, 0], p.y - posts[:, 1]
+    distance2 = px * px + py * py
+    c = distance2 - reach * reach
+    at_rest_touch = (v2 == 0.0) & (jnp.sqrt(distance2) <= reach + TOUCH)
+    b = px * p.vx + py * p.vy
+    disc = b * b - v2 * c
+    safe_v2 = jnp.where(v2 == 0.0, 1.0, v2)
+    t = (-b - jnp.sqrt(jnp.maximum(disc, 0.0))) / safe_v2
+    hit = present & (v2 != 0.0) & ~(disc < 0.0) & (0.0 <= t) & (t <= t_end)
+    first = jnp.min(jnp.where(hit, t, jnp.inf))
+    if touching:
+        touched = jnp.any(present & ((c <= 0.0) | at_rest_touch))
+        first = jnp.where(touched, 0.0, first)
+    return first
+
+
+def stretch_end(p: Puck, posts, n_posts, elapsed, touching: bool = True):
+    """(t_end, t_wall, wall, t_post): `geometry.stretch_end`."""
+    t_wall, wall = time_to_wall(p)
+    t_end = jnp.minimum(t_wall, FLIGHT_HORIZON - elapsed)
+    t_post = first_post_hit(p, posts, n_posts, t_end, touching)
+    return jnp.minimum(t_end, t_post), t_wall, wall, t_post
+
+
+def _tether_gap(x, y, vx, vy, angle, spin, arm, length, t):
+    """`events._tether_gap`: (gap, P . P', |P|)."""
+    turned = angle + spin * t
+    rx, ry = arm * jnp.cos(turned), arm * jnp.sin(turned)
+    px, py = x + vx * t + rx, y + vy * t + ry
+    pvx, pvy = vx - spin * ry, vy + spin * rx
+    distance = jnp.hypot(px, py)
+    return distance - length, px * pvx + py * pvy, distance
+
+
+def _refine(x, y, vx, vy, angle, spin, arm, length, low, f_low, high, f_high, on_gap, f_eps,
+            active):  # fmt: skip
+    """`events._refine`: a while loop of at most `MAX_REFINEMENTS` iterations (none where not
+    `active`)."""
+
+    def cond(c):
+        low, _f_low, high, f_high, _side, n = c
+        return (
+            active & (n < MAX_REFINEMENTS) & ~((f_high <= f_eps) | (high - low <= ROUNDOFF * high))
+        )
+
+    def body(c):
+        low, f_low, high, f_high, side, n = c
+        tau = (low * f_high - high * f_low) / (f_high - f_low)
+        tau = jnp.where((low < tau) & (tau < high), tau, 0.5 * (low + high))
+        gap, rate, _ = _tether_gap(x, y, vx, vy, angle, spin, arm, length, tau)
+        f = jnp.where(on_gap, gap, rate)
+        up = jnp.where(on_gap, f >= 0.0, f > 0.0)
+        new_high, new_f_high = jnp.where(up, tau, high), jnp.where(up, f, f_high)
+        new_low, new_f_low = jnp.where(up, low, tau), jnp.where(up, f_low, f)
+        new_f_low = jnp.where(up & (side == 1), 0.5 * new_f_low, new_f_low)
+        new_f_high = jnp.where(~up & (side == -1), 0.5 * new_f_high, new_f_high)
+        side = jnp.where(up, 1, -1).astype(jnp.int32)
+        return new_low, new_f_low, new_high, new_f_high, side, n + 1
+
+    start = (low, f_low, high, f_high, jnp.int32(0), jnp.int32(0))
+    return lax.while_loop(cond, body, start)[2]
+
+
+def time_to_taut(p: Puck, anchor_x, anchor_y, length, arm, horizon):
+    """(t, capped): `events.time_to_taut_row` (inf if the tether does not go taut within
+    `horizon`), capped where the search ran `TAUT_STEPS` steps without an answer."""
+    x, y = p.x - anchor_x, p.y - anchor_y
+    vx, vy, angle, spin = p.vx, p.vy, p.angle, p.spin
+    speed = jnp.hypot(vx, vy)
+    reach = speed + arm * jnp.abs(spin)
+    moving = reach != 0.0
+    safe_reach = jnp.where(moving, reach, 1.0)
+    safe_spin = jnp.where(spin == 0.0, 1.0, spin)
+    end = jnp.where(speed > 0.0, horizon, jnp.minimum(horizon, 2.0 * math.pi / jnp.abs(safe_spin)))
+    tol = TOUCH_TOLERANCE * length
+    f_tol = tol * (2.0 * length + tol)
+    rate_tol = length * TOUCH_TOLERANCE * reach
+    gap_eps, rate_eps = ROUNDOFF * length, ROUNDOFF * length * reach
+    curvature = arm * spin * spin
+    bound = 2.0 * (reach * reach + (length + tol) * curvature)
+    safe_bound = jnp.where(bound > 0.0, bound, 1.0)
+
+    def gap_at(t):
+        return _tether_gap(x, y, vx, vy, angle, spin, arm, length, t)
+
+    def cond(c):
+        return ~c[4] & (c[6] < TAUT_STEPS)
+
+    def body(c):
+        t, gap, rate, distance, done, result, n = c
+        found = (gap >= 0.0) & (rate > 0.0)
+        on_gap = gap < 0.0
+        a_in = gap * (distance + length) - f_tol
+        b_in = 2.0 * rate
+        root = jnp.sqrt(jnp.maximum(b_in * b_in - 2.0 * bound * a_in, 0.0))
+        denom = jnp.where(b_in > 0.0, b_in + root, 1.0)
+        second = jnp.where(b_in > 0.0, -2.0 * a_in / denom, (root - b_in) / safe_bound)
+        step_in = jnp.maximum((tol - gap) / safe_reach, second)
+        b_out = reach * reach + distance * curvature
+        a_out = reach * curvature
+        c_out = rate - rate_tol
+        disc_out = jnp.sqrt(jnp.maximum(b_out * b_out - 4.0 * a_out * c_out, 0.0))
+        step_out = -2.0 * c_out / (b_out + disc_out)
+        step = jnp.where(on_gap, step_in, step_out)
+        t_next = jnp.maximum(t + step, t + ROUNDOFF * t)
+        past = t_next > end
+        gap_n, rate_n, distance_n = gap_at(t_next)
+        refine = ~found & ~past & (gap_n >= 0.0) & (on_gap | (rate_n > 0.0))
+        t_ref = _refine(
+            x, y, vx, vy, angle, spin, arm, length, t, jnp.where(on_gap, gap, rate), t_next,
+            jnp.where(on_gap, gap_n, rate_n), on_gap, jnp.where(on_gap, gap_eps, rate_eps),
+            refine,
+        )  # fmt: skip
+        t_next = jnp.where(refine, t_ref, t_next)
+        gap_r, rate_r, distance_r = gap_at(t_next)
+        gap_n = jnp.where(refine, gap_r, gap_n)
+        rate_n = jnp.where(refine, rate_r, rate_n)
+        distance_n = jnp.where(refine, distance_r, distance_n)
+        stop = found | past
+        result = jnp.where(found, t, jnp.where(past, jnp.inf, result))
+        keep = stop
+        return (
+            jnp.where(keep, t, t_next), jnp.where(keep, gap, gap_n),
+            jnp.where(keep, rate, rate_n), jnp.where(keep, distance, distance_n),
+            done | stop, result, n + 1,
+        )  # fmt: skip
+
+    gap0, rate0, distance0 = gap_at(jnp.zeros_like(x))
+    start = (jnp.zeros_like(x), gap0, rate0, distance0, ~moving, jnp.full_like(x, jnp.inf),
+             jnp.int32(0))  # fmt: skip
+    _t, _, _, _, done, result, _ = lax.while_loop(cond, body, start)
+    return jnp.where(done, result, jnp.inf), ~done
+
+
+def offset_angle(p: Puck, ax, ay):
+    """`flight._offset_angle`: the paper's alpha at tautening."""
+    rx, ry = ARM * jnp.cos(p.angle), ARM * jnp.sin(p.angle)
+    ux, uy = p.x + rx - ax, p.y + ry - ay
+    return jnp.arctan2(ux * -ry - uy * -rx, ux * -rx + uy * -ry)
+
+
+def wheel_crossing(p: Puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clearance):
+    """(t, rate): `flight.wheel_crossing` ((inf, 0) where the wheel cannot meet `alpha`
+    robustly on the stretch); `alpha` may be an array (the grid at once)."""
+    radius2 = length * length + ARM * ARM + 2.0 * length * ARM * jnp.cos(alpha)
+    px, py = p.x - ax, p.y - ay
+    v2 = p.vx * p.vx + p.vy * p.vy
+    b = px * p.vx + py * p.vy
+    disc = b * b - v2 * (px * px + py * py - radius2)
+    ok = ~((v2 == 0.0) | (disc < CROSSING_MARGIN * CROSSING_MARGIN * v2 * radius2))
+    safe_v2 = jnp.where(v2 == 0.0, 1.0, v2)
+    t = (jnp.sqrt(jnp.where(ok, disc, 0.0)) - b) / safe_v2
+    ok &= (0.0 <= t) & (t <= t_end)
+    cx, cy = px + p.vx * t, py + p.vy * t
+    x, y = ax + cx, ay + cy
+    room = jnp.minimum(jnp.minimum(x, TABLE_WIDTH - x), jnp.minimum(y, TABLE_HEIGHT - y))
+    ok &= ~(room - PUCK_RADIUS < clearance)
+    gamma = jnp.arctan2(ARM * jnp.sin(alpha), length + ARM * jnp.cos(alpha))
+    u_angle = jnp.arctan2(cy, cx) - gamma
+    body = u_angle + alpha + math.pi
+    total = elapsed + t
+    turn = fold_angle(body - p.angle - p.spin * t)
+    ok &= jnp.abs(turn) <= wheel_rate * total
+    rate = jnp.where(total > 0.0, turn / jnp.where(total > 0.0, total, 1.0), 0.0)
+    ux, uy = jnp.cos(u_angle), jnp.sin(u_angle)
+    rx, ry = ARM * jnp.cos(body), ARM * jnp.sin(body)
+    least = CROSSING_MARGIN * jnp.sqrt(v2)
+    for spin in (p.spin, p.spin + rate):
+        ok &= (p.vx - spin * ry) * ux + (p.vy + spin * rx) * uy >= least
+    return jnp.where(ok, t, jnp.inf), jnp.where(ok, rate, 0.0)
+
+
+def _nearest(alpha, works):
+    """The grid angle the numba loop of `flight._wheel_target` settles on: it walks the grid
+    from the angles around the command outwards, the lower one first on a tie, and stops at the
+    first that `works`; that is the nearest working angle below the command's grid cell or the
+    nearest above it, whichever is nearer (the lower on a tie). (found, angle)."""
+    step = math.pi / (WHEEL_GRID - 1)
+    grid = jnp.arange(WHEEL_GRID)
+    below0 = jnp.minimum(jnp.trunc((alpha + 0.5 * math.pi) / step), WHEEL_GRID - 1)
+    below_ok = works & (grid <= below0)
+    above_ok = works & (grid > below0)
+    below = jnp.max(jnp.where(below_ok, grid, -1))
+    above = jnp.min(jnp.where(above_ok, grid, WHEEL_GRID))
+    has_below, has_above = below >= 0, above < WHEEL_GRID
+    a_below = -0.5 * math.pi + jnp.maximum(below, 0) * step
+    a_above = -0.5 * math.pi + jnp.minimum(above, WHEEL_GRID - 1) * step
+    take_below = has_below & (~has_above | (alpha - a_below <= a_above - alpha))
+    return has_below | has_above, jnp.where(take_below, a_below, a_above)
+
+
+def wheel_target(p: Puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clearance):
+    """(t, rate, target): `flight._wheel_target`."""
+    args = (elapsed, t_end, wheel_rate, clearance)
+    t0, rate0 = wheel_crossing(p, ax, ay, length, alpha, *args)
+    step = math.pi / (WHEEL_GRID - 1)
+    grid = -0.5 * math.pi + jnp.arange(WHEEL_GRID) * step
+    t_grid, _ = wheel_crossing(p, ax, ay, length, grid, *args)
+    found, reachable = _nearest(alpha, t_grid < jnp.inf)
+
+    def bisect(_, c):
+        reachable, out = c
+        mid = 0.5 * (reachable + out)
+        t, _ = wheel_crossing(p, ax, ay, length, mid, *args)
+        works = t < jnp.inf
+        return jnp.where(works, mid, reachable), jnp.where(works, out, mid)
+
+    reachable, _ = lax.fori_loop(0, WHEEL_BISECTIONS, bisect, (reachable, alpha))
+    t1, rate1 = wheel_crossing(p, ax, ay, length, reachable, *args)
+    direct = t0 < jnp.inf
+    t = jnp.where(direct, t0, jnp.where(found, t1, jnp.inf))
+    rate = jnp.where(direct, rate0, jnp.where(found, rate1, 0.0))
+    target = jnp.where(direct, alpha, jnp.where(found, reachable, alpha))
+    return t, rate, target
+
+
+def contact_clearance(s, dynamics: int, stiffness):
+    """`flight.contact_clearance` (`dynamics` static)."""
+    if dynamics == IMPULSE:
+        return jnp.zeros_like(s.x)
+    speed = jnp.sqrt(s.vx * s.vx + s.vy * s.vy + INERTIA_RATIO * (PUCK_RADIUS * s.spin) ** 2)
+    return speed * CONTACT_PERIODS * 2.0 * math.pi * jnp.sqrt(PUCK_MASS / stiffness)
+
+
+def wheel_plan(puck: Puck, posts, n_posts, ax, ay, length, alpha, clearance, wheel_rate,
+               wall_restitution):  # fmt: skip
+    """(hits, t, time, rate, target): `flight._wheel_plan`, one iteration per stretch (at most
+    `MAX_WALL_HITS` + 1)."""
+    inf = jnp.inf
+    zero = jnp.zeros_like(puck.x)
+    none = (jnp.int32(-1), inf + zero, zero, zero, alpha + zero)
+
+    def cond(c):
+        return ~c[3]
+
+    def body(c):
+        p, elapsed, hits, _done, result = c
+        t_end, t_wall, wall, t_post = stretch_end(p, posts, n_posts, elapsed)
+        t, rate, target = wheel_target(
+            p, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clearance
+        )
+        hit = t < inf
+        stop = (t_post < inf) | (t_wall > FLIGHT_HORIZON - elapsed) | (hits == MAX_WALL_HITS)
+        found = (hits, t, elapsed + t, rate, target)
+        result = select(hit, found, select(stop, none, result))
+        p = wall_bounce(free_flight(p, t_wall), wall, wall_restitution)
+        return p, elapsed + t_wall, hits + 1, hit | stop, result
+
+    start = (puck, zero, jnp.int32(0), jnp.asarray(False), none)
+    return lax.while_loop(cond, body, start)[4]
+
+
+def path_point(path, n, x, y, active=True):
+    """`flight.path_point` on a (PATH_POINTS, 2) path: (path, next n); nothing where not
+    `active`."""
+    row = jnp.stack([x, y])
+    new = path.at[jnp.minimum(n, PATH_POINTS - 1)].set(row)
+    return jnp.where(active, new, path), jnp.where(active, n + 1, n)
+
+
+class Flight(NamedTuple):
+    """What `fly` returns (`flight.fly`'s values and what it writes into the outcome row)."""
+
+    puck: Puck
+    taut: jnp.ndarray
+    met: jnp.ndarray
+    time: jnp.ndarray
+    hits: jnp.ndarray
+    hit_post: jnp.ndarray
+    n: jnp.ndarray
+    path: jnp.ndarray
+    wheel_target: jnp.ndarray
+    wheel_target_time: jnp.ndarray
+    wheel_turn: jnp.ndarray
+    capped: jnp.ndarray
+
+
+def fly(s, dynamics: int, reaction_wheel, wheel_rate, wall_restitution, stiffness, ax, ay,
+        length, alpha):  # fmt: skip
+    """`flight.fly` from episode `s` (its puck, posts and n_posts), one iteration per stretch
+    (at most `MAX_WALL_HITS` + 1)."""
+    inf = jnp.inf
+    start = Puck(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
+    zero = jnp.zeros_like(s.x)
+    posts, n_posts = s.posts, s.n_posts
+    at_once, capped0 = time_to_taut(start, ax, ay, length, ARM, AT_ONCE + zero)
+    clearance = contact_clearance(s, dynamics, stiffness)
+    plan = wheel_plan(start, posts, n_posts, ax, ay, length, alpha, clearance, wheel_rate,
+                      wall_restitution)  # fmt: skip
+    turning = start._replace(spin=s.spin + plan[3])
+    at_once_turning, capped1 = time_to_taut(turning, ax, ay, length, ARM, AT_ONCE + zero)
+    none = (jnp.int32(-1), inf + zero, zero, zero, alpha + zero)
+    use = reaction_wheel & (at_once == inf) & ~(at_once_turning < inf)
+    target_hits, target_t, target_time, rate, target = select(use, plan, none)
+    capped = capped0 | (reaction_wheel & (at_once == inf) & capped1)
+    puck = start._replace(spin=s.spin + rate)
+    path = jnp.zeros((PATH_POINTS, 2), zero.dtype)
+    path, n = path_point(path, jnp.int32(0), puck.x, puck.y)
+    result = Flight(start, jnp.asarray(False), alpha + zero, zero, jnp.int32(0),
+                    jnp.asarray(False), n, path, target, target_time, zero, capped)  # fmt: skip
+
+    def cond(c):
+        return ~c[3]
+
+    def body(c):
+        p, elapsed, hits, _done, n, path, result = c
+        t_end, t_wall, wall, t_post = stretch_end(p, posts, n_posts, elapsed)
+        on_target = hits == target_hits
+        t, capped = time_to_taut(p, ax, ay, length, ARM, jnp.where(on_target, target_t, t_end))
+        on_target &= ~(t < target_t - TARGET_TOLERANCE * jnp.maximum(1.0, target_t))
+        t = jnp.where(on_target, target_t, t)
+        taut = t < inf
+        turned = free_flight(p, t)
+        taut_puck = turned._replace(spin=s.spin)
+        met = jnp.where(on_target, target, offset_angle(taut_puck, ax, ay))
+        stop = (t_post < inf) | (t_wall > FLIGHT_HORIZON - elapsed) | (hits == MAX_WALL_HITS)
+        t_stop = jnp.where(t_post < inf, t_end, jnp.minimum(t_wall, FLIGHT_HORIZON - elapsed))
+        stop_puck = free_flight(p, t_stop)._replace(spin=s.spin)
+        end_puck = select(taut, taut_puck, stop_puck)
+        ended = taut | stop
+        end_path, end_n = path_point(path, n, end_puck.x, end_puck.y)
+        t_flight = jnp.where(taut, t, t_stop)
+        ending = Flight(
+            end_puck, taut, jnp.where(taut, met, alpha), elapsed + t_flight, hits,
+            ~taut & (t_post < inf), end_n, end_path, target, target_time,
+            rate * (elapsed + t_flight), result.capped | capped,
+        )  # fmt: skip
+        result = select(ended, ending, result._replace(capped=result.capped | capped))
+        bounced = wall_bounce(free_flight(p, t_wall), wall, wall_restitution)
+        path, n = path_point(path, n, bounced.x, bounced.y, ~ended)
+        return bounced, elapsed + t_wall, hits + 1, ended, n, path, result
+
+    carry = (puck, zero, jnp.int32(0), jnp.asarray(False), n, path, result)
+    return lax.while_loop(cond, body, carry)[-1]
+
+
+def coast(puck: Puck, posts, n_posts, wall_restitution, gx, gy, path, n, active):
+    """(puck, hit_post, path, n): `flight.coast` where `active`, else `puck` as it is, its
+    `COAST_STRETCHES` stretches unrolled."""
+    nearest = jnp.inf + jnp.zeros_like(puck.x)
+    best, at, hit = jnp.int32(0), jnp.zeros_like(puck.x), jnp.asarray(False)
+    elapsed = jnp.zeros_like(puck.x)
+    going = jnp.asarray(True)
+    starts = []
+    p = puck
+    for k in range(COAST_STRETCHES):
+        starts.append(p)
+        t_end, t_wall, wall, t_post = stretch_end(p, posts, n_posts, elapsed)
+        t_end = jnp.minimum(t_end, PATH_TIME - elapsed)
+        v2 = p.vx * p.vx + p.vy * p.vy
+        t = (gx - p.x) * p.vx + (gy - p.y) * p.vy
+        t = jnp.where(
+            v2 > 0.0,
+            jnp.minimum(jnp.maximum(t / jnp.where(v2 > 0.0, v2, 1.0), 0.0), t_end),
+            0.0,
+        )
+        d = jnp.hypot(p.x + p.vx * t - gx, p.y + p.vy * t - gy)
+        better = going & (d < nearest)
+        nearest = jnp.where(better, d, nearest)
+        best = jnp.where(better, k, best)
+        at = jnp.where(better, t, at)
+        hit = jnp.where(better, (t_post <= t_end) & (t == t_end), hit)
+        going &= ~((t_post <= t_end) | (t_wall >= PATH_TIME - elapsed))
+        p = wall_bounce(free_flight(p, t_wall), wall, wall_restitution)
+        elapsed = elapsed + t_wall
+    for k in range(1, COAST_STRETCHES):
+        path, n = path_point(path, n, starts[k].x, starts[k].y, active & (k <= best))
+    row = starts[0]
+    for k in range(1, COAST_STRETCHES):
+        row = select(best == k, starts[k], row)
+    end = free_flight(row, at)
+    path, n = path_point(path, n, end.x, end.y, active)
+    return select(active, end, puck), active & hit, path, n
+
+
+def impulse_contact(p: Puck, ax, ay, e):
+    """(puck, bounced): `physics.impulse.impulse_contact_row` (the pose unchanged)."""
+    rx, ry = OFFSET * PUCK_RADIUS * jnp.cos(p.angle), OFFSET * PUCK_RADIUS * jnp.sin(p.angle)
+    px, py = p.x + rx - ax, p.y + ry - ay
+    distance = jnp.hypot(px, py)
+    vx, vy, w, bounced = impulse_response(
+        p.vx, p.vy, p.spin, rx, ry, px / distance, py / distance, INERTIA_RATIO, PUCK_RADIUS, e
+    )
+    return p._replace(vx=vx, vy=vy, spin=w), bounced
+
+
+def path_distance(path, gx, gy):
+    """`tasks.navigate.path_distance`: the least distance from (gx, gy) to the polyline."""
+    ax, ay = path[:-1, 0], path[:-1, 1]
+    dx, dy = path[1:, 0] - ax, path[1:, 1] - ay
+    length2 = dx * dx + dy * dy
+    s = jnp.where(
+        length2 == 0.0,
+        0.0,
+        jnp.minimum(
+            jnp.maximum(
+                ((gx - ax) * dx + (gy - ay) * dy) / jnp.where(length2 == 0.0, 1.0, length2), 0.0
+            ),
+            1.0,
+        ),
+    )
+    d = jnp.hypot(gx - ax - s * dx, gy - ay - s * dy)
+    return jnp.minimum(jnp.hypot(path[0, 0] - gx, path[0, 1] - gy), jnp.min(d))
+
+
+def terms(task_code, reward_type, path, gx, gy, at_rest, hit_post):
+    """(reward, success, progress, term_success, term_maneuver, term_post):
+    `tasks.navigate.terms`, both tasks and reward types computed and the traced ones picked."""
+    end = path.shape[0] - 1
+    after = jnp.hypot(path[end, 0] - gx, path[end, 1] - gy)
+    reach = path_distance(path, gx, gy) < task.GOAL_RADIUS
+    stop = at_rest & (after < task.GOAL_RADIUS)
+    met = jnp.where(task_code == task.REACH, reach, stop) & ~hit_post
+    term_success = jnp.where(met, task.SUCCESS_BONUS, 0.0)
+    before = jnp.hypot(path[0, 0] - gx, path[0, 1] - gy)
+    progress = before - after
+    post = jnp.where(hit_post, -task.POST_PENALTY, 0.0)
+    reward = progress + term_success - task.MANEUVER_COST + post
+    sparse = reward_type == task.SPARSE
+    zero = jnp.zeros_like(progress)
+    return (
+        jnp.where(sparse, jnp.where(met, 0.0, -1.0), reward),
+        met,
+        jnp.where(sparse, zero, progress),
+        term_success,
+        jnp.where(sparse, zero, -task.MANEUVER_COST + zero),
+        jnp.where(sparse, zero, post),
+    )
