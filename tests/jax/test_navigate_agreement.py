@@ -42,7 +42,7 @@ from tether_gym.envs.tether_navigate.spaces import OUTCOME
 from tether_gym.tasks import navigate as task
 
 CASES = 192
-"""Per id x dynamics: in whole `CHUNK`s."""
+"""Per id, impulse dynamics: in whole `CHUNK["impulse"]`s."""
 IMPULSE_TOLERANCE = 1e-9
 MAX_CHANGED = 1
 """Changed outcomes allowed per cell of `CASES` (measured: 1 in 24,000 impulse cases of the
