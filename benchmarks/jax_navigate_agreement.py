@@ -151,9 +151,30 @@ def canonical(obs: np.ndarray) -> np.ndarray:
     return obs
 
 
+def bearing_tie(states, actions, tolerance: float = 1e-9) -> np.ndarray:
+    """The cases whose `setup` action's bearing is as near (to `tolerance` rad) to two pegs
+    (`controls.setup.hook`): pegs in line with the puck, as a layout's pegs and start cells at
+    cell centres put them, whose bearings are equal in exact arithmetic and which the rounding
+    of atan2 (libm's or XLA's) picks between."""
+    from tether_gym.envs.tether_navigate.controls.setup import ACTION
+
+    a = np.clip(actions[:, 0], -1.0, 1.0)
+    bearing = ACTION.low[0] + 0.5 * (a + 1.0) * (ACTION.high[0] - ACTION.low[0])
+    moving = (states["vx"] != 0.0) | (states["vy"] != 0.0)
+    heading = np.where(moving, np.arctan2(states["vy"], states["vx"]), 0.0)
+    dx = states["anchors"][:, :, 0] - states["x"][:, None]
+    dy = states["anchors"][:, :, 1] - states["y"][:, None]
+    b = np.arctan2(dy, dx) - heading[:, None] - bearing[:, None]
+    gap = np.abs(np.pi - np.mod(np.pi - b, 2.0 * np.pi))
+    gap = np.where(np.arange(gap.shape[1]) < states["n_anchors"][:, None], gap, np.inf)
+    two = np.sort(gap, axis=1)[:, :2]
+    return two[:, 1] - two[:, 0] <= tolerance
+
+
 def compare(config: NavigateConfig, states, actions) -> dict:
     """The observation's and the outcome's differences per field, `changed` (the cases whose
-    flags or counts differ) and their classes, and `given_up` (numba's contact not completed)."""
+    peg, flags or counts differ) and their classes (a peg hooked otherwise: "peg tie" where two
+    pegs lie at one bearing, `bearing_tie`), and `given_up` (numba's contact not completed)."""
     want = numba_side(config, states, actions)
     got = jax_side(config, states, actions)
     result = {
@@ -163,6 +184,12 @@ def compare(config: NavigateConfig, states, actions) -> dict:
     changed = np.zeros(len(states), bool)
     classes: dict[str, int] = {}
     per_case = [[] for _ in range(len(states))]
+    other_peg = result["outcome"]["anchor"] != 0.0
+    if config.control == "setup":
+        tie = bearing_tie(states, actions)
+        for i in np.flatnonzero(other_peg):
+            per_case[i].append("peg tie (equal bearings)" if tie[i] else "peg")
+        changed |= other_peg
     for name in (*FLAGS, *COUNTS):
         moved = result["outcome"][name] != 0.0
         changed |= moved
