@@ -1,0 +1,701 @@
+"""PPO compiled with the JAX envs: rollout, advantages and updates inside one `jit`, seeds under
+`jax.vmap`, in the PureJaxRL design (flax.linen networks, optax's Adam), with the semantics of
+stable-baselines3's `PPO` where they change what is learned.
+
+    from tether_gym.training.jax_ppo import PPOConfig, make_train
+    config = PPOConfig.from_zoo("TetherBounce-v0", timesteps=200_000)
+    train = jax.jit(jax.vmap(make_train(config)))  # one compiled run of every seed
+    out = train(jax.random.split(jax.random.key(0), 5))  # out["params"]: a stack of 5 policies
+
+The recipe is the SB3 run's: `PPOConfig.from_zoo` reads the same zoo entry
+(`hyperparams/ppo.yml`, through `tether_gym.training.zoo`), SB3's defaults (read from the
+signatures of `PPO` and `ActorCriticPolicy`) fill what the entry leaves out, and an argument the
+trainer cannot honour (gSDE, `normalize`, a policy class other than `MlpPolicy`, ...) is refused.
+
+What is SB3's here:
+
+- the networks: separate pi and vf MLPs (`net_arch=dict(pi=..., vf=...)`, a list: both), the
+  activation, orthogonal initialization (gain sqrt(2) in the hidden layers, 0.01 for the action
+  mean, 1 for the value; zero biases), a state-independent log std (`log_std_init`);
+- the Gaussian's sample is stored and its log-prob taken unclipped; the env gets it clipped to
+  the action space's bounds; the deterministic action is the mean, clipped;
+- GAE over the rollout, bootstrapped from the value of the observation after it; the
+  observation as SB3 sees it (the env's float32 observation, no normalization);
+- per epoch, a fresh permutation of the rollout cut into `batch_size` minibatches; the advantage
+  normalized per minibatch (torch's unbiased std, + 1e-8); the clipped surrogate, the value loss
+  `mean((return - value)^2)` (clipped around the old value only with `clip_range_vf`), the
+  entropy term, the global gradient norm clipped to `max_grad_norm`, Adam with eps 1e-5;
+- `target_kl`: as SB3, a minibatch whose approximate KL (`mean((r - 1) - log r)` at the
+  parameters before its step) exceeds 1.5 * target_kl is not applied and ends the epochs of
+  that rollout (a `lax.while_loop`; under `vmap` every seed stops at its own minibatch, the loop
+  runs until the last seed stops);
+- the learning rate `lin_<x>`: x times the progress remaining after the rollout (SB3's
+  `LinearSchedule`), updates until the timesteps are reached (the last rollout may overshoot).
+
+What differs: the rollout runs the JAX kernel (`tether_gym.jax`, gymnax convention), float32;
+a truncated episode is not bootstrapped (the gymnax convention has no truncation flag;
+TetherBounce's episodes end after one step, terminated); `batch_size` must divide
+`n_steps * n_envs` (SB3 allows a short last minibatch); the random streams are JAX's.
+
+The trained policy is an agent (`JaxPolicyAgent`: SB3's `predict(obs, deterministic=True)` on
+numpy observations), so `tether_gym.evaluation` plays it on the numba envs' seeded episodes, and
+it is saved as two files (`save_policy`, `load_policy`):
+
+- `<name>.msgpack`: the flax parameters (`flax.serialization.to_bytes`; read back with
+  `msgpack_restore`, no template needed): {"params": {"pi_0": {"kernel", "bias"}, ...,
+  "action": ..., "vf_0": ..., "value": ..., "log_std"}};
+- `<name>.json`: `PolicyConfig`: format, env_id, env_kwargs, net_arch, activation,
+  log_std_init, the observation and action spaces' shape and bounds, and the training recipe.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import json
+import math
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import flax.linen as nn
+import flax.serialization
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+from jax import lax
+
+from tether_gym.jax.gymnax import TetherBounceGymnax
+
+ENVS: dict[str, Callable[..., Any]] = {"TetherBounce-v0": TetherBounceGymnax}
+"""Env ids with a JAX backend in the gymnax convention, and its class (built from the env
+arguments of the numba env)."""
+ACTIVATIONS = {"relu": nn.relu, "tanh": nn.tanh, "elu": nn.elu, "leakyrelu": nn.leaky_relu}
+"""The activations, by the lower-cased name of their torch class (`nn.ReLU`: "relu")."""
+FORMAT = "tether_gym.jax_ppo/1"
+"""The saved policy's format tag (its JSON's `format`)."""
+SUPPORTED_KWARGS = {
+    "learning_rate", "n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "clip_range",
+    "clip_range_vf", "normalize_advantage", "ent_coef", "vf_coef", "max_grad_norm", "target_kl",
+    "policy_kwargs", "use_sde",
+}  # fmt: skip
+"""PPO's arguments the trainer honours (use_sde only False)."""
+SUPPORTED_POLICY_KWARGS = {"net_arch", "activation_fn", "log_std_init", "ortho_init"}
+
+
+def _defaults(function: Callable) -> dict[str, Any]:
+    return {
+        name: p.default
+        for name, p in inspect.signature(function).parameters.items()
+        if p.default is not inspect.Parameter.empty
+    }
+
+
+def _rate(value: Any) -> tuple[float, bool]:
+    """A zoo rate ("lin_<x>" or a number) as (x, linear)."""
+    if isinstance(value, str) and value.startswith("lin_"):
+        return float(value[4:]), True
+    if isinstance(value, str) or callable(value):
+        raise ValueError(f"the JAX trainer takes a number or 'lin_<x>', got {value!r}")
+    return float(value), False
+
+
+@dataclasses.dataclass(frozen=True)
+class PPOConfig:
+    """One PPO recipe (SB3's names and meanings); `from_zoo` reads it from a zoo entry."""
+
+    env_id: str = "TetherBounce-v0"
+    env_kwargs: dict = dataclasses.field(default_factory=dict)
+    timesteps: int = 5_000_000
+    n_envs: int = 512
+    n_steps: int = 4
+    batch_size: int = 512
+    n_epochs: int = 10
+    gamma: float = 0.0
+    gae_lambda: float = 0.0
+    learning_rate: float = 1e-3
+    linear_lr: bool = True
+    """learning_rate decays linearly to 0 over training (the zoo's `lin_<x>`)."""
+    clip_range: float = 0.2
+    clip_range_vf: float | None = None
+    normalize_advantage: bool = True
+    ent_coef: float = 0.0
+    vf_coef: float = 0.5
+    max_grad_norm: float = 0.5
+    target_kl: float | None = 0.05
+    pi_arch: tuple[int, ...] = (256, 256)
+    vf_arch: tuple[int, ...] = (64, 64)
+    activation: str = "relu"
+    log_std_init: float = -2.0
+    ortho_init: bool = True
+
+    def __post_init__(self):
+        if self.activation not in ACTIVATIONS:
+            raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}")
+        if self.env_id not in ENVS:
+            raise ValueError(f"no JAX env for {self.env_id!r}; JAX envs: {sorted(ENVS)}")
+        if (self.n_steps * self.n_envs) % self.batch_size:
+            raise ValueError(
+                f"batch_size {self.batch_size} must divide n_steps * n_envs "
+                f"({self.n_steps} * {self.n_envs}) in the JAX trainer"
+            )
+
+    @property
+    def rollout_size(self) -> int:
+        return self.n_steps * self.n_envs
+
+    @property
+    def n_updates(self) -> int:
+        """Rollouts (each followed by its update) until `timesteps` are reached, as SB3."""
+        return max(1, math.ceil(self.timesteps / self.rollout_size))
+
+    @property
+    def n_minibatches(self) -> int:
+        return self.rollout_size // self.batch_size
+
+    def as_dict(self) -> dict[str, Any]:
+        data = dataclasses.asdict(self)
+        data["pi_arch"], data["vf_arch"] = list(self.pi_arch), list(self.vf_arch)
+        return data
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> PPOConfig:
+        data = dict(data)
+        for key in ("pi_arch", "vf_arch"):
+            if key in data:
+                data[key] = tuple(data[key])
+        return cls(**data)
+
+    @classmethod
+    def from_zoo(
+        cls,
+        env_id: str = "TetherBounce-v0",
+        timesteps: int | None = None,
+        overrides: dict[str, Any] | None = None,
+        env_kwargs: dict[str, Any] | None = None,
+        conf=None,
+    ) -> PPOConfig:
+        """The recipe of `env_id`'s entry in the PPO zoo file (`conf`, default the packaged
+        `hyperparams/ppo.yml`), `overrides` applied (`--hyperparams`), SB3's defaults for the
+        rest; `timesteps` (default the entry's `n_timesteps`), `env_kwargs` over the entry's.
+        ValueError for what the JAX trainer does not do."""
+        from stable_baselines3 import PPO
+        from stable_baselines3.common.policies import ActorCriticPolicy
+
+        from tether_gym.training.zoo import DEFAULT_CONF, algo_kwargs, load_hyperparams
+
+        params = load_hyperparams(conf or DEFAULT_CONF, overrides, env_id)
+        if params.get("policy", "MlpPolicy") != "MlpPolicy":
+            raise ValueError(f"the JAX trainer builds MlpPolicy only, not {params['policy']!r}")
+        if params.get("normalize"):
+            raise ValueError("the JAX trainer does not normalize observations (normalize)")
+        raw = {k: v for k, v in params.items() if k in SUPPORTED_KWARGS}
+        kwargs = algo_kwargs(params)
+        unknown = set(kwargs) - SUPPORTED_KWARGS
+        if unknown:
+            raise ValueError(f"the JAX trainer does not take {sorted(unknown)}")
+        if kwargs.get("use_sde"):
+            raise ValueError("the JAX trainer has no gSDE (use_sde)")
+        ppo = {**_defaults(PPO.__init__), **kwargs, **raw}
+        policy_kwargs = kwargs.get("policy_kwargs") or {}
+        unknown = set(policy_kwargs) - SUPPORTED_POLICY_KWARGS
+        if unknown:
+            raise ValueError(f"the JAX trainer does not take policy_kwargs {sorted(unknown)}")
+        policy = {**_defaults(ActorCriticPolicy.__init__), **policy_kwargs}
+        arch = policy.get("net_arch") or {"pi": [64, 64], "vf": [64, 64]}
+        if isinstance(arch, (list, tuple)):
+            arch = {"pi": arch, "vf": arch}
+        learning_rate, linear = _rate(ppo["learning_rate"])
+        for key in ("clip_range", "clip_range_vf"):
+            if ppo[key] is not None:
+                value, lin = _rate(ppo[key])
+                if lin:
+                    raise ValueError(f"the JAX trainer takes a constant {key}")
+                ppo[key] = value
+        return cls(
+            env_id=env_id,
+            env_kwargs={**params.get("env_kwargs", {}), **(env_kwargs or {})},
+            timesteps=int(timesteps if timesteps is not None else params["n_timesteps"]),
+            n_envs=int(params.get("n_envs", 1)),
+            n_steps=int(ppo["n_steps"]),
+            batch_size=int(ppo["batch_size"]),
+            n_epochs=int(ppo["n_epochs"]),
+            gamma=float(ppo["gamma"]),
+            gae_lambda=float(ppo["gae_lambda"]),
+            learning_rate=learning_rate,
+            linear_lr=linear,
+            clip_range=float(ppo["clip_range"]),
+            clip_range_vf=ppo["clip_range_vf"],
+            normalize_advantage=bool(ppo["normalize_advantage"]),
+            ent_coef=float(ppo["ent_coef"]),
+            vf_coef=float(ppo["vf_coef"]),
+            max_grad_norm=float(ppo["max_grad_norm"]),
+            target_kl=None if ppo["target_kl"] is None else float(ppo["target_kl"]),
+            pi_arch=tuple(int(n) for n in arch["pi"]),
+            vf_arch=tuple(int(n) for n in arch["vf"]),
+            activation=policy["activation_fn"].__name__.lower(),
+            log_std_init=float(policy["log_std_init"]),
+            ortho_init=bool(policy["ortho_init"]),
+        )
+
+
+class ActorCritic(nn.Module):
+    """SB3's `MlpPolicy` for a Box action: separate pi and vf MLPs, a linear action mean, a
+    state-independent log std, a linear value. Returns (mean, log_std, value)."""
+
+    action_dim: int
+    pi_arch: tuple[int, ...] = (64, 64)
+    vf_arch: tuple[int, ...] = (64, 64)
+    activation: str = "tanh"
+    log_std_init: float = 0.0
+    ortho_init: bool = True
+
+    @nn.compact
+    def __call__(self, obs: jax.Array):
+        act = ACTIVATIONS[self.activation]
+
+        def dense(width: int, gain: float, name: str) -> nn.Dense:
+            if self.ortho_init:
+                init = nn.initializers.orthogonal(gain)
+                return nn.Dense(width, kernel_init=init, bias_init=nn.initializers.zeros, name=name)
+            return nn.Dense(width, name=name)
+
+        x = obs
+        for i, width in enumerate(self.pi_arch):
+            x = act(dense(width, math.sqrt(2), f"pi_{i}")(x))
+        mean = dense(self.action_dim, 0.01, "action")(x)
+        v = obs
+        for i, width in enumerate(self.vf_arch):
+            v = act(dense(width, math.sqrt(2), f"vf_{i}")(v))
+        value = dense(1, 1.0, "value")(v)[..., 0]
+        log_std = self.param(
+            "log_std", nn.initializers.constant(self.log_std_init), (self.action_dim,)
+        )
+        return mean, log_std, value
+
+
+def network(config: PPOConfig, action_dim: int) -> ActorCritic:
+    return ActorCritic(
+        action_dim=action_dim,
+        pi_arch=config.pi_arch,
+        vf_arch=config.vf_arch,
+        activation=config.activation,
+        log_std_init=config.log_std_init,
+        ortho_init=config.ortho_init,
+    )
+
+
+def gaussian_log_prob(x: jax.Array, mean: jax.Array, log_std: jax.Array) -> jax.Array:
+    """The log density of a diagonal Gaussian, summed over the action's entries."""
+    z = (x - mean) * jnp.exp(-log_std)
+    return jnp.sum(-0.5 * z * z - log_std - 0.5 * math.log(2 * math.pi), axis=-1)
+
+
+def gaussian_entropy(log_std: jax.Array) -> jax.Array:
+    return jnp.sum(log_std + 0.5 + 0.5 * math.log(2 * math.pi), axis=-1)
+
+
+def make_env(config: PPOConfig):
+    """The gymnax-convention JAX env of the recipe, and its params."""
+    env = ENVS[config.env_id](**config.env_kwargs)
+    return env, env.default_params
+
+
+class Transition(NamedTuple):
+    obs: jax.Array
+    action: jax.Array
+    log_prob: jax.Array
+    value: jax.Array
+    reward: jax.Array
+    done: jax.Array
+    success: jax.Array
+
+
+class RunnerState(NamedTuple):
+    params: Any
+    opt_state: Any
+    env_state: Any
+    obs: jax.Array
+    key: jax.Array
+
+
+METRICS = (
+    "reward", "success", "policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction",
+    "minibatches", "learning_rate",
+)  # fmt: skip
+"""Per update (a vector over updates, per seed): the rollout's mean reward and success rate,
+and the applied minibatches' mean losses, KL and clip fraction, their count and the rate."""
+
+
+def make_train(config: PPOConfig) -> Callable[[jax.Array], dict[str, Any]]:
+    """`train(key)`: one seed's whole run, jittable and vmappable (`jax.vmap(train)(keys)`),
+    returning {"params": the trained parameters, "metrics": {name: (n_updates,)}}.
+    `make_stages(config)` gives the same run cut into `init` and `update` calls (progress)."""
+    init, update = make_stages(config)
+
+    def train(key: jax.Array) -> dict[str, Any]:
+        state = init(key)
+        state, metrics = update(state, 0, config.n_updates)
+        return {"params": state.params, "metrics": metrics}
+
+    return train
+
+
+def make_stages(config: PPOConfig):
+    """(`init(key)` -> RunnerState, `update(state, start, count)` -> (state, metrics)): the
+    run of `make_train` in pieces; `update` runs updates start .. start + count - 1 (past
+    `n_updates` it does nothing: the metrics there are NaN). `start` and `count` are static
+    under `jit` (`count`) or unbatched (`start`: `vmap(update, in_axes=(0, None, None))`)."""
+    env, env_params = make_env(config)
+    obs_space, act_space = env.observation_space(env_params), env.action_space(env_params)
+    action_dim = int(np.prod(act_space.shape))
+    low, high = jnp.asarray(act_space.low), jnp.asarray(act_space.high)
+    net = network(config, action_dim)
+    tx = optax.chain(optax.clip_by_global_norm(config.max_grad_norm), optax.scale_by_adam(eps=1e-5))
+    n_envs, n_steps, n_mb = config.n_envs, config.n_steps, config.n_minibatches
+    total_mb = config.n_epochs * n_mb
+    vstep = jax.vmap(env.step, in_axes=(0, 0, 0, None))
+    vreset = jax.vmap(env.reset, in_axes=(0, None))
+
+    def init(key: jax.Array) -> RunnerState:
+        key, k_net, k_env = jax.random.split(key, 3)
+        params = net.init(k_net, jnp.zeros(obs_space.shape, jnp.float32))
+        obs, env_state = vreset(jax.random.split(k_env, n_envs), env_params)
+        return RunnerState(params, tx.init(params), env_state, obs, key)
+
+    def env_step(state: RunnerState, _):
+        key, k_act, k_step = jax.random.split(state.key, 3)
+        mean, log_std, value = net.apply(state.params, state.obs)
+        action = mean + jnp.exp(log_std) * jax.random.normal(k_act, mean.shape)
+        log_prob = gaussian_log_prob(action, mean, log_std)
+        obs, env_state, reward, done, info = vstep(
+            jax.random.split(k_step, n_envs), state.env_state, jnp.clip(action, low, high),
+            env_params,
+        )  # fmt: skip
+        success = info.get("is_success", jnp.zeros_like(reward))
+        transition = Transition(
+            state.obs, action, log_prob, value, reward.astype(jnp.float32),
+            done.astype(jnp.float32), success.astype(jnp.float32),
+        )  # fmt: skip
+        return state._replace(env_state=env_state, obs=obs, key=key), transition
+
+    def advantages(traj: Transition, last_value: jax.Array) -> jax.Array:
+        def backward(carry, t):
+            gae, next_value = carry
+            not_done = 1.0 - t.done
+            delta = t.reward + config.gamma * next_value * not_done - t.value
+            gae = delta + config.gamma * config.gae_lambda * not_done * gae
+            return (gae, t.value), gae
+
+        _, adv = lax.scan(backward, (jnp.zeros_like(last_value), last_value), traj, reverse=True)
+        return adv
+
+    def loss_fn(params, batch: Transition, adv, returns, clip_range):
+        mean, log_std, value = net.apply(params, batch.obs)
+        log_prob = gaussian_log_prob(batch.action, mean, log_std)
+        if config.normalize_advantage and adv.shape[0] > 1:
+            adv = (adv - adv.mean()) / (jnp.std(adv, ddof=1) + 1e-8)
+        log_ratio = log_prob - batch.log_prob
+        ratio = jnp.exp(log_ratio)
+        surrogate = jnp.minimum(
+            adv * ratio, adv * jnp.clip(ratio, 1.0 - clip_range, 1.0 + clip_range)
+        )
+        policy_loss = -surrogate.mean()
+        if config.clip_range_vf is not None:
+            value = batch.value + jnp.clip(
+                value - batch.value, -config.clip_range_vf, config.clip_range_vf
+            )
+        value_loss = jnp.mean((returns - value) ** 2)
+        entropy = gaussian_entropy(log_std)
+        loss = policy_loss - config.ent_coef * entropy + config.vf_coef * value_loss
+        approx_kl = lax.stop_gradient(jnp.mean((ratio - 1.0) - log_ratio))
+        clip_fraction = jnp.mean((jnp.abs(ratio - 1.0) > clip_range).astype(jnp.float32))
+        return loss, (policy_loss, value_loss, entropy, approx_kl, clip_fraction)
+
+    grad_fn = jax.value_and_grad(loss_fn, has_aux=True)
+
+    def one_update(state: RunnerState, u: jax.Array):
+        state, traj = lax.scan(env_step, state, None, n_steps)
+        _, _, last_value = net.apply(state.params, state.obs)
+        adv = advantages(traj, last_value)
+        returns = adv + traj.value
+        flat = jax.tree.map(lambda x: x.reshape((config.rollout_size, *x.shape[2:])), traj)
+        adv, returns = adv.reshape(-1), returns.reshape(-1)
+        progress_remaining = 1.0 - (u + 1.0) * config.rollout_size / config.timesteps
+        lr = config.learning_rate * (
+            jnp.maximum(progress_remaining, 0.0) if config.linear_lr else 1.0
+        )
+        key, k_perm = jax.random.split(state.key)
+        perms = jax.vmap(lambda k: jax.random.permutation(k, config.rollout_size))(
+            jax.random.split(k_perm, config.n_epochs)
+        )
+        kl_limit = jnp.inf if config.target_kl is None else 1.5 * config.target_kl
+
+        def cond(carry):
+            _, _, i, going, _ = carry
+            return jnp.logical_and(going, i < total_mb)
+
+        def body(carry):
+            params, opt_state, i, going, sums = carry
+            idx = lax.dynamic_slice(perms[i // n_mb], ((i % n_mb) * config.batch_size,),
+                                    (config.batch_size,))  # fmt: skip
+            batch = jax.tree.map(lambda x: x[idx], flat)
+            (_, aux), grads = grad_fn(params, batch, adv[idx], returns[idx], config.clip_range)
+            going = aux[3] <= kl_limit
+            updates, new_opt = tx.update(grads, opt_state, params)
+            new_params = jax.tree.map(lambda p, g: p - lr * g, params, updates)
+            params, opt_state = jax.tree.map(
+                lambda a, b: jnp.where(going, a, b), (new_params, new_opt), (params, opt_state)
+            )
+            sums = sums + jnp.where(going, jnp.stack([*aux, 1.0]), 0.0)
+            return params, opt_state, i + 1, going, sums
+
+        params, opt_state, _, _, sums = lax.while_loop(
+            cond, body, (state.params, state.opt_state, 0, jnp.bool_(True), jnp.zeros(6))
+        )
+        count = sums[5]
+        means = sums[:5] / jnp.maximum(count, 1.0)
+        metrics = {
+            "reward": traj.reward.mean(),
+            "success": traj.success.mean(),
+            "policy_loss": means[0],
+            "value_loss": means[1],
+            "entropy": means[2],
+            "approx_kl": means[3],
+            "clip_fraction": means[4],
+            "minibatches": count,
+            "learning_rate": lr,
+        }
+        metrics = {name: jnp.asarray(value, jnp.float32) for name, value in metrics.items()}
+        return state._replace(params=params, opt_state=opt_state, key=key), metrics
+
+    def update(state: RunnerState, start, count: int):
+        def step(state, i):
+            u = start + i
+            nan = {name: jnp.float32(jnp.nan) for name in METRICS}
+            return lax.cond(u < config.n_updates, one_update, lambda s, u: (s, nan), state, u)
+
+        return lax.scan(step, state, jnp.arange(count))
+
+    return init, update
+
+
+@dataclasses.dataclass(frozen=True)
+class PolicyConfig:
+    """What a saved policy needs to play: its env, network and spaces (the JSON beside the
+    parameters), and the recipe it was trained with."""
+
+    env_id: str
+    env_kwargs: dict
+    pi_arch: tuple[int, ...]
+    vf_arch: tuple[int, ...]
+    activation: str
+    log_std_init: float
+    obs_shape: tuple[int, ...]
+    obs_low: list
+    obs_high: list
+    action_shape: tuple[int, ...]
+    action_low: list
+    action_high: list
+    recipe: dict = dataclasses.field(default_factory=dict)
+    format: str = FORMAT
+
+    @classmethod
+    def of(cls, config: PPOConfig) -> PolicyConfig:
+        env, params = make_env(config)
+        obs, act = env.observation_space(params), env.action_space(params)
+        return cls(
+            env_id=config.env_id,
+            env_kwargs=dict(config.env_kwargs),
+            pi_arch=config.pi_arch,
+            vf_arch=config.vf_arch,
+            activation=config.activation,
+            log_std_init=config.log_std_init,
+            obs_shape=tuple(obs.shape),
+            obs_low=np.asarray(obs.low, dtype=float).tolist(),
+            obs_high=np.asarray(obs.high, dtype=float).tolist(),
+            action_shape=tuple(act.shape),
+            action_low=np.asarray(act.low, dtype=float).tolist(),
+            action_high=np.asarray(act.high, dtype=float).tolist(),
+            recipe=config.as_dict(),
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        data = dataclasses.asdict(self)
+        for key in ("pi_arch", "vf_arch", "obs_shape", "action_shape"):
+            data[key] = list(data[key])
+        return data
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> PolicyConfig:
+        if data.get("format") != FORMAT:
+            raise ValueError(f"not a {FORMAT} policy config (format {data.get('format')!r})")
+        data = dict(data)
+        for key in ("pi_arch", "vf_arch", "obs_shape", "action_shape"):
+            data[key] = tuple(data[key])
+        return cls(**data)
+
+
+class JaxPolicyAgent:
+    """A trained JAX policy as an agent: SB3's `predict(obs, state, episode_start,
+    deterministic)` on numpy observations (one or a batch); the deterministic action is the
+    Gaussian's mean, a stochastic one a sample (numpy's generator, `seed`); both clipped to the
+    action space's bounds as SB3 does. `env_id` and `env_kwargs` name the env it was trained on."""
+
+    def __init__(self, params, config: PolicyConfig, seed: int | None = None):
+        self.params, self.config = params, config
+        self.env_id, self.env_kwargs = config.env_id, dict(config.env_kwargs)
+        self.control_kwargs: dict = {}
+        module = ActorCritic(
+            action_dim=int(np.prod(config.action_shape)),
+            pi_arch=tuple(config.pi_arch),
+            vf_arch=tuple(config.vf_arch),
+            activation=config.activation,
+            log_std_init=config.log_std_init,
+        )
+        self._policy = jax.jit(lambda p, o: module.apply(p, o)[:2])
+        self._low = np.asarray(config.action_low, dtype=np.float32)
+        self._high = np.asarray(config.action_high, dtype=np.float32)
+        self._rng = np.random.default_rng(seed)
+
+    def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
+        obs = np.asarray(obs, dtype=np.float32)
+        single = obs.ndim == len(self.config.obs_shape)
+        mean, log_std = self._policy(self.params, obs[None] if single else obs)
+        action = np.asarray(mean)
+        if not deterministic:
+            action = action + np.exp(np.asarray(log_std)) * self._rng.standard_normal(
+                action.shape
+            ).astype(np.float32)
+        action = np.clip(action, self._low, self._high)
+        return (action[0] if single else action), state
+
+
+def save_policy(path: str | Path, params, config: PPOConfig | PolicyConfig) -> Path:
+    """Write `path`.msgpack (the parameters) and `path`.json (the `PolicyConfig`); returns the
+    msgpack's path. `path` may end in .msgpack or have no suffix."""
+    path = Path(path)
+    stem = path.with_suffix("") if path.suffix == ".msgpack" else path
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    policy = config if isinstance(config, PolicyConfig) else PolicyConfig.of(config)
+    params = jax.tree.map(lambda x: np.asarray(x, dtype=np.float32), params)
+    target = stem.with_name(stem.name + ".msgpack")
+    target.write_bytes(flax.serialization.to_bytes(params))
+    stem.with_name(stem.name + ".json").write_text(json.dumps(policy.as_dict(), indent=1) + "\n")
+    return target
+
+
+def is_policy(path: str | Path) -> bool:
+    """Whether `path` is a saved JAX policy (.msgpack with its .json beside it)."""
+    path = Path(path)
+    return path.suffix == ".msgpack" and path.with_suffix(".json").is_file()
+
+
+def load_policy(path: str | Path, seed: int | None = None) -> JaxPolicyAgent:
+    """The agent saved by `save_policy` at `path` (the .msgpack, or the stem); ValueError
+    naming the file if it cannot be read."""
+    path = Path(path)
+    stem = path.with_suffix("") if path.suffix in (".msgpack", ".json") else path
+    files = stem.with_name(stem.name + ".msgpack"), stem.with_name(stem.name + ".json")
+    try:
+        config = PolicyConfig.from_dict(json.loads(files[1].read_text()))
+        params = flax.serialization.msgpack_restore(files[0].read_bytes())
+    except (OSError, ValueError, TypeError) as error:
+        raise ValueError(f"cannot load the JAX policy {str(files[0])!r}: {error}") from None
+    params = jax.tree.map(jnp.asarray, params)
+    return JaxPolicyAgent(params, config, seed)
+
+
+def unstack(tree, i: int):
+    """Seed i's slice of a tree stacked over seeds (`vmap`'s output)."""
+    return jax.tree.map(lambda x: x[i], tree)
+
+
+@dataclasses.dataclass
+class SeedsRun:
+    """`train_seeds`'s outcome: the policies and metrics stacked over seeds (leading axis),
+    the seconds spent compiling and training (the compiled calls only) and the timesteps per
+    seed (whole rollouts)."""
+
+    config: PPOConfig
+    seeds: list[int]
+    params: Any
+    metrics: dict[str, np.ndarray]
+    compile_seconds: float
+    train_seconds: float
+
+    @property
+    def timesteps(self) -> int:
+        return self.config.n_updates * self.config.rollout_size
+
+    @property
+    def steps_per_second(self) -> float:
+        """Env steps of all seeds per second of training (compilation excluded)."""
+        return len(self.seeds) * self.timesteps / self.train_seconds
+
+    def agent(self, i: int) -> JaxPolicyAgent:
+        """Seed i's (the i-th of `seeds`) policy as an agent."""
+        return JaxPolicyAgent(unstack(self.params, i), PolicyConfig.of(self.config))
+
+
+def train_seeds(
+    config: PPOConfig, seeds: list[int], chunk: int = 50, log: Callable[[str], None] | None = None
+) -> SeedsRun:
+    """Train `seeds` (keys `jax.random.PRNGKey(seed)`) at once: `vmap` over seeds of the run of
+    `make_train`, compiled ahead of time (announced, timed), then called in pieces of `chunk`
+    updates so that `log` (e.g. `print`) gets the progress: updates done, the seeds' rollout
+    success and steps/s."""
+    say = log or (lambda _: None)
+    init, update = make_stages(config)
+    chunk = max(1, min(chunk, config.n_updates))
+    keys = jnp.stack([jax.random.PRNGKey(seed) for seed in seeds])
+    v_init = jax.jit(jax.vmap(init))
+    v_update = jax.jit(jax.vmap(update, in_axes=(0, None, None)), static_argnums=2)
+    say(
+        f"compiling PPO on {config.env_id} for {len(seeds)} seeds "
+        f"({config.n_updates} updates of {config.rollout_size} steps) on {jax.devices()[0]} ..."
+    )
+    clock = time.perf_counter()
+    init_compiled = v_init.lower(keys).compile()
+    state = init_compiled(keys)
+    update_compiled = v_update.lower(state, jnp.int32(0), chunk).compile()
+    compile_seconds = time.perf_counter() - clock
+    say(f"compiled in {compile_seconds:.1f} s")
+    pieces, clock, done = [], time.perf_counter(), 0
+    while done < config.n_updates:
+        state, metrics = update_compiled(state, jnp.int32(done))
+        metrics = jax.tree.map(np.asarray, metrics)
+        done = min(done + chunk, config.n_updates)
+        pieces.append(metrics)
+        elapsed = time.perf_counter() - clock
+        rate = len(seeds) * done * config.rollout_size / elapsed
+        success = ", ".join(f"{s:.3f}" for s in np.nanmean(metrics["success"], axis=1))
+        say(
+            f"update {done}/{config.n_updates}: rollout success per seed [{success}], "
+            f"{rate:,.0f} steps/s, {elapsed:.0f} s"
+        )
+    train_seconds = time.perf_counter() - clock
+    metrics = {
+        name: np.concatenate([m[name] for m in pieces], axis=1)[:, : config.n_updates]
+        for name in METRICS
+    }
+    return SeedsRun(config, list(seeds), state.params, metrics, compile_seconds, train_seconds)
+
+
+def evaluate_seeds(run: SeedsRun, episodes: int = 1000, seed: int | None = None) -> list:
+    """Each seed's deterministic policy on the numba env's seeded test episodes
+    (`tether_gym.evaluation.evaluate`, seed `TEST_SEED` by default: the final table's), a
+    `Result` per seed named `seed<k>`."""
+    from tether_gym.evaluation.runner import evaluate
+    from tether_gym.seeds import TEST_SEED
+
+    agents = {f"seed{s}": run.agent(i) for i, s in enumerate(run.seeds)}
+    return evaluate(
+        agents,
+        run.config.env_kwargs,
+        episodes,
+        TEST_SEED if seed is None else seed,
+        env_id=run.config.env_id,
+    )
