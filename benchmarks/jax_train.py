@@ -35,7 +35,13 @@ import numpy as np
 
 from tether_gym.evaluation.statistics import t_interval
 from tether_gym.seeds import TEST_SEED
-from tether_gym.training.jax_ppo import PPOConfig, evaluate_seeds, save_policy, train_seeds, unstack
+from tether_gym.training.jax_ppo import (
+    PPOConfig,
+    evaluate_seeds,
+    save_trained,
+    train_seeds,
+    unstack,
+)
 from tether_gym.training.zoo import parse_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -119,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
           f"s ({rate:,.0f} steps/s) after {compiled:.1f} s compiling")  # fmt: skip
     if args.save_dir is not None:
         for i, seed in enumerate(seeds):
-            save_policy(args.save_dir / f"seed{seed}", unstack(run.params, i), config)
+            save_trained(args.save_dir / f"seed{seed}", unstack(run.params, i), config)
         print(f"policies saved in {args.save_dir}")
     clock = time.perf_counter()
     results = evaluate_seeds(run, args.episodes)

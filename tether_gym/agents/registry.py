@@ -89,9 +89,10 @@ def agent_choices(env_id: str) -> tuple[str, ...]:
 
 
 def looks_like_path(spec: str) -> bool:
-    """Whether an `--agents` entry names a file rather than an agent: a .zip, a folder in it,
-    or an existing file."""
-    return spec.endswith(".zip") or "/" in spec or "\\" in spec or Path(spec).is_file()
+    """Whether an `--agents` entry names a file rather than an agent: a .zip (an SB3 model) or
+    .msgpack (a JAX policy), a folder in it, or an existing file."""
+    saved = spec.endswith((".zip", ".msgpack"))
+    return saved or "/" in spec or "\\" in spec or Path(spec).is_file()
 
 
 def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT_ENV_ID):
@@ -108,5 +109,10 @@ def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT
             f"unknown agent {spec!r}: {env_id} takes {', '.join(agent_choices(env_id))}, "
             "or a saved model's .zip path"
         )
+    if spec.endswith(".msgpack"):  # a policy of the JAX trainer (agents.jax_policy)
+        require_extra(f"the policy {spec!r}", ("jax", "flax"), "jax")
+        from tether_gym.agents.jax_policy import load_policy
+
+        return load_policy(spec, seed)
     require_extra(f"the model {spec!r}", ("stable_baselines3", "torch"))
     return load_agent(spec)

@@ -70,6 +70,10 @@ def trained_env(
         name = spec if env_id is None else pretrained.for_env(spec, env_id, env_kwargs or {})
         facts = pretrained.card(name)
         return Trained(facts["env_id"], facts.get("env_kwargs") or {}, f"the card of {name}")
+    saved = Path(spec).with_suffix(".json")
+    if spec.endswith(".msgpack") and saved.is_file():  # a JAX policy's config beside it
+        facts = json.loads(saved.read_text())
+        return Trained(current_id(facts["env_id"]), facts.get("env_kwargs") or {}, str(saved))
     found = run_config(Path(spec)) if looks_like_path(spec) else None
     if found is None:
         return None
@@ -181,7 +185,10 @@ def agent_names(specs: list[str]) -> list[str]:
     if len(set(specs)) < len(specs):
         raise ValueError(f"--agents lists an agent twice: {specs}")
     paths = [
-        Path(spec.removesuffix(".zip")).parts if spec.endswith(".zip") else None for spec in specs
+        Path(spec.removesuffix(".zip").removesuffix(".msgpack")).parts
+        if spec.endswith((".zip", ".msgpack"))
+        else None
+        for spec in specs
     ]
     for depth in range(1, max((len(p) for p in paths if p), default=0) + 1):
         names = [

@@ -37,45 +37,41 @@ a truncated episode is not bootstrapped (the gymnax convention has no truncation
 TetherBounce's episodes end after one step, terminated); `batch_size` must divide
 `n_steps * n_envs` (SB3 allows a short last minibatch); the random streams are JAX's.
 
-The trained policy is an agent (`JaxPolicyAgent`: SB3's `predict(obs, deterministic=True)` on
-numpy observations), so `tether_gym.evaluation` plays it on the numba envs' seeded episodes, and
-it is saved as two files (`save_policy`, `load_policy`):
-
-- `<name>.msgpack`: the flax parameters (`flax.serialization.to_bytes`; read back with
-  `msgpack_restore`, no template needed): {"params": {"pi_0": {"kernel", "bias"}, ...,
-  "action": ..., "vf_0": ..., "value": ..., "log_std"}};
-- `<name>.json`: `PolicyConfig`: format, env_id, env_kwargs, net_arch, activation,
-  log_std_init, the observation and action spaces' shape and bounds, and the training recipe.
+The trained policy is an agent (`tether_gym.agents.jax_policy.JaxPolicyAgent`: SB3's
+`predict(obs, deterministic=True)` on numpy observations), so `tether_gym.evaluation` plays it on
+the numba envs' seeded episodes (`evaluate_seeds`: the final table's); `save_trained` writes it
+as a .msgpack of the flax parameters and a .json of its `PolicyConfig` (the format is described
+in `tether_gym.agents.jax_policy`), which `load_policy` and `tether-evaluate --agents` read.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import inspect
-import json
 import math
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NamedTuple
 
-import flax.linen as nn
-import flax.serialization
 import jax
 import jax.numpy as jnp
 import numpy as np
 import optax
 from jax import lax
 
+from tether_gym.agents.jax_policy import (
+    ACTIVATIONS,
+    ActorCritic,
+    JaxPolicyAgent,
+    PolicyConfig,
+    save_policy,
+)
 from tether_gym.jax.gymnax import TetherBounceGymnax
 
 ENVS: dict[str, Callable[..., Any]] = {"TetherBounce-v0": TetherBounceGymnax}
 """Env ids with a JAX backend in the gymnax convention, and its class (built from the env
 arguments of the numba env)."""
-ACTIVATIONS = {"relu": nn.relu, "tanh": nn.tanh, "elu": nn.elu, "leakyrelu": nn.leaky_relu}
-"""The activations, by the lower-cased name of their torch class (`nn.ReLU`: "relu")."""
-FORMAT = "tether_gym.jax_ppo/1"
-"""The saved policy's format tag (its JSON's `format`)."""
 SUPPORTED_KWARGS = {
     "learning_rate", "n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "clip_range",
     "clip_range_vf", "normalize_advantage", "ent_coef", "vf_coef", "max_grad_norm", "target_kl",
@@ -239,41 +235,6 @@ class PPOConfig:
             log_std_init=float(policy["log_std_init"]),
             ortho_init=bool(policy["ortho_init"]),
         )
-
-
-class ActorCritic(nn.Module):
-    """SB3's `MlpPolicy` for a Box action: separate pi and vf MLPs, a linear action mean, a
-    state-independent log std, a linear value. Returns (mean, log_std, value)."""
-
-    action_dim: int
-    pi_arch: tuple[int, ...] = (64, 64)
-    vf_arch: tuple[int, ...] = (64, 64)
-    activation: str = "tanh"
-    log_std_init: float = 0.0
-    ortho_init: bool = True
-
-    @nn.compact
-    def __call__(self, obs: jax.Array):
-        act = ACTIVATIONS[self.activation]
-
-        def dense(width: int, gain: float, name: str) -> nn.Dense:
-            if self.ortho_init:
-                init = nn.initializers.orthogonal(gain)
-                return nn.Dense(width, kernel_init=init, bias_init=nn.initializers.zeros, name=name)
-            return nn.Dense(width, name=name)
-
-        x = obs
-        for i, width in enumerate(self.pi_arch):
-            x = act(dense(width, math.sqrt(2), f"pi_{i}")(x))
-        mean = dense(self.action_dim, 0.01, "action")(x)
-        v = obs
-        for i, width in enumerate(self.vf_arch):
-            v = act(dense(width, math.sqrt(2), f"vf_{i}")(v))
-        value = dense(1, 1.0, "value")(v)[..., 0]
-        log_std = self.param(
-            "log_std", nn.initializers.constant(self.log_std_init), (self.action_dim,)
-        )
-        return mean, log_std, value
 
 
 def network(config: PPOConfig, action_dim: int) -> ActorCritic:
@@ -482,130 +443,30 @@ def make_stages(config: PPOConfig):
     return init, update
 
 
-@dataclasses.dataclass(frozen=True)
-class PolicyConfig:
-    """What a saved policy needs to play: its env, network and spaces (the JSON beside the
-    parameters), and the recipe it was trained with."""
-
-    env_id: str
-    env_kwargs: dict
-    pi_arch: tuple[int, ...]
-    vf_arch: tuple[int, ...]
-    activation: str
-    log_std_init: float
-    obs_shape: tuple[int, ...]
-    obs_low: list
-    obs_high: list
-    action_shape: tuple[int, ...]
-    action_low: list
-    action_high: list
-    recipe: dict = dataclasses.field(default_factory=dict)
-    format: str = FORMAT
-
-    @classmethod
-    def of(cls, config: PPOConfig) -> PolicyConfig:
-        env, params = make_env(config)
-        obs, act = env.observation_space(params), env.action_space(params)
-        return cls(
-            env_id=config.env_id,
-            env_kwargs=dict(config.env_kwargs),
-            pi_arch=config.pi_arch,
-            vf_arch=config.vf_arch,
-            activation=config.activation,
-            log_std_init=config.log_std_init,
-            obs_shape=tuple(obs.shape),
-            obs_low=np.asarray(obs.low, dtype=float).tolist(),
-            obs_high=np.asarray(obs.high, dtype=float).tolist(),
-            action_shape=tuple(act.shape),
-            action_low=np.asarray(act.low, dtype=float).tolist(),
-            action_high=np.asarray(act.high, dtype=float).tolist(),
-            recipe=config.as_dict(),
-        )
-
-    def as_dict(self) -> dict[str, Any]:
-        data = dataclasses.asdict(self)
-        for key in ("pi_arch", "vf_arch", "obs_shape", "action_shape"):
-            data[key] = list(data[key])
-        return data
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> PolicyConfig:
-        if data.get("format") != FORMAT:
-            raise ValueError(f"not a {FORMAT} policy config (format {data.get('format')!r})")
-        data = dict(data)
-        for key in ("pi_arch", "vf_arch", "obs_shape", "action_shape"):
-            data[key] = tuple(data[key])
-        return cls(**data)
+def policy_config(config: PPOConfig) -> PolicyConfig:
+    """What the policy trained with `config` needs to play (saved beside its parameters)."""
+    env, params = make_env(config)
+    obs, act = env.observation_space(params), env.action_space(params)
+    return PolicyConfig(
+        env_id=config.env_id,
+        env_kwargs=dict(config.env_kwargs),
+        pi_arch=config.pi_arch,
+        vf_arch=config.vf_arch,
+        activation=config.activation,
+        log_std_init=config.log_std_init,
+        obs_shape=tuple(obs.shape),
+        obs_low=np.asarray(obs.low, dtype=float).tolist(),
+        obs_high=np.asarray(obs.high, dtype=float).tolist(),
+        action_shape=tuple(act.shape),
+        action_low=np.asarray(act.low, dtype=float).tolist(),
+        action_high=np.asarray(act.high, dtype=float).tolist(),
+        recipe=config.as_dict(),
+    )
 
 
-class JaxPolicyAgent:
-    """A trained JAX policy as an agent: SB3's `predict(obs, state, episode_start,
-    deterministic)` on numpy observations (one or a batch); the deterministic action is the
-    Gaussian's mean, a stochastic one a sample (numpy's generator, `seed`); both clipped to the
-    action space's bounds as SB3 does. `env_id` and `env_kwargs` name the env it was trained on."""
-
-    def __init__(self, params, config: PolicyConfig, seed: int | None = None):
-        self.params, self.config = params, config
-        self.env_id, self.env_kwargs = config.env_id, dict(config.env_kwargs)
-        self.control_kwargs: dict = {}
-        module = ActorCritic(
-            action_dim=int(np.prod(config.action_shape)),
-            pi_arch=tuple(config.pi_arch),
-            vf_arch=tuple(config.vf_arch),
-            activation=config.activation,
-            log_std_init=config.log_std_init,
-        )
-        self._policy = jax.jit(lambda p, o: module.apply(p, o)[:2])
-        self._low = np.asarray(config.action_low, dtype=np.float32)
-        self._high = np.asarray(config.action_high, dtype=np.float32)
-        self._rng = np.random.default_rng(seed)
-
-    def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
-        obs = np.asarray(obs, dtype=np.float32)
-        single = obs.ndim == len(self.config.obs_shape)
-        mean, log_std = self._policy(self.params, obs[None] if single else obs)
-        action = np.asarray(mean)
-        if not deterministic:
-            action = action + np.exp(np.asarray(log_std)) * self._rng.standard_normal(
-                action.shape
-            ).astype(np.float32)
-        action = np.clip(action, self._low, self._high)
-        return (action[0] if single else action), state
-
-
-def save_policy(path: str | Path, params, config: PPOConfig | PolicyConfig) -> Path:
-    """Write `path`.msgpack (the parameters) and `path`.json (the `PolicyConfig`); returns the
-    msgpack's path. `path` may end in .msgpack or have no suffix."""
-    path = Path(path)
-    stem = path.with_suffix("") if path.suffix == ".msgpack" else path
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    policy = config if isinstance(config, PolicyConfig) else PolicyConfig.of(config)
-    params = jax.tree.map(lambda x: np.asarray(x, dtype=np.float32), params)
-    target = stem.with_name(stem.name + ".msgpack")
-    target.write_bytes(flax.serialization.to_bytes(params))
-    stem.with_name(stem.name + ".json").write_text(json.dumps(policy.as_dict(), indent=1) + "\n")
-    return target
-
-
-def is_policy(path: str | Path) -> bool:
-    """Whether `path` is a saved JAX policy (.msgpack with its .json beside it)."""
-    path = Path(path)
-    return path.suffix == ".msgpack" and path.with_suffix(".json").is_file()
-
-
-def load_policy(path: str | Path, seed: int | None = None) -> JaxPolicyAgent:
-    """The agent saved by `save_policy` at `path` (the .msgpack, or the stem); ValueError
-    naming the file if it cannot be read."""
-    path = Path(path)
-    stem = path.with_suffix("") if path.suffix in (".msgpack", ".json") else path
-    files = stem.with_name(stem.name + ".msgpack"), stem.with_name(stem.name + ".json")
-    try:
-        config = PolicyConfig.from_dict(json.loads(files[1].read_text()))
-        params = flax.serialization.msgpack_restore(files[0].read_bytes())
-    except (OSError, ValueError, TypeError) as error:
-        raise ValueError(f"cannot load the JAX policy {str(files[0])!r}: {error}") from None
-    params = jax.tree.map(jnp.asarray, params)
-    return JaxPolicyAgent(params, config, seed)
+def save_trained(path: str | Path, params, config: PPOConfig) -> Path:
+    """`save_policy` of parameters trained with `config` (`path`.msgpack and `path`.json)."""
+    return save_policy(path, params, policy_config(config))
 
 
 def unstack(tree, i: int):
@@ -637,7 +498,7 @@ class SeedsRun:
 
     def agent(self, i: int) -> JaxPolicyAgent:
         """Seed i's (the i-th of `seeds`) policy as an agent."""
-        return JaxPolicyAgent(unstack(self.params, i), PolicyConfig.of(self.config))
+        return JaxPolicyAgent(unstack(self.params, i), policy_config(self.config))
 
 
 def train_seeds(

@@ -1,0 +1,144 @@
+"""The JAX PPO (`tether_gym.training.jax_ppo`): the zoo recipe read as SB3 reads it, a tiny run
+of two seeds under `vmap` (shapes, finite numbers, distinct seeds, a reward that rises, SB3's
+linear rate and target_kl stop), the trained policy played by the evaluation runner on the numba
+env, and its saved files loading back to the same actions."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+jax = pytest.importorskip("jax")
+pytest.importorskip("flax")
+pytest.importorskip("optax")
+
+from tether_gym.agents.jax_policy import is_policy, load_policy  # noqa: E402
+from tether_gym.evaluation.cli import main  # noqa: E402
+from tether_gym.evaluation.runner import evaluate  # noqa: E402
+from tether_gym.training.jax_ppo import (  # noqa: E402
+    METRICS,
+    PPOConfig,
+    SeedsRun,
+    make_train,
+    policy_config,
+    save_trained,
+    unstack,
+)
+
+UPDATES = 30
+
+
+@pytest.fixture(scope="module", autouse=True)
+def compilation_cache(request):
+    """jax's persistent compilation cache in pytest's cache folder (as tests/jax): a second run
+    loads the compiled trainers."""
+    cache = getattr(request.config, "cache", None)  # None under -p no:cacheprovider
+    if cache is not None:
+        jax.config.update("jax_compilation_cache_dir", str(cache.mkdir("jax-compilation-cache")))
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+
+
+def tiny_config(**changes) -> PPOConfig:
+    """The TetherBounce recipe, shrunk: impulse dynamics (quick to compile), 64 envs x 2 steps,
+    small networks, `UPDATES` updates."""
+    recipe = PPOConfig.from_zoo("TetherBounce-v0")
+    tiny = dict(env_kwargs={"dynamics": "impulse"}, n_envs=64, n_steps=2, batch_size=64,
+                pi_arch=(32, 32), vf_arch=(16, 16), timesteps=UPDATES * 128)  # fmt: skip
+    return dataclasses.replace(recipe, **{**tiny, **changes})
+
+
+@pytest.fixture(scope="module")
+def trained():
+    config = tiny_config()
+    keys = jax.numpy.stack([jax.random.PRNGKey(0), jax.random.PRNGKey(1)])
+    out = jax.jit(jax.vmap(make_train(config)))(keys)
+    out = jax.tree.map(np.asarray, out)
+    return config, out
+
+
+def test_the_recipe_is_the_zoo_entry_with_sb3_defaults():
+    config = PPOConfig.from_zoo("TetherBounce-v0")
+    assert (config.n_envs, config.n_steps, config.batch_size, config.n_epochs) == (512, 4, 512, 10)
+    assert (config.learning_rate, config.linear_lr, config.target_kl) == (1e-3, True, 0.05)
+    assert (config.pi_arch, config.vf_arch, config.activation) == ((256, 256), (64, 64), "relu")
+    assert (config.log_std_init, config.ortho_init, config.timesteps) == (-2.0, True, 5_000_000)
+    # SB3's defaults where the entry is silent
+    assert (config.vf_coef, config.max_grad_norm, config.clip_range_vf) == (0.5, 0.5, None)
+    assert config.n_updates == 2442  # ceil(5e6 / 2048): SB3 finishes the last rollout
+    assert PPOConfig.from_dict(config.as_dict()) == config
+    short = PPOConfig.from_zoo("TetherBounce-v0", 1000, {"learning_rate": 3e-4})
+    assert (short.timesteps, short.learning_rate, short.linear_lr) == (1000, 3e-4, False)
+
+
+def test_what_the_trainer_cannot_do_is_refused():
+    with pytest.raises(ValueError, match="use_sde"):
+        PPOConfig.from_zoo("TetherBounce-v0", overrides={"use_sde": True})
+    with pytest.raises(ValueError, match="batch_size"):
+        PPOConfig.from_zoo("TetherBounce-v0", overrides={"batch_size": 500})
+    with pytest.raises(ValueError, match="no JAX env"):
+        PPOConfig(env_id="TetherNavigate-v3")
+
+
+def test_two_seeds_under_vmap_train_apart_and_the_reward_rises(trained):
+    config, out = trained
+    params, metrics = out["params"], out["metrics"]
+    for leaf in jax.tree.leaves(params):
+        assert leaf.shape[0] == 2 and np.all(np.isfinite(leaf))
+    kernel = params["params"]["pi_0"]["kernel"]
+    assert kernel.shape == (2, 10, 32)
+    assert not np.allclose(kernel[0], kernel[1]), "the two seeds share their parameters"
+    assert set(metrics) == set(METRICS)
+    for name in METRICS:
+        assert metrics[name].shape == (2, UPDATES) and np.all(np.isfinite(metrics[name])), name
+    # SB3's schedule: the rate after each rollout is lr * progress remaining, 0 at the end
+    expected = 1e-3 * (1 - np.arange(1, UPDATES + 1) / UPDATES)
+    np.testing.assert_allclose(metrics["learning_rate"][0], expected, rtol=1e-5, atol=1e-9)
+    minibatches = metrics["minibatches"]
+    assert np.all((minibatches >= 1) & (minibatches <= config.n_epochs * 2))
+    reward = metrics["reward"]
+    assert np.all(reward[:, -5:].mean(axis=1) > reward[:, :5].mean(axis=1) + 0.05), reward
+
+
+def test_target_kl_ends_the_epochs_at_the_first_minibatch_past_it():
+    # the first minibatch of a rollout is at the rollout's parameters (KL 0) and applied; after
+    # it the KL is positive, past 1.5 * 1e-12, so SB3 stops there: one minibatch per update;
+    # the last update's rate is 0 (no progress left), the KL stays 0 and every epoch runs
+    config = tiny_config(target_kl=1e-12, timesteps=3 * 128)
+    out = jax.jit(make_train(config))(jax.random.PRNGKey(2))
+    np.testing.assert_array_equal(np.asarray(out["metrics"]["minibatches"]), [1, 1, 20])
+
+
+def test_the_policy_plays_the_numba_env_and_its_saved_files_give_the_same_actions(
+    trained, tmp_path, capsys
+):
+    config, out = trained
+    params = unstack(out["params"], 0)
+    run = SeedsRun(config, [0, 1], out["params"], out["metrics"], 0.0, 1.0)
+    agent = run.agent(0)
+    (result,) = evaluate({"jax": agent}, config.env_kwargs, 64, seed=5, env_id=config.env_id)
+    assert 0.0 <= result.success_rate <= 1.0 and result.episodes == 64
+
+    path = save_trained(tmp_path / "policy", params, config)
+    assert path.suffix == ".msgpack" and is_policy(path)
+    loaded = load_policy(path)
+    assert (loaded.env_id, loaded.env_kwargs) == ("TetherBounce-v0", {"dynamics": "impulse"})
+    rng = np.random.default_rng(0)
+    obs_config = policy_config(config)
+    obs = rng.uniform(obs_config.obs_low, obs_config.obs_high, (50, 10)).astype(np.float32)
+    action, _ = agent.predict(obs, deterministic=True)
+    again, _ = loaded.predict(obs, deterministic=True)
+    np.testing.assert_array_equal(action, again)
+    assert np.all(np.abs(action) <= 1.0) and action.shape == (50, 4)
+    single, _ = loaded.predict(obs[0])
+    np.testing.assert_array_equal(single, action[0])
+    noisy, _ = loaded.predict(obs, deterministic=False)
+    assert not np.array_equal(noisy, action) and np.all(np.abs(noisy) <= 1.0)
+    # tether-evaluate plays it on the env it names (no --env), beside a baseline
+    main(["--agents", str(path), "random", "--episodes", "16", "--no-progress-bar"])
+    table = capsys.readouterr().out
+    assert "policy" in table and "random" in table
+    (tmp_path / "policy.json").write_text('{"format": "other"}')
+    with pytest.raises(ValueError, match="cannot load"):
+        load_policy(path)
