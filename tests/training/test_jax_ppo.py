@@ -101,6 +101,7 @@ def test_two_seeds_under_vmap_train_apart_and_the_reward_rises(trained):
     assert np.all(reward[:, -5:].mean(axis=1) > reward[:, :5].mean(axis=1) + 0.05), reward
 
 
+@pytest.mark.slow  # a second compile of the trainer (about 30 s of CPU without jax's cache)
 def test_target_kl_ends_the_epochs_at_the_first_minibatch_past_it():
     # the first minibatch of a rollout is at the rollout's parameters (KL 0) and applied; after
     # it the KL is positive, past 1.5 * 1e-12, so SB3 stops there: one minibatch per update;
