@@ -20,12 +20,9 @@ from __future__ import annotations
 
 import argparse
 import importlib.metadata
-import json
 import os
 import platform
 import resource
-import shlex
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -33,6 +30,8 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from tether_gym.evaluation import results_file
+from tether_gym.evaluation.results_file import script_command
 from tether_gym.evaluation.statistics import t_interval
 from tether_gym.seeds import TEST_SEED
 from tether_gym.training.jax_ppo import (
@@ -47,21 +46,10 @@ from tether_gym.training.zoo import parse_overrides
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def commit() -> str:
-    """HEAD's hash, with "-dirty" if the tree has changes; "unknown" outside git."""
-    try:
-        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True,
-                              text=True, check=True).stdout.strip()  # fmt: skip
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
-                               cwd=ROOT, capture_output=True, text=True).stdout.strip()  # fmt: skip
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-    return head + ("-dirty" if dirty else "")
-
-
 def versions() -> dict[str, str]:
+    """The JAX side's versions, beside those `results_file.environment` records."""
     out = {}
-    for name in ("jax", "jaxlib", "flax", "optax", "numpy", "gymnasium"):
+    for name in ("jax", "jaxlib", "flax", "optax"):
         try:
             out[name] = importlib.metadata.version(name)
         except importlib.metadata.PackageNotFoundError:
@@ -74,18 +62,18 @@ def sb3_reference(env_id: str) -> dict | None:
     path = ROOT / "results" / "baselines" / f"ppo_{env_id}.json"
     if not path.is_file():
         return None
-    data = json.loads(path.read_text())
-    row = next((r for r in data["results"] if r["name"] == "PPO (last)"), data["results"][0])
+    data = results_file.read(path)
+    row = next((r for r in data["rows"] if r["name"] == "PPO (last)"), data["rows"][0])
     return {
         "file": str(path.relative_to(ROOT)),
-        "command": data.get("command"),
-        "timesteps": data.get("timesteps"),
+        "command": data["command"],
+        "timesteps": data["setup"].get("timesteps"),
         "seeds": len(row["per_seed"]),
         "per_seed": row["per_seed"],
         "success_mean": row["success_rate"],
         "success_ci": row["success_ci"],
         "worst": row["worst"],
-        "train_seconds": data.get("train_seconds"),
+        "train_seconds": data["details"].get("train_seconds"),
     }
 
 
@@ -149,40 +137,36 @@ def main(argv: list[str] | None = None) -> int:
           f"evaluation {eval_seconds:.1f}), peak RSS {rss_mb:.0f} MB")  # fmt: skip
     if out is None:
         return 0
-    summary = {
-        "command": shlex.join(["python", "benchmarks/jax_train.py", *sys.argv[1:]]),
-        "commit": commit(),
-        "versions": versions(),
-        "device": device,
-        "backend": jax.default_backend(),
-        "machine": {
-            "cpus": os.cpu_count(),
-            "platform": platform.platform(),
-            "load_average_at_end": os.getloadavg(),
-            "xla_flags": os.environ.get("XLA_FLAGS", ""),
+    data = results_file.record(
+        script_command(__file__),
+        rows=[
+            {"seed": seed, "success": float(s), "rollout_success_last": float(last)}
+            for seed, s, last in zip(seeds, success, run.metrics["success"][:, -1], strict=True)
+        ],
+        setup={
+            "env_id": args.env, "recipe": config.as_dict(), "seeds": seeds,
+            "timesteps_per_seed": run.timesteps, "test_seed": TEST_SEED,
+            "episodes": args.episodes, "device": device, "backend": jax.default_backend(),
+            "machine": {
+                "cpus": os.cpu_count(), "platform": platform.platform(),
+                "load_average_at_end": os.getloadavg(),
+                "xla_flags": os.environ.get("XLA_FLAGS", ""),
+            },
         },
-        "env_id": args.env,
-        "recipe": config.as_dict(),
-        "seeds": seeds,
-        "timesteps_per_seed": run.timesteps,
-        "test_seed": TEST_SEED,
-        "episodes": args.episodes,
-        "compile_seconds": round(run.compile_seconds, 1),
-        "train_seconds": round(run.train_seconds, 1),
-        "eval_seconds": round(eval_seconds, 1),
-        "wall_seconds": round(wall_seconds, 1),
-        "steps_per_second": round(run.steps_per_second),
-        "peak_rss_mb": round(rss_mb),
-        "per_seed": [float(s) for s in success],
-        "success_mean": float(success.mean()),
-        "success_ci": [low, high],
-        "worst": float(success.min()),
-        "rollout_success_last": [float(s) for s in run.metrics["success"][:, -1]],
-        "minibatches_per_update": float(np.nanmean(run.metrics["minibatches"])),
-        "sb3": sb3,
-    }
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(summary, indent=1) + "\n")
+        details={
+            "compile_seconds": round(run.compile_seconds, 1),
+            "train_seconds": round(run.train_seconds, 1),
+            "eval_seconds": round(eval_seconds, 1),
+            "steps_per_second": round(run.steps_per_second), "peak_rss_mb": round(rss_mb),
+            "success_mean": float(success.mean()), "success_ci": [low, high],
+            "worst": float(success.min()),
+            "minibatches_per_update": float(np.nanmean(run.metrics["minibatches"])),
+            "sb3": sb3,
+        },
+        seconds=round(wall_seconds, 1),
+    )  # fmt: skip
+    data["environment"].update(versions())
+    results_file.write(out, data)
     print(f"summary written to {out}")
     return 0
 
