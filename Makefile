@@ -62,10 +62,12 @@ format: $(STAMP)
 figures: $(STAMP)
 	$(BIN)/python -m tether_gym.figures --out docs/figures --overwrite
 
+# Every speed benchmark (benchmarks/README.md) in its short mode, a few minutes on two cores;
+# env_against (env against a revision), the full runs, the experiments and the validations
+# are run one by one.
+BENCH_SPEED := physics env train planners cold_start sweep_throughput jax_throughput
 bench: $(STAMP)
-	$(BIN)/python benchmarks/physics.py
-	$(BIN)/python benchmarks/env.py
-	$(BIN)/python benchmarks/pymunk_model.py
+	for name in $(BENCH_SPEED); do $(BIN)/python -m benchmarks.speed.$$name --quick || exit 1; done
 
 # Every kernel compiles anew on first use (importing tether_gym does the same by itself when
 # the kernels' sources changed: tether_gym/kernel_cache.py).

@@ -23,6 +23,8 @@ RESULTS_MACROS: dict[str, Callable[..., str]] = {
     "imitation_table": tables.imitation_table,
     "fuzz_table": tables.fuzz_table,
     "cold_start_table": tables.cold_start_table,
+    "jax_agreement_table": tables.jax_agreement_table,
+    "jax_throughput_table": tables.jax_throughput_table,
 }
 """The macros that read results files (their `root` and `style` set by `expand`)."""
 MACROS: dict[str, Callable[..., str]] = {

@@ -46,7 +46,8 @@ def sources_line(sources: dict[str, str], style: str = "page") -> str:
 
 def fold_command(command: str, width: int = 88) -> str:
     """A long shell command folded before its options (` \\` continuations, shell-valid), so it
-    reads without scrolling; quoted arguments are never split. A short one as it is."""
+    reads without scrolling; quoted arguments are never split, nor `python -m MODULE`. A short
+    one as it is."""
     if len(command) <= width:
         return command
     words, word, quote = [], "", ""
@@ -61,8 +62,9 @@ def fold_command(command: str, width: int = 88) -> str:
             continue
         word += char
     words.append(word)
-    lines = [words[0]]
-    for word in words[1:]:
+    first = 3 if words[1:2] == ["-m"] else 1  # `python -m MODULE` stays whole
+    lines = [" ".join(words[:first])]
+    for word in words[first:]:
         if word.startswith("-") or len(lines[-1]) + len(word) + 1 > width:
             lines.append("  " + word)
         else:
@@ -150,8 +152,8 @@ def ladder_table(
 def seeds_table(
     sources: dict[str, str], agents: list[str] | None = None, root: Path = ROOT, style: str = "page"
 ) -> str:
-    """One row per agent of each summary over seeds (`benchmarks/baselines.py`): the runs'
-    timesteps and median train time, and each agent's mean success on the test episodes over
+    """One row per agent of each summary over seeds (`benchmarks/experiments/baselines.py`): the
+    runs' timesteps and median train time, and each agent's mean success on the test episodes over
     the seeds with its 95% t interval and the worst seed (the planners and random play the same
     episodes in every run). `agents` keeps those agents only."""
     _check_sources(sources)
@@ -178,10 +180,10 @@ def seeds_table(
 
 
 def ladder_seeds_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
-    """One row per summary over seeds (`benchmarks/baselines.py`), for comparing rungs and
-    control modes at a glance: the env, its arguments and the zoo's overridden policy, the learned
-    agent's best models' mean success with its 95% t interval and worst seed, the median train
-    time, and the planners and random on the same test episodes."""
+    """One row per summary over seeds (`benchmarks/experiments/baselines.py`), for comparing rungs
+    and control modes at a glance: the env, its arguments and the zoo's overridden policy, the
+    learned agent's best models' mean success with its 95% t interval and worst seed, the median
+    train time, and the planners and random on the same test episodes."""
     _check_sources(sources)
     rows = []
     for pattern in sources:
@@ -249,7 +251,7 @@ def _paired_line(data: dict[str, Any]) -> str:
 
 
 def planner_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
-    """One row per planner and task of a planner benchmark (`benchmarks/planners.py`): each
+    """One row per planner and task of a planner benchmark (`benchmarks/speed/planners.py`): each
     implementation's decisions per second at each batch size on one core (the ratio to numpy's
     measured in the same run), the recorded decision states where it picks numpy's maneuver,
     and its success on the held-out episodes."""
@@ -283,9 +285,9 @@ def planner_table(sources: dict[str, str], root: Path = ROOT, style: str = "page
 
 
 def imitation_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
-    """One row per picker of an imitation benchmark (`benchmarks/imitation.py`): how often its
-    pick among the teacher's candidate aims is among the best on the held-out states, over all
-    of them and where the goal itself is not among the best; the students' mean over network
+    """One row per picker of an imitation benchmark (`benchmarks/experiments/imitation.py`): how
+    often its pick among the teacher's candidate aims is among the best on the held-out states, over
+    all of them and where the goal itself is not among the best; the students' mean over network
     seeds with its 95% t interval."""
     _check_sources(sources)
     rows = []
@@ -326,8 +328,8 @@ def _flat(path: Path) -> dict[str, Any]:
 
 
 def fuzz_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
-    """The public-API fuzz's findings (`benchmarks/fuzz_navigate.py`): one row per class, and
-    per results file the transitions with that finding among the single env's steps and among
+    """The public-API fuzz's findings (`benchmarks/validation/fuzz_navigate.py`): one row per class,
+    and per results file the transitions with that finding among the single env's steps and among
     the vector env's transitions."""
     _check_sources(sources)
     runs = [(path, read_file(path)["details"]) for p in sources for path in files_of(p, root)]
@@ -350,8 +352,8 @@ def fuzz_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") 
 
 
 def cold_start_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
-    """What a first run costs (`benchmarks/cold_start.py`): per entry point, the seconds of its
-    first call and of its whole process with an empty numba cache, on the revision measured and
+    """What a first run costs (`benchmarks/speed/cold_start.py`): per entry point, the seconds of
+    its first call and of its whole process with an empty numba cache, on the revision measured and
     on the one it was measured against in the same run, and their ratio."""
     _check_sources(sources)
     rows = []
@@ -370,6 +372,102 @@ def cold_start_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
                 f"{before['wall']:.1f} | {now['wall'] / before['wall']:.2f} |"
             )
     return "\n".join(rows) + sources_line(sources, style)
+
+
+def jax_agreement_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """TetherBounce's JAX kernel against its numba kernel (`benchmarks.validation.jax_agreement`):
+    one row per dynamics, task and ranges, float64's worst difference (its field), the contacts
+    given up (their worst), the changed outcomes, and float32's; under it the version of jax, the
+    device, the commit and the wall time of each file."""
+    _check_sources(sources)
+    lines = [
+        "| dynamics | task | ranges | cases | float64: worst (field) | given up (worst) | "
+        "changed | float32: worst | changed (at a tether end) |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    notes = []
+    for path in (path for p in sources for path in files_of(p, root)):
+        data = read_file(path)
+        cells: dict[tuple, dict[str, dict]] = {}
+        for row in data["rows"]:
+            key = (row["dynamics"], row["task"], row["ranges"])
+            cells.setdefault(key, {})[row["precision"]] = row
+        for (dynamics, task, ranges), by in cells.items():
+            wide, narrow = by.get("float64"), by.get("float32")
+            cases = (wide or narrow)["cases"]
+            line = f"| {dynamics} | {task} | {ranges} | {cases:,} |"
+            line += (
+                f" {wide['outcome']:.1e} ({wide['outcome_field']}) | {wide['given_up']} "
+                f"({wide['given_up_worst']:.1e}) | {wide['changed']} |"
+                if wide
+                else " - | - | - |"
+            )
+            line += (
+                f" {narrow['outcome']:.1e} | {narrow['changed']} "
+                f"({narrow['changed_at_tether_end']}) |"
+                if narrow
+                else " - | - |"
+            )
+            lines.append(line)
+        notes.append(_run_line(data))
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
+
+
+def jax_throughput_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """TetherBounce's steps per second, JAX against numba in one run
+    (`benchmarks.speed.jax_throughput`): one row per dynamics and batch, and the ratio of the JAX
+    scan to the numba vector env; under it the machine and its load, the commit, and the first
+    `jit`'s seconds with an empty and with a filled persistent compilation cache."""
+    _check_sources(sources)
+    lines = [
+        "| dynamics | batch | JAX scan (steps/s) | JAX vector env | numba vector env | "
+        "JAX scan / numba |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    notes = []
+    for path in (path for p in sources for path in files_of(p, root)):
+        data = read_file(path)
+        for row in data["rows"]:
+            lines.append(
+                f"| {row['dynamics']} | {row['batch']:,} | {row['jax_scan']:,.0f} | "
+                f"{row['jax_vec']:,.0f} | {row['numba_vec']:,.0f} | "
+                f"{row['jax_scan'] / row['numba_vec']:.2f} |"
+            )
+        details, machine = data["details"], data["details"]["machine"]
+        load = details.get("load_before"), details.get("load_after")
+        setup = data["setup"]
+        note = _run_line(data, {
+            "device": f"{machine['device']} ({machine['cpu']}, {machine['cpu_count']} cores)",
+            "precision": f"{setup['precision']}, the median of {setup['repeats']} timed blocks",
+        }).rstrip(".")  # fmt: skip
+        if all(load):
+            note += f"; the machine's load {load[0][0]:.1f} before, {load[1][0]:.1f} after"
+        compiled = [
+            f"{dynamics} {times['cold']['jit_s']:.1f} s ({times['cached']['jit_s']:.1f} s)"
+            for dynamics, times in details.get("compile", {}).items()
+        ]
+        if compiled:
+            batch = next(iter(details["compile"].values()))["batch"]
+            note += (
+                f". The first `jit` of the fused step at batch {batch:,}: "
+                + ", ".join(compiled)
+                + " (in brackets: with jax's persistent compilation cache filled)"
+            )
+        notes.append(note + ".")
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
+
+
+def _run_line(data: dict[str, Any], shown: dict[str, str] | None = None) -> str:
+    """What ran a results file: jax's version, the device (and the `shown` parts: "device",
+    "precision"), the commit, the wall time."""
+    shown = {"device": data["details"].get("device"), **(shown or {})}
+    parts = [f"jax {data['environment']['jax']}"] if "jax" in data["environment"] else []
+    parts += [shown[key] for key in ("device", "precision") if shown.get(key)]
+    if data["commit"]:
+        parts.append(f"commit `{data['commit'][:7]}`" + (" (with changes)" * bool(data["dirty"])))
+    if data["seconds"] is not None:
+        parts.append(f"{data['seconds']:,.0f} s")
+    return "Run: " + ", ".join(parts) + "."
 
 
 def _rate_cell(rate: float | dict[str, Any]) -> str:

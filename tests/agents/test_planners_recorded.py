@@ -4,7 +4,7 @@ records) and the actions the numpy planners chose there, which the compiled impl
 should choose too. Regenerate it when the env's physics
 or the planners' choices change on purpose:
 
-    python benchmarks/planners.py --record tests/data/planner_decisions.npz --states 200
+    python -m benchmarks.speed.planners --record tests/data/planner_decisions.npz --states 200
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""benchmarks/baselines.py, the learned baselines over seeds, on a tiny budget: every seed
-trains, the summary holds each agent's mean, interval and worst seed over the runs' test
+"""benchmarks/experiments/baselines.py, the learned baselines over seeds, on a tiny budget: every
+seed trains, the summary holds each agent's mean, interval and worst seed over the runs' test
 episodes and the learning curves, a finished run is read rather than retrained, and the paired
 comparison replays each seed against an agent on the same episodes; the planners are played
 anew for the summary."""
@@ -14,17 +14,17 @@ import pytest
 
 from tests.helpers import ROOT
 
-SCRIPT = ROOT / "benchmarks" / "baselines.py"
+SCRIPT = ("-m", "benchmarks.experiments.baselines")  # run from ROOT (cwd)
 
 
 @pytest.mark.slow
 def test_seeds_train_once_and_are_summarized_with_their_curves(tmp_path):
     runs, out = tmp_path / "runs", tmp_path / "out"
-    argv = [sys.executable, str(SCRIPT), "--algo", "ppo", "--env", "TetherNavigate_OpenReach-v3",
+    argv = [sys.executable, *SCRIPT, "--algo", "ppo", "--env", "TetherNavigate_OpenReach-v3",
             "--env-kwargs", "control:aim", "--timesteps", "1024", "--eval-freq", "512",
             "--eval-episodes", "10", "--seeds", "2", "--runs-dir", str(runs), "--out", str(out),
             "--hyperparams", "n_envs:8", "n_steps:64", "batch_size:64", "n_epochs:1"]  # fmt: skip
-    subprocess.run(argv, check=True, capture_output=True)
+    subprocess.run(argv, check=True, capture_output=True, cwd=ROOT)
     (summary_file,) = out.glob("*.json")
     summary = json.loads(summary_file.read_text())
     setup, details = summary["setup"], summary["details"]
@@ -36,8 +36,8 @@ def test_seeds_train_once_and_are_summarized_with_their_curves(tmp_path):
     assert set(rows) >= {"greedy planner", "lookahead planner", "random"}
     assert [[t for t, _ in curve] for curve in details["curves"]] == [[512, 1024]] * 2
     figure = tmp_path / "curves.png"
-    subprocess.run([sys.executable, str(SCRIPT), "--plot", str(summary_file), "--figure",
-                    str(figure)], check=True)  # fmt: skip
+    subprocess.run([sys.executable, *SCRIPT, "--plot", str(summary_file), "--figure",
+                    str(figure)], check=True, cwd=ROOT)  # fmt: skip
     assert figure.stat().st_size > 0
     logs = sorted(runs.glob("*.log"))
     stamps = [log.stat().st_mtime for log in logs]
@@ -49,7 +49,7 @@ def test_seeds_train_once_and_are_summarized_with_their_curves(tmp_path):
         row["success_rate"] = -1.0 if row["name"] == "greedy planner" else row["success_rate"]
     (seed0 / "results.json").write_text(json.dumps(table))
     paired = [*argv, "--paired", "greedy"]
-    subprocess.run(paired, check=True, capture_output=True)  # the finished runs are read
+    subprocess.run(paired, check=True, capture_output=True, cwd=ROOT)  # the finished runs are read
     assert [log.stat().st_mtime for log in logs] == stamps
     again = json.loads(summary_file.read_text())
     assert again["rows"] == summary["rows"]

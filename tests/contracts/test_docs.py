@@ -120,10 +120,11 @@ def test_placeholder_renders(page, call):
 
 def _change(path: Path) -> str:
     """Set the first success rate (an imitation benchmark's: always-goal's) of a results file to
-    0.123456, a fuzz's first count to 123456, or a cold start's first time to 123456 s: what the
-    table then shows."""
+    0.123456, a fuzz's first count to 123456, a cold start's first time to 123456 s, or the jax
+    agreement's first cases (the throughput's first JAX rate) to 123456: what the table then
+    shows."""
     if path.suffix == ".json" and "holes" in (data := json.loads(path.read_text()))["details"]:
-        details = data["details"]  # benchmarks/fuzz_navigate
+        details = data["details"]  # benchmarks/validation/fuzz_navigate.py
         details["counts"]["single"]["counts"][details["holes"][0]] = 123456
         path.write_text(json.dumps(data))
         return "123,456"
@@ -135,13 +136,17 @@ def _change(path: Path) -> str:
         return "12.3%"
     data = json.loads(path.read_text())
     first = data["rows"][0]
-    if "trees" in first:  # benchmarks/cold_start.py: the first entry's process seconds
+    if "trees" in first:  # benchmarks/speed/cold_start.py: the first entry's process seconds
         first["trees"]["this tree"]["wall"] = 123456.0
         path.write_text(json.dumps(data))
         return "123456.0"
-    if "decisions_per_second" in first:  # benchmarks/planners.py
+    if "outcome_field" in first or "jax_scan" in first:  # the jax agreement and throughput
+        first["cases" if "outcome_field" in first else "jax_scan"] = 123456
+        path.write_text(json.dumps(data))
+        return "123,456"
+    if "decisions_per_second" in first:  # benchmarks/speed/planners.py
         next(iter(first["success"].values()))["success_rate"] = 0.123456
-    elif "picker" in first:  # benchmarks/imitation.py: always the goal
+    elif "picker" in first:  # benchmarks/experiments/imitation.py: always the goal
         first["in_best"] = 0.123456
     else:
         first["success_rate"] = 0.123456
@@ -425,9 +430,13 @@ def test_chromium_shows_the_site(site):
     assert checked >= 40, f"only {checked} tables found in the pages' sources"
 
 
+BASELINES = "python -m benchmarks.experiments.baselines"
+IMITATION = "python -m benchmarks.experiments.imitation"
+
+
 def _results(rows: list[dict], setup: dict, details: dict | None = None) -> str:
     """A results file's text (the schema) with these parts."""
-    return json.dumps({"command": "python benchmarks/experiments/x.py", "commit": None,
+    return json.dumps({"command": "python -m benchmarks.experiments.x", "commit": None,
                        "dirty": None, "environment": {}, "seconds": None, "setup": setup,
                        "rows": rows, "details": details or {}})  # fmt: skip
 
@@ -446,7 +455,7 @@ def test_a_seeds_table_says_each_seed_s_paired_comparison(tmp_path):
                                 {"seed": 1, "wins": 2, "losses": 2, "mcnemar_p": 1.0}]},
     }  # fmt: skip
     (tmp_path / "summary.json").write_text(_results(rows, setup, details))
-    table = tables.seeds_table({"summary.json": "python benchmarks/baselines.py"}, root=tmp_path)
+    table = tables.seeds_table({"summary.json": BASELINES}, root=tmp_path)
     assert "against lookahead (40.0%) on the same 10 episodes" in table
     assert "seed 0: 3 won, 1 lost (p 0.62); seed 1: 2 won, 2 lost (p 1)" in table
 
@@ -474,7 +483,7 @@ def test_a_ladder_seeds_table_reads_each_summary_s_agent_and_yardsticks(tmp_path
                                 {"seed": 2, "wins": 9, "losses": 0, "mcnemar_p": 0.004}]},
     }  # fmt: skip
     (tmp_path / "summary.json").write_text(_results(rows, setup, details))
-    table = tables.ladder_seeds_table({"*.json": "python benchmarks/baselines.py"}, root=tmp_path)
+    table = tables.ladder_seeds_table({"*.json": BASELINES}, root=tmp_path)
     row = ("| `TetherNavigate_OpenStop-v3` | control:aim coast:True | PPO AimPolicy, "
            "policy_kwargs as in the command | 3 | "
            "1,024 | 2 | 50.0% [40.0, 60.0] | 45.0% | 55.1% | 73.1% | 1.2% | "
@@ -493,7 +502,7 @@ def test_an_imitation_table_reads_each_picker_s_rates(tmp_path):
             {"picker": "student", "features": "observation", "in_best": seeds,
              "in_best_detour": seeds}]  # fmt: skip
     (tmp_path / "imitation.json").write_text(_results(rows, setup, {"detour_share": 0.2}))
-    table = tables.imitation_table({"*.json": "python benchmarks/imitation.py"}, root=tmp_path)
+    table = tables.imitation_table({"*.json": IMITATION}, root=tmp_path)
     lines = table.splitlines()
     prefix = "| `TetherNavigate_PostsReach-v3` | aim-search, 37 | 100 of 1,000 | 20.0% | "
     assert prefix + "always the goal (the direct shot) | 80.0% | 0.0% |" in lines
@@ -549,11 +558,11 @@ def test_the_cli_reference_catches_the_parser_of_a_console_script():
 
 def test_a_long_command_folds_before_its_options_and_unfolds_to_itself():
     command = (
-        "python benchmarks/baselines.py --algo ppo --env ID --hyperparams "
+        "python -m benchmarks.experiments.baselines --algo ppo --env ID --hyperparams "
         "'policy_kwargs:dict(net_arch=[256, 256], log_std_init=-2.5)' --timesteps 500000"
     )
     folded = tables.fold_command(command)
-    assert folded.splitlines()[0] == "python benchmarks/baselines.py \\"
+    assert folded.splitlines()[0] == "python -m benchmarks.experiments.baselines \\"
     assert all(len(line) <= 90 for line in folded.splitlines())
     assert " ".join(folded.replace("\\\n", " ").split()) == command
     assert tables.fold_command("tether-train --seed 3") == "tether-train --seed 3"

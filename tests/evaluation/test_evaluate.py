@@ -238,10 +238,10 @@ def test_the_aim_search_detours_where_the_direct_shot_hits_posts():
 @pytest.mark.parametrize(("env_id", "kinds"), [("TetherNavigate_PostsReach-v3", {0, 1, 2}),
                                                ("TetherNavigate_OpenStop-v3", {0, 1})])  # fmt: skip
 def test_the_aim_search_s_scores_are_what_its_candidates_do_in_the_env(env_id, kinds):
-    """Each candidate's score (`benchmarks/imitation.py`'s labels) is what its action does when
-    the env plays it from that state: 2 where that maneuver meets the goal, else 1 only where it
-    does not end the episode, and the search plays the first of the best (stop: aims and speeds
-    both vary across the candidates; a stop in one maneuver is rare)."""
+    """Each candidate's score (`benchmarks/experiments/imitation.py`'s labels) is what its action
+    does when the env plays it from that state: 2 where that maneuver meets the goal, else 1 only
+    where it does not end the episode, and the search plays the first of the best (stop: aims and
+    speeds both vary across the candidates; a stop in one maneuver is rare)."""
     search = AimSearch({"coast": True}, env_id=env_id)
     states, _ = search.kernel.reset(np.random.default_rng(3).random((20, search.kernel.n_uniforms)))
     scores = search.scores(states)

@@ -1,8 +1,9 @@
-"""The JAX kernel of TetherBounce-v0 against the numba one (`benchmarks/jax_agreement.py`, whose
-full table is `results/jax/agreement.json`): on the same uniforms and actions, per task x
-dynamics, at the defaults and with every physical parameter randomized, the episode, the
-observation and the outcome (reward, episode end, every info field) agree in float64, and no
-outcome flag differs. A sample: `CASES` per cell, compiled once per dynamics.
+"""The JAX kernel of TetherBounce-v0 against the numba one
+(`benchmarks/validation/jax_agreement.py`, whose full table is `results/jax/agreement.json`): on the
+same uniforms and actions, per task x dynamics, at the defaults and with every physical parameter
+randomized, the episode, the observation and the outcome (reward, episode end, every info field)
+agree in float64, and no outcome flag differs. A sample: `CASES` per cell, compiled once per
+dynamics.
 
 Tolerances (differences relative, or absolute under 1: m/s, rad, reward):
 
@@ -26,7 +27,7 @@ import pytest
 
 pytest.importorskip("jax")
 
-from benchmarks.jax_agreement import (
+from benchmarks.validation.jax_agreement import (
     CHUNK,
     DYNAMICS,
     TASKS,

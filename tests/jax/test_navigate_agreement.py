@@ -1,8 +1,9 @@
-"""The JAX kernel of TetherNavigate-v3 against the numba one (`benchmarks.jax_navigate_agreement`):
-on the same states (drawn, then played on by random maneuvers) and actions, per ladder id and
-dynamics, the maneuver's observation and outcome (reward, episode end, every info field, the
-path) agree; the reset from the same uniforms gives the same episode; `compute_reward` gives
-the step's reward for the step's goal and the numba `compute` for relabeled goals.
+"""The JAX kernel of TetherNavigate-v3 against the numba one
+(`benchmarks.validation.jax_navigate_agreement`): on the same states (drawn, then played on by
+random maneuvers) and actions, per ladder id and dynamics, the maneuver's observation and outcome
+(reward, episode end, every info field, the path) agree; the reset from the same uniforms gives the
+same episode; `compute_reward` gives the step's reward for the step's goal and the numba `compute`
+for relabeled goals.
 
 Impulse dynamics: within `IMPULSE_TOLERANCE` (the same closed forms and searches; what differs is
 rounding: libm's and XLA's transcendental functions, XLA's fused multiply-adds). A maneuver whose
@@ -29,7 +30,7 @@ pytest.importorskip("jax")
 
 import jax
 
-from benchmarks.jax_navigate_agreement import (
+from benchmarks.validation.jax_navigate_agreement import (
     FLAGS,
     cases,
     compare,

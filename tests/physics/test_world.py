@@ -378,7 +378,7 @@ def test_contact_conserves_angular_momentum_about_the_anchor(pose, model):
 def test_hybrid_pose_after_the_contact_matches_the_scipy_reference():
     """hybrid_core now returns the state at the slack instant: its position and orientation
     agree with the independent DOP853 reference's (x, y, phi) there, to the hybrid model's
-    accuracy target (1e-6 relative, `benchmarks/physics.py`)."""
+    accuracy target (1e-6 relative, `benchmarks/speed/physics.py`)."""
     rng = np.random.default_rng(11)
     for _ in range(5):
         setup = dict(

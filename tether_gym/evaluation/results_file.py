@@ -7,7 +7,7 @@ is written by `write` and has the same top-level keys, `KEYS`:
 | `commit` | the git commit of the code that ran (None where it was not recorded) |
 | `dirty` | whether that tree had uncommitted changes (None where not recorded) |
 | `environment` | the versions that ran it: python, numpy, numba, gymnasium, and torch, |
-| | stable_baselines3, pymunk where they were loaded |
+| | stable_baselines3, pymunk, jax, jaxlib where they were loaded |
 | `seconds` | the run's wall time (None where not recorded) |
 | `setup` | the run's arguments: env id and kwargs, seeds, episodes, budgets |
 | `rows` | the records its table shows: one per agent, per planner and task, per picker, |
@@ -34,7 +34,7 @@ KEYS = ("command", "commit", "dirty", "environment", "seconds", "setup", "rows",
 """The top-level keys of every results file, in this order."""
 ALWAYS = ("numpy", "numba", "gymnasium")
 """The distributions every file's `environment` names (besides python)."""
-WHEN_LOADED = ("torch", "stable_baselines3", "pymunk")
+WHEN_LOADED = ("torch", "stable_baselines3", "pymunk", "jax", "jaxlib")
 """The distributions named where the run imported them."""
 ROOT = Path(__file__).resolve().parents[2]
 """The repository (or the installed package's parent): where `commit` is read."""
@@ -70,15 +70,21 @@ def git_state(root: Path = ROOT) -> tuple[str | None, bool | None]:
 
 
 def script_command(script: str, argv: Sequence[str] | None = None) -> str:
-    """`python SCRIPT ARGS` for a script of the repository (`script` its `__file__`), named by
-    its path from the root: the command to record."""
+    """The command to record for a script of the repository (`script` its `__file__`): `python
+    -m PACKAGE.MODULE ARGS` for a module of a package (every folder from the root to it has an
+    `__init__.py`: `benchmarks/speed/env.py` is `python -m benchmarks.speed.env`, the way the
+    benchmarks run), else `python PATH ARGS` with its path from the root."""
     path = Path(script).resolve()
-    try:
-        path = path.relative_to(ROOT)
-    except ValueError:
-        pass
     given = sys.argv[1:] if argv is None else list(argv)
-    return shlex.join(["python", path.as_posix(), *given])
+    try:
+        relative = path.relative_to(ROOT)
+    except ValueError:
+        return shlex.join(["python", path.as_posix(), *given])
+    folders = [ROOT.joinpath(*relative.parts[:i]) for i in range(1, len(relative.parts))]
+    if folders and all((folder / "__init__.py").is_file() for folder in folders):
+        module = ".".join([*relative.parts[:-1], relative.stem])
+        return shlex.join(["python", "-m", module, *given])
+    return shlex.join(["python", relative.as_posix(), *given])
 
 
 def record(

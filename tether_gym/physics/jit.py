@@ -47,7 +47,7 @@ def choose_threading_layer() -> str:
     a layer the user chose (NUMBA_THREADING_LAYER, numba's config) is kept.
 
     TBB's pool is cheap to wake for the short kernels of a vector-env step, where workqueue's
-    wake-up can cost more than the threads save (`benchmarks/env.py` measures it). OpenMP is
+    wake-up can cost more than the threads save (`benchmarks/speed/env.py` measures it). OpenMP is
     left out: its threads spin at barriers, and it shares its runtime with torch's, so that
     numba's first parallel call resets torch's thread count. numba makes the choice at the first
     parallel call, falling back along the priority set here if TBB does not load after all.

@@ -11,11 +11,11 @@ for speed and accuracy of the bounce alone. A contact is given up after the hybr
 Step and error. The taut step is 1/64 of the half period of the stiffest spring the puck can
 present (`pymunk_world.EULER_STEPS_PER_HALF_PERIOD`). Symplectic Euler is leapfrog with staggered
 velocities, and the tension vanishes at both ends of an elastic contact, so the error falls
-with the step about as h^2 (`benchmarks/pymunk_model.py` measures it; `tests/physics/test_pymunk.py`
-holds it to 0.5 degrees of deflection, 1% of speed ratio and 1e-3 of energy over the paper's
-sweeps). The velocity is that after the last taut step (the force of that last sample acts over
-a whole step); the slack instant, hence `contact_time`, is interpolated inside the step, and the
-world contact's pose is carried back to it by free flight.
+with the step about as h^2 (`benchmarks/validation/pymunk_model.py` measures it;
+`tests/physics/test_pymunk.py` holds it to 0.5 degrees of deflection, 1% of speed ratio and 1e-3 of
+energy over the paper's sweeps). The velocity is that after the last taut step (the force of that
+last sample acts over a whole step); the slack instant, hence `contact_time`, is interpolated inside
+the step, and the world contact's pose is carried back to it by free flight.
 """
 
 from __future__ import annotations

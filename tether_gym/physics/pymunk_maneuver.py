@@ -73,7 +73,7 @@ info: the hooked peg, the tether's length, or "the shortest" where the kernel ra
 puck's distance, the restitution, the wheel's target and rate), flown one after another from
 the episode's start up to its end: the world integrates the flight, walls, posts, wheel and
 contact itself, and finds the tautening (the wheel's target, or before it), the wall bounces
-and the post touches itself. `benchmarks/pymunk_navigate.py` measures the agreement.
+and the post touches itself. `benchmarks/validation/pymunk_navigate.py` measures the agreement.
 """
 
 from __future__ import annotations

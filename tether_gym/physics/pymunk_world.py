@@ -27,7 +27,7 @@ located inside their steps by linear interpolation of the gauge min(k (L - L0), 
 exactly when taut) between the two samples around its sign change, an error of order h^2 in
 time (1e-4 of the contact time at the default step). The velocity is not interpolated: the
 force of the last taut sample acts over its whole step, an error that the step keeps small
-(`benchmarks/pymunk_model.py` measures it).
+(`benchmarks/validation/pymunk_model.py` measures it).
 
 Walls and posts. An optional rectangular `Table` adds four static segments, and its round posts
 as static circles. Chipmunk's restitution of a contact is the product of the two shapes'

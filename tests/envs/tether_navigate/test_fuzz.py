@@ -1,9 +1,9 @@
-"""TetherNavigate fuzzed through its public API (issue #33, `benchmarks/fuzz_navigate.py`): on
-every id, control mode and dynamics, single and vector envs, random actions never leave the puck
-off the table, inside or through a post, an observation outside its space, a NaN, an exception,
-or a vector copy unlike its single env; two reproducers of the issue as physical checks. Then
-the instrument itself: each check fires on what it is meant to find, reproducers replay, the
-command writes its JSON and keeps an existing one."""
+"""TetherNavigate fuzzed through its public API (issue #33,
+`benchmarks/validation/fuzz_navigate.py`): on every id, control mode and dynamics, single and vector
+envs, random actions never leave the puck off the table, inside or through a post, an observation
+outside its space, a NaN, an exception, or a vector copy unlike its single env; two reproducers of
+the issue as physical checks. Then the instrument itself: each check fires on what it is meant to
+find, reproducers replay, the command writes its JSON and keeps an existing one."""
 
 from __future__ import annotations
 
@@ -13,9 +13,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import benchmarks.fuzz_navigate as fz
+import benchmarks.validation.fuzz_navigate as fz
 import tether_gym  # noqa: F401  (registers the env ids)
-from benchmarks.fuzz_navigate import (
+from benchmarks.validation.fuzz_navigate import (
     CLASSES,
     HOLES,
     REACH,
@@ -302,7 +302,7 @@ def test_the_command_writes_its_json_and_keeps_an_existing_one(tmp_path, capsys)
             "--num-envs", "8", "--compare", "1", "--json", str(out)]  # fmt: skip
     fz.main(argv)
     data = json.loads(out.read_text())
-    assert data["command"].startswith("python benchmarks/fuzz_navigate.py --ids")
+    assert data["command"].startswith("python -m benchmarks.validation.fuzz_navigate --ids")
     counts = data["details"]["counts"]
     assert len(data["rows"]) == 10 and counts["single"]["steps"] == 20
     assert counts["vector"]["steps"] == 10 * 8  # 8 transitions each, one step of 8

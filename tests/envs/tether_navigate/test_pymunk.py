@@ -1,6 +1,6 @@
 """TetherNavigate's episodes replayed in the pymunk world (`physics.pymunk_maneuver`,
-`benchmarks/pymunk_navigate.py`): the world integrates the flight, the walls, the posts, the
-wheel and the contact itself from the kernel's control inputs, whole episodes on every rung of
+`benchmarks/validation/pymunk_navigate.py`): the world integrates the flight, the walls, the posts,
+the wheel and the contact itself from the kernel's control inputs, whole episodes on every rung of
 the ladder, walls touched during contacts and maneuvers ending on posts included; after each
 maneuver the puck must be where the kernel put it (2 mm) at its velocity (1% of the kernel's),
 with the same post hit, or the disagreement must be explained (the benchmark's classes) and
@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 import tether_gym  # noqa: F401
-from benchmarks.pymunk_navigate import (
+from benchmarks.validation.pymunk_navigate import (
     AGREE,
     PARTED,
     PUCK,

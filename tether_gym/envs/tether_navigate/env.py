@@ -231,7 +231,7 @@ class TetherNavigateEnv(GoalMixin, KernelEnv):
       attachment point may lie across the puck's outline from the peg (|alpha| > pi/2).
     - Pegs are in the floor: the puck glides over them, the hooked one and the others. Its
       centre passes within its own radius of a peg in about one random maneuver in six
-      (`benchmarks/fuzz_navigate.py` counts them, `peg_overlap`).
+      (`benchmarks/validation/fuzz_navigate.py` counts them, `peg_overlap`).
     - The reaction wheel is kinematic: an ideal rate-controlled motor that turns the body at
       up to `wheel_rate` beyond its free spin, with no torque limit, and stops at tautening.
     - The brake sets the contact's restitution; the hybrid tether's damper is chosen so that

@@ -1,7 +1,7 @@
 """What a first run costs: each entry point timed in a fresh process with an empty numba cache,
 on this tree and, with `--against REV`, on another revision in the same run.
 
-    python benchmarks/cold_start.py [--against REV] [--only NAME ...] [--repeats 1]
+    python -m benchmarks.speed.cold_start [--against REV] [--only NAME ...] [--repeats 1] [--quick]
         [--out results/cold_start/cold_start.json]
 
 An entry is what a newcomer does first: make an env and take one step, ask a planner for one
@@ -17,6 +17,7 @@ first; the table gives each tree's median over `--repeats` and this tree's ratio
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import statistics
@@ -26,7 +27,8 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+from benchmarks.common import ROOT, worktree
+
 NAVIGATE = "TetherNavigate_PostsReach-v3"
 
 _STEP = """
@@ -141,33 +143,32 @@ def main() -> None:
                         help="entries whose name holds one of these")  # fmt: skip
     parser.add_argument("--repeats", type=int, default=1, help="runs per entry and tree")
     parser.add_argument("--out", type=Path, help="write the results here (JSON)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"a smoke run: the first entry only ({next(iter(ENTRIES))!r})",
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.only = [next(iter(ENTRIES))]
     entries = {
         name: code
         for name, code in ENTRIES.items()
         if not args.only or any(part in name for part in args.only)
     }
-    with tempfile.TemporaryDirectory() as folder:
+    with contextlib.ExitStack() as stack:
         trees = {"this tree": ROOT}
         if args.against:
-            trees[args.against] = Path(folder) / "base"
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach",
-                            str(trees[args.against]), args.against],
-                           check=True, capture_output=True)  # fmt: skip
-        try:
-            runs = {name: {tree: [] for tree in trees} for name in entries}
-            for repeat in range(args.repeats):
-                for name, code in entries.items():
-                    order = list(trees.items())
-                    if repeat % 2:
-                        order.reverse()
-                    for label, tree in order:
-                        runs[name][label].append(run_entry(tree, code))
-                        print(f"{name} [{label}]: {runs[name][label][-1]}", file=sys.stderr)
-        finally:
-            if args.against:
-                subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",
-                                str(trees[args.against])], check=True)  # fmt: skip
+            trees[args.against] = stack.enter_context(worktree(args.against))
+        runs = {name: {tree: [] for tree in trees} for name in entries}
+        for repeat in range(args.repeats):
+            for name, code in entries.items():
+                order = list(trees.items())
+                if repeat % 2:
+                    order.reverse()
+                for label, tree in order:
+                    runs[name][label].append(run_entry(tree, code))
+                    print(f"{name} [{label}]: {runs[name][label][-1]}", file=sys.stderr)
     results = {name: {label: median_of(r) for label, r in by.items()} for name, by in runs.items()}
     print(table(results, args.against))
     if args.out:

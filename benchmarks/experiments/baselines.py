@@ -5,10 +5,11 @@ and the learning curves (success on the evaluation episodes against timesteps). 
 (and a policy with a planner inside) are played anew when the summary is made, so it shows
 today's planners.
 
-    python benchmarks/baselines.py --algo sac --env TetherNavigate_PostsReachSparse-v3 \
+    python -m benchmarks.experiments.baselines --algo sac --env TetherNavigate_PostsReachSparse-v3 \
         --env-kwargs control:aim --timesteps 200000 [--seeds 5] [--jobs 2] [--num-threads 1] \
         [--runs-dir runs/baselines] [--out results/baselines] [--overwrite]
-    python benchmarks/baselines.py --plot results/baselines/A.json results/baselines/B.json \
+    python -m benchmarks.experiments.baselines --plot results/baselines/A.json \
+        results/baselines/B.json \
         --figure results/baselines/curves.png
 
 Each seed is `tether-train --seed k --name <config>_seed<k>` in `--runs-dir` (a finished run
@@ -30,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.common import threads_env
 from tether_gym.evaluation import results_file
 from tether_gym.evaluation.statistics import t_interval
 from tether_gym.families import family
@@ -38,11 +40,6 @@ from tether_gym.training.config import RunConfig
 from tether_gym.training.folders import EVALUATIONS
 from tether_gym.training.summary import RESULTS
 from tether_gym.training.yardsticks import baselines
-
-
-def threads_env(threads: int) -> dict[str, str]:
-    """A run's numba, OpenMP and MKL threads: its share of the cores."""
-    return dict.fromkeys(("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"), str(threads))
 
 
 def config_name(args: argparse.Namespace) -> str:

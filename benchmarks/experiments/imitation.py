@@ -2,7 +2,7 @@
 behind the aim-control baselines' ceiling (PPO, and PPO from the search's demonstrations, stay
 level with the direct shot).
 
-    python benchmarks/imitation.py [--env TetherNavigate_PostsReach-v3] [--states 80000]
+    python -m benchmarks.experiments.imitation [--env TetherNavigate_PostsReach-v3] [--states 80000]
         [--held-out 10000] [--seeds 3] [--epochs 60] [--json results/imitation/ID.json]
         [--overwrite]
 
@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -38,6 +37,7 @@ import torch
 from torch import nn
 
 import tether_gym  # noqa: F401  (registers the env ids)
+from benchmarks.common import output_arguments, refuse_existing
 from tether_gym.agents.aim_search import AimSearch
 from tether_gym.agents.direct import aim_actions
 from tether_gym.agents.networks import NavigateExtractor
@@ -149,8 +149,7 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=3, help="network seeds per input")
     parser.add_argument("--epochs", type=int, default=60)
     parser.add_argument("--seed", type=int, default=0, help="the episodes' seed")
-    parser.add_argument("--json", type=Path, default=None)
-    parser.add_argument("--overwrite", action="store_true")
+    output_arguments(parser)
     args = parser.parse_args()
     if not 0 < args.held_out < args.states:
         parser.error(f"--held-out must be in (0, --states={args.states}), got {args.held_out}")
@@ -158,8 +157,7 @@ def main() -> None:
         parser.error(f"--seeds must be at least 2 (a 95% interval), got {args.seeds}")
     if args.epochs < 1:
         parser.error(f"--epochs must be at least 1, got {args.epochs}")
-    if args.json is not None and args.json.exists() and not args.overwrite:
-        parser.error(f"{args.json} exists; pass --overwrite to replace it")
+    refuse_existing(parser, args.json, args.overwrite)
     start = time.perf_counter()
     search = AimSearch({**gym.spec(args.env).kwargs, "coast": True})
     states = gather(search, args.states, np.random.default_rng(args.seed))

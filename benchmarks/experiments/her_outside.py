@@ -2,7 +2,7 @@
 stable-baselines3 only (SB3's own `MultiInputPolicy` and `HerReplayBuffer`, nothing of
 `tether_gym.training`), then the success of the deterministic policy on fresh episodes.
 
-    python benchmarks/her_outside.py [--env TetherNavigate_OpenReachSparse-v3]
+    python -m benchmarks.experiments.her_outside [--env TetherNavigate_OpenReachSparse-v3]
         [--control aim] [--timesteps 100000] [--episodes 500] [--seed 0] [--json PATH]
 
 The one setting the env asks for is `copy_info_dict=True`: the reward of a relabeled goal needs

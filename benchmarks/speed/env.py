@@ -11,9 +11,9 @@ which adds Gymnasium's sampling: about 13 us per call for TetherBounce's Box of 
 (45 us for the vector env's 1024 x 4), against about 1 us for CartPole's Discrete (4 us
 batched), i.e. more than the TetherBounce step itself.
 
-    python benchmarks/env.py [--quick] [--json] [--only NAME]
+    python -m benchmarks.speed.env [--quick] [--json] [--only NAME]
 
-`benchmarks/env_against.py` runs these cases against another revision in the same run.
+`benchmarks/speed/env_against.py` runs these cases against another revision in the same run.
 """
 
 from __future__ import annotations

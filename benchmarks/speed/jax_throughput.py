@@ -19,7 +19,8 @@ commit (refused if the file exists, unless `--overwrite`). `--quick` is a smoke 
 and 64, one repeat, no compile times). The same script runs on a CUDA device: jax's default
 device runs the JAX side (printed), numba stays on the host's CPU.
 
-    python benchmarks/jax_throughput.py --batches 1 64 1024 16384 --json results/jax/throughput.json
+    python -m benchmarks.speed.jax_throughput --batches 1 64 1024 16384 \
+        --json results/jax/throughput.json
 """
 
 from __future__ import annotations
@@ -29,8 +30,6 @@ import importlib.metadata
 import json
 import os
 import platform
-import shlex
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -43,7 +42,8 @@ import numba
 import numpy as np
 
 import tether_gym  # noqa: F401  (registers the ids)
-from benchmarks.jax_agreement import git
+from benchmarks.common import ROOT, median_seconds
+from tether_gym.evaluation import results_file
 
 BATCHES = (1, 64, 1024, 16384, 65536)
 DYNAMICS = ("impulse", "hybrid")
@@ -65,14 +65,9 @@ def block_length(seconds_per_step: float) -> int:
 
 
 def median_rate(run, n: int, steps: int, repeats: int) -> float:
-    """Env steps per second: the median over `repeats` of n * steps / the seconds `run()`
-    takes (it runs `steps` steps of n copies)."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - start)
-    return n * steps / statistics.median(times)
+    """Env steps per second: n * steps over the median seconds `run()` takes in `repeats`
+    calls (it runs `steps` steps of n copies)."""
+    return n * steps / median_seconds(run, repeats, warm_up=False)
 
 
 def jax_scan_rate(dynamics: str, n: int, repeats: int) -> float:
@@ -160,9 +155,9 @@ def compile_times(dynamics: str, n: int, precision: str) -> dict:
         runs = {}
         for label in ("cold", "cached"):
             out = subprocess.run(
-                [sys.executable, __file__, "--compile-only", dynamics, "--compile-batch", str(n),
-                 "--precision", precision, "--cache-dir", cache],
-                check=True, capture_output=True, text=True,
+                [sys.executable, "-m", __spec__.name, "--compile-only", dynamics,
+                 "--compile-batch", str(n), "--precision", precision, "--cache-dir", cache],
+                check=True, capture_output=True, text=True, cwd=ROOT,
             )  # fmt: skip
             runs[label] = json.loads(out.stdout.strip().splitlines()[-1])
     return runs
@@ -219,14 +214,17 @@ def main() -> None:
     if args.json and args.json.exists() and not args.overwrite:
         raise SystemExit(f"{args.json} exists: pass --overwrite to replace it")
     jax.config.update("jax_enable_x64", args.precision == "float64")
-    report = {"command": shlex.join(["python", "benchmarks/jax_throughput.py", *sys.argv[1:]]),
-              **git(), "machine": machine(), "precision": args.precision, "load_before": load(),
-              "repeats": args.repeats, "rates": [], "compile": {}}  # fmt: skip
-    print(json.dumps(report["machine"]), f"precision {args.precision}, load {load()}")
+    start, versions = time.perf_counter(), ("python", "jax", "jaxlib")
+    found = machine()
+    rows, details = [], {
+        "machine": {key: value for key, value in found.items() if key not in versions},
+        "compile": {}, "load_before": load(),
+    }  # fmt: skip
+    print(json.dumps(found), f"precision {args.precision}, load {details['load_before']}")
     if not args.no_compile:
         for dynamics in args.dynamics:
             times = compile_times(dynamics, args.compile_batch, args.precision)
-            report["compile"][dynamics] = {"batch": args.compile_batch, **times}
+            details["compile"][dynamics] = {"batch": args.compile_batch, **times}
             print(f"{dynamics:8} first jit at batch {args.compile_batch}: "
                   f"{times['cold']['jit_s']:.2f} s (compile {times['cold']['compile_s']:.2f} s), "
                   f"with the persistent cache {times['cached']['jit_s']:.2f} s "
@@ -242,15 +240,17 @@ def main() -> None:
                 "jax_vec": vector_rate(JAX_ID, dynamics, n, args.repeats),
                 "numba_vec": vector_rate(NUMBA_ID, dynamics, n, args.repeats),
             }
-            report["rates"].append(row)
+            rows.append(row)
             print(f"{dynamics:8} {n:6d} {row['jax_scan']:12.0f} {row['jax_vec']:12.0f} "
                   f"{row['numba_vec']:12.0f} {row['jax_scan'] / row['numba_vec']:10.2f}",
                   flush=True)  # fmt: skip
-    report["load_after"] = load()
-    print(f"load after: {report['load_after']}")
+    details["load_after"] = load()
+    print(f"load after: {details['load_after']}")
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(report, indent=2) + "\n")
+        setup = {"precision": args.precision, "repeats": args.repeats}
+        record = results_file.record(results_file.script_command(__file__), rows, setup, details,
+                                     round(time.perf_counter() - start, 1))  # fmt: skip
+        results_file.write(args.json, record, lambda data: json.dumps(data, indent=2))
 
 
 if __name__ == "__main__":

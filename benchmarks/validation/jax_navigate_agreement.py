@@ -15,15 +15,12 @@ into (-pi, pi]; the flags (`FLAGS`) count their disagreements. A case whose flag
 compared on every continuous column and the observation; one whose flags differ is a changed
 outcome, classed by the flags that differ.
 
-    python -m benchmarks.jax_navigate_agreement [--cases 10000] [--dynamics impulse]
+    python -m benchmarks.validation.jax_navigate_agreement [--cases 10000] [--dynamics impulse]
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -35,6 +32,7 @@ from tether_gym.envs.tether_navigate.arguments import NavigateConfig
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_POSTS
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OBSERVATION, OUTCOME
+from tether_gym.evaluation import results_file
 
 WARMUP = 4
 """Maneuvers of random actions played before the cases are picked (0 to WARMUP per case)."""
@@ -251,7 +249,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args()
     jax.config.update("jax_enable_x64", True)
-    rows = []
+    rows, start = [], time.perf_counter()
     print(f"jax {jax.__version__} on {jax.devices()[0]}, float64")
     for dynamics in args.dynamics:
         for control in args.control:
@@ -268,15 +266,11 @@ def main() -> None:
                     f"{row['classes']} {row['seconds']} s",
                     flush=True,
                 )
-    commit = subprocess.run(
-        ["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=False
-    ).stdout.strip()
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps({
-        "command": " ".join(["python -m benchmarks.jax_navigate_agreement", *sys.argv[1:]]),
-        "commit": commit, "jax": jax.__version__, "device": str(jax.devices()[0]),
-        "precision": "float64", "rows": rows,
-    }, indent=1) + "\n")  # fmt: skip
+    command = results_file.script_command(__file__)
+    record = results_file.record(command, rows, {"precision": "float64"},
+                                 {"device": str(jax.devices()[0])},
+                                 round(time.perf_counter() - start, 1))  # fmt: skip
+    results_file.write(args.out, record)
     print(f"wrote {args.out}")
 
 

@@ -6,7 +6,7 @@ most 5 ms) and model="hybrid", and their ratio.
 Error: the worst disagreement with the hybrid model over the paper's sweeps (e = 1) for a few
 steps per half period, which is how `pymunk_world.EULER_STEPS_PER_HALF_PERIOD` was chosen.
 
-    python benchmarks/pymunk_model.py [--quick]
+    python -m benchmarks.validation.pymunk_model [--quick]
 
 (Not benchmarks/pymunk.py: run as a script, that name would shadow the pymunk package.)
 """

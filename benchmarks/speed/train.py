@@ -7,7 +7,7 @@ With the default hyperparameters (the packaged hyperparams/ppo.yml), measured in
 The environment is not the bottleneck when its share is small and env-only steps/s is many
 times the training rate.
 
-    python benchmarks/train.py [--quick] [--timesteps N]
+    python -m benchmarks.speed.train [--quick] [--timesteps N]
 """
 
 from __future__ import annotations

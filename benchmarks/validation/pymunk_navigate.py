@@ -3,8 +3,8 @@ on each rung of the ladder (Open, Posts, Wall; setup control, hybrid dynamics) r
 `tether_gym.physics.pymunk_maneuver` from the kernel's control inputs, walls and posts and all,
 and each maneuver's end compared with the kernel's.
 
-    python benchmarks/pymunk_navigate.py [--episodes 100] [--rho 850 10] [--wall-restitution 0.9]
-        [--seed 0]
+    python -m benchmarks.validation.pymunk_navigate [--episodes 100] [--rho 850 10]
+        [--wall-restitution 0.9] [--seed 0]
         [--json results/pymunk/agreement.json] [--overwrite]
 
 Each rung is played at each `--rho` (the tether's stiffness as the env's `rho`: 850 is the
@@ -36,11 +36,10 @@ maneuver); and the command, the git commit and the wall time.
 
 from __future__ import annotations
 
-import os
+from benchmarks.common import one_core, output_arguments, refuse_existing
 
 if __name__ == "__main__":  # one core (the machine's others are left free), before numba loads
-    for _name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(_name, "1")
+    one_core()
 
 import argparse
 import itertools
@@ -48,7 +47,6 @@ import math
 import sys
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -70,7 +68,6 @@ from tether_gym.physics.pymunk_maneuver import TAUT_STEPS, Maneuver, ManeuverPla
 from tether_gym.physics.pymunk_world import Table
 from tether_gym.physics.state import PuckState
 
-ROOT = Path(__file__).resolve().parent.parent
 RUNGS = ("Open", "Posts", "Wall")
 WALL_RESTITUTION = NavigateConfig().wall_restitution
 """The env's default wall restitution."""
@@ -353,12 +350,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--wall-restitution", type=float, nargs="+", default=[WALL_RESTITUTION])
     parser.add_argument("--seed", type=int, default=0, help="the first episode's seed")
     parser.add_argument("--rungs", nargs="+", choices=RUNGS, default=list(RUNGS))
-    parser.add_argument("--json", type=Path, default=None)
-    parser.add_argument("--overwrite", action="store_true")
+    output_arguments(parser)
     given = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(given)
-    if args.json is not None and args.json.exists() and not args.overwrite:
-        parser.error(f"{args.json} exists; pass --overwrite to replace it")
+    refuse_existing(parser, args.json, args.overwrite)
     if args.episodes < 1:
         parser.error("--episodes must be >= 1")
     begin = time.perf_counter()

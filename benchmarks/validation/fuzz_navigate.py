@@ -3,11 +3,11 @@
 over their documented ranges, each transition checked for physical holes, counted per class,
 with reproducers a developer can replay.
 
-    python benchmarks/fuzz_navigate.py [--steps 14000] [--vector-steps 0] [--num-envs 64]
+    python -m benchmarks.validation.fuzz_navigate [--steps 14000] [--vector-steps 0] [--num-envs 64]
         [--vector-block 32] [--compare 4] [--arc-sample 0.02] [--defaults] [--seed 0]
         [--ids ID ...] [--reproducers 2] [--against REV]
         [--json results/fuzz/FILE.json] [--overwrite]
-    python benchmarks/fuzz_navigate.py --replay results/fuzz/FILE.json [--json OUT.json]
+    python -m benchmarks.validation.fuzz_navigate --replay results/fuzz/FILE.json [--json OUT.json]
 
 `--steps` single-env steps and `--vector-steps` vector transitions (copies x steps, in vector
 envs of `--num-envs` copies) are spread evenly over every combination of the 14 TetherNavigate
@@ -42,24 +42,23 @@ counts overall, per rung, per control and dynamics, per band of each drawn argum
 combination, the arc check's count and cost, `--reproducers` per class and combination, the
 command, the git commit of the package fuzzed and the wall time. `--against REV` runs the same
 command on REV's package (a temporary git worktree first on the path, as
-`benchmarks/env_against.py` does): the before of a fix.
+`benchmarks/speed/env_against.py` does): the before of a fix.
 """
 
 from __future__ import annotations
 
-import os
+from benchmarks.common import one_core, output_arguments, package_of, refuse_existing, worktree
 
 if __name__ == "__main__":  # one core (the machine's others are left free), before numba loads
-    for _name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(_name, "1")
+    one_core()
 
 import argparse
 import json
 import math
+import os
 import re
 import subprocess
 import sys
-import tempfile
 import time
 import warnings
 from collections import Counter
@@ -94,7 +93,6 @@ from tether_gym.physics.obstacles import on_table
 from tether_gym.physics.state import PuckState
 from tether_gym.tasks.navigate import REST_SPEED
 
-ROOT = Path(__file__).resolve().parent.parent
 PACKAGE_ROOT = Path(tether_gym.__file__).resolve().parent.parent
 """The tree whose package is fuzzed (REV's worktree under `--against`)."""
 AGAINST_TREE = "FUZZ_NAVIGATE_AGAINST_TREE"
@@ -1098,17 +1096,10 @@ def _add_bands(into: dict, bands: dict) -> None:
 def _run_against(rev: str, given: list[str]) -> None:
     """Run this command again with REV's package first on the path: REV checked out into a
     temporary git worktree, removed after."""
-    with tempfile.TemporaryDirectory() as folder:
-        tree = Path(folder) / "tree"
-        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree), rev],
-                       check=True, capture_output=True)  # fmt: skip
-        try:
-            env = {**os.environ, "PYTHONPATH": str(tree), AGAINST_TREE: str(tree)}
-            subprocess.run([sys.executable, str(Path(__file__).resolve()), *given], env=env,
-                           check=True)  # fmt: skip
-        finally:
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)],
-                           check=True)  # fmt: skip
+    with worktree(rev) as tree, package_of(tree) as env:
+        env[AGAINST_TREE] = str(tree)
+        subprocess.run([sys.executable, str(Path(__file__).resolve()), *given], env=env,
+                       check=True)  # fmt: skip
 
 
 def table(groups: dict[str, dict], title: str) -> str:
@@ -1164,12 +1155,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--replay", type=Path, default=None, metavar="FUZZ_JSON",
                         help="replay the reproducers of an earlier run's JSON on this tree "
                         "(into --json) instead of fuzzing")  # fmt: skip
-    parser.add_argument("--json", type=Path, default=None)
-    parser.add_argument("--overwrite", action="store_true")
+    output_arguments(parser)
     given = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(given)
-    if args.json is not None and args.json.exists() and not args.overwrite:
-        parser.error(f"{args.json} exists; pass --overwrite to replace it")
+    refuse_existing(parser, args.json, args.overwrite)
     if min(args.steps, args.vector_steps) < 0 or args.num_envs < 1 or args.compare < 0:
         parser.error("--steps, --vector-steps and --compare must be >= 0, --num-envs >= 1")
     if not 0.0 <= args.arc_sample <= 1.0 or args.vector_block < 1:

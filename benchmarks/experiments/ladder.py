@@ -1,7 +1,7 @@
 """The difficulty ladder's yardsticks: the planners' and random's success on every rung, on the
 held-out test episodes of `tether-train`'s final tables (seed `TEST_SEED`).
 
-    python benchmarks/ladder.py [--episodes 1000] [--out results/ladder] [--overwrite]
+    python -m benchmarks.experiments.ladder [--episodes 1000] [--out results/ladder] [--overwrite]
 
 Each dense ladder id (the sparse twin has the same episodes and successes) gets one
 `tether-evaluate --json` file in `--out`: the greedy and lookahead planners (which act in

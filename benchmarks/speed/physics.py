@@ -5,34 +5,21 @@ model on a batch of 10^4 at the paper's experimental rho (about 850), one hybrid
 the `bounce_one` fast path, and the scipy reference per bounce (the peer every ratio is taken
 against); then the hybrid model's largest error against the reference on the benchmark's set-ups.
 
-    python benchmarks/physics.py            # the issue's figures
-    python benchmarks/physics.py --quick    # a smoke run
+    python -m benchmarks.speed.physics            # the issue's figures
+    python -m benchmarks.speed.physics --quick    # a smoke run
 """
 
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
-from collections.abc import Callable
 
 import numpy as np
 
+from benchmarks.common import median_seconds
 from tether_gym.physics import bounce, bounce_one, perpendicular_speed, stiffness_from_rho
 from tether_gym.physics.reference import reference_bounce
 
 RHO = 850.0  # the paper's experimental system (sec. 3.3)
-
-
-def median_seconds(run: Callable[[], object], repeat: int) -> float:
-    """Median wall time of `run` over `repeat` calls, after one warm-up call (JIT, caches)."""
-    run()
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def setups(n: int, seed: int = 0) -> dict[str, np.ndarray]:

@@ -7,7 +7,7 @@ trains the default PPO (the packaged hyperparams/ppo.yml) for a fixed number of 
 It prints the median timesteps/s of a trial in each condition, the total of two at once, and
 that total over one trial alone: about 2 when the trials do not contend for the cores.
 
-    python benchmarks/sweep_throughput.py [--timesteps N] [--trials N]
+    python -m benchmarks.speed.sweep_throughput [--timesteps N] [--trials N] [--quick]
 """
 
 from __future__ import annotations
@@ -37,7 +37,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--timesteps", type=int, default=65_536, help="per trial")
     parser.add_argument("--trials", type=int, default=3, help="per condition (pairs for two)")
+    parser.add_argument("--quick", action="store_true",
+                        help="a smoke run: one trial (one pair) of 4,096 timesteps")  # fmt: skip
     args = parser.parse_args()
+    if args.quick:
+        args.timesteps, args.trials = 4_096, 1
     alone = trial_rates(args.trials, 1, args.timesteps)
     two = trial_rates(2 * args.trials, 2, args.timesteps)
     one_rate, pair_rate = statistics.median(alone), statistics.median(two)

@@ -2,9 +2,10 @@
 success, in one run: greedy and lookahead, reach and stop among 3 posts (the ladder's
 `TetherNavigate_Posts{Reach,Stop}-v3`, setup control), at batch 1 and a large batch, on one core.
 
-    python benchmarks/planners.py [--implementations numpy ...] [--batches 1 256] [--repeats 5]
+    python -m benchmarks.speed.planners [--implementations numpy ...] [--batches 1 256]
+        [--repeats 5]
         [--agreement 10000] [--episodes 1000] [--out results/planners/decisions.json] [--quick]
-    python benchmarks/planners.py --record tests/data/planner_decisions.npz --states 200
+    python -m benchmarks.speed.planners --record tests/data/planner_decisions.npz --states 200
 
 A decision is one `predict` of one observation (SB3's interface, the decoding included), timed on
 decision states the greedy planner meets in its own seeded episodes (`record`), after a warm-up
@@ -24,12 +25,12 @@ more), fixed before numba is imported.
 
 from __future__ import annotations
 
-import os
+from benchmarks.common import one_core
 
-for _name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_name, "1")
+one_core()
 
 import argparse  # noqa: E402
+import os  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402

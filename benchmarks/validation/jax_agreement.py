@@ -17,23 +17,20 @@ grazing tether carries the puck round the anchor) reports a snapshot of an orbit
 apart ("given up"). `tests/jax/test_agreement.py` runs a sample of these cases; this script the
 full table, written with the command that made it:
 
-    python benchmarks/jax_agreement.py --cases 10000 --json results/jax/agreement.json
+    python -m benchmarks.validation.jax_agreement --cases 10000 --json results/jax/agreement.json
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import shlex
-import subprocess
 import sys
 import time
-from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from benchmarks.common import output_arguments, refuse_existing
 from tether_gym.envs.tether_bounce.kernel import (
     ACTION,
     OBSERVATION,
@@ -42,9 +39,9 @@ from tether_gym.envs.tether_bounce.kernel import (
     BounceConfig,
     TetherBounceKernel,
 )
+from tether_gym.evaluation import results_file
 from tether_gym.jax.bounce import UNIFORMS, EnvParams, observe, sample_episode, step_episode
 
-ROOT = Path(__file__).resolve().parent.parent
 TASKS = ("heading", "velocity", "deadspin", "mixed")
 DYNAMICS = ("impulse", "hybrid")
 WIDE = {
@@ -189,16 +186,6 @@ def row(task: str, dynamics: str, label: str, ranges: dict | None, cases: int, s
     }
 
 
-def git() -> dict:
-    """The commit of the tree measured, and whether it has changes."""
-
-    def run(*args: str) -> str:
-        done = subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True)
-        return done.stdout.strip()
-
-    return {"commit": run("rev-parse", "HEAD"), "dirty": bool(run("status", "--porcelain"))}
-
-
 def main(argv: list[str] | None = None) -> None:
     given = sys.argv[1:] if argv is None else list(argv)
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -208,25 +195,15 @@ def main(argv: list[str] | None = None) -> None:
                         choices=("float64", "float32"))  # fmt: skip
     parser.add_argument("--dynamics", nargs="+", default=DYNAMICS, choices=DYNAMICS)
     parser.add_argument("--widest", action="store_true", help="rho down to 1 (slow: hybrid)")
-    parser.add_argument("--json", type=Path, help="write the table here")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing --json")
+    output_arguments(parser)
     args = parser.parse_args(given)
-    if args.json and args.json.exists() and not args.overwrite:
-        parser.error(f"{args.json} exists: pass --overwrite to replace it")
+    refuse_existing(parser, args.json, args.overwrite)
     if args.cases < 1:
         parser.error("--cases must be >= 1")
     cases = -(-args.cases // CHUNK) * CHUNK  # whole chunks: a remainder compiles once more
     ranges = ("widest", WIDEST) if args.widest else ("wide", WIDE)
     start = time.perf_counter()
-    report = {
-        "command": shlex.join(["python", "benchmarks/jax_agreement.py", *given]),
-        **git(),
-        "jax": jax.__version__,
-        "device": str(jax.devices()[0]),
-        "cases_per_row": cases,
-        "seed": args.seed,
-        "rows": [],
-    }
+    rows = []
     print(f"jax {jax.__version__} on {jax.devices()[0]}, {cases} cases a row")
     print(LINE.format(*HEADER))
     cells = [
@@ -240,12 +217,14 @@ def main(argv: list[str] | None = None) -> None:
         for i, (task, dynamics, label, config) in enumerate(cells):
             cell = {"precision": precision,
                     **row(task, dynamics, label, config, cases, args.seed + i)}  # fmt: skip
-            report["rows"].append(cell)
+            rows.append(cell)
             print(NUMBERS.format(*cell.values()), flush=True)
-    report["seconds"] = round(time.perf_counter() - start, 1)
+    seconds = round(time.perf_counter() - start, 1)
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(report, indent=1) + "\n")
+        setup = {"cases_per_row": cases, "seed": args.seed}
+        record = results_file.record(results_file.script_command(__file__, given), rows, setup,
+                                     {"device": str(jax.devices()[0])}, seconds)  # fmt: skip
+        results_file.write(args.json, record)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
-"""`benchmarks/env.py` on the working tree and on another revision, interleaved in one run.
+"""`benchmarks/speed/env.py` on the working tree and on another revision, interleaved in one run.
 
-    python benchmarks/env_against.py REV [--repeats 7] [--quick] [--only TetherNavigate]
+    python -m benchmarks.speed.env_against REV [--repeats 7] [--quick] [--only TetherNavigate]
 
 REV is checked out into a temporary git worktree. Each repeat runs `env.py --json --repeats 1`
 once against each tree, alternating which goes first, so both see the same machine; the table
@@ -14,27 +14,27 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import statistics
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+from benchmarks.common import ROOT, package_of, worktree
+
 ENV_BENCHMARK = Path(__file__).resolve().parent / "env.py"
 
 
 def run_once(tree: Path, quick: bool, only: str | None) -> dict[str, dict[str, float]]:
     """One repeat of every case (those whose name holds `only`) with `tree`'s tether_gym first
     on the path."""
-    env = {**os.environ, "PYTHONPATH": str(tree)}
     command = [sys.executable, str(ENV_BENCHMARK), "--json", "--repeats", "1"]
     if quick:
         command.append("--quick")
     if only:
         command += ["--only", only]
-    run = subprocess.run(command, cwd=tree, env=env, capture_output=True, text=True, check=True)
+    with package_of(tree) as env:
+        run = subprocess.run(command, cwd=tree, env=env, capture_output=True, text=True,
+                             check=True)  # fmt: skip
     return json.loads(run.stdout.splitlines()[-1])
 
 
@@ -45,19 +45,12 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="a short smoke run")
     parser.add_argument("--only", help="run only the cases whose name holds this")
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory() as folder:
-        base = Path(folder) / "base"
-        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(base),
-                        args.rev], check=True, capture_output=True)  # fmt: skip
-        try:
-            runs: dict[Path, list] = {ROOT: [], base: []}
-            for repeat in range(args.repeats):
-                order = (ROOT, base) if repeat % 2 == 0 else (base, ROOT)
-                for tree in order:
-                    runs[tree].append(run_once(tree, args.quick, args.only))
-        finally:
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(base)],
-                           check=True)  # fmt: skip
+    with worktree(args.rev) as base:
+        runs: dict[Path, list] = {ROOT: [], base: []}
+        for repeat in range(args.repeats):
+            order = (ROOT, base) if repeat % 2 == 0 else (base, ROOT)
+            for tree in order:
+                runs[tree].append(run_once(tree, args.quick, args.only))
     print(f"median of {args.repeats} runs each, this tree against {args.rev}")
     for harness, cases in runs[ROOT][0].items():
         print(harness)

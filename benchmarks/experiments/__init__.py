@@ -1,0 +1,1 @@
+"""The experiments whose tables of agents are `results/` (benchmarks/README.md)."""

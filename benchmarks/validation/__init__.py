@@ -1,0 +1,1 @@
+"""The models and kernels checked against each other (benchmarks/README.md)."""
