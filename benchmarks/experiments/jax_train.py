@@ -1,7 +1,8 @@
 """PPO on the JAX env, several seeds in one compiled run, scored on the SB3 run's test episodes.
 
-    python benchmarks/jax_train.py [--env TetherBounce-v0] [--seeds 5] [--timesteps 5000000] \
-        [--chunk 50] [--episodes 1000] [--save-dir DIR] [--json PATH] [--overwrite]
+    python -m benchmarks.experiments.jax_train [--env TetherBounce-v0] [--seeds 5] \
+        [--timesteps 5000000] [--chunk 50] [--episodes 1000] [--save-dir DIR] [--json PATH] \
+        [--overwrite]
 
 Trains `--seeds` seeds (0 .. N-1) of the env's zoo recipe (`hyperparams/ppo.yml`, the entry
 `make train` uses; `--timesteps` for a shorter run) with `tether_gym.training.jax_ppo` (the
@@ -30,6 +31,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from benchmarks.common import ROOT
 from tether_gym.evaluation import results_file
 from tether_gym.evaluation.results_file import script_command
 from tether_gym.evaluation.statistics import t_interval
@@ -42,8 +44,6 @@ from tether_gym.training.jax_ppo import (
     unstack,
 )
 from tether_gym.training.zoo import parse_overrides
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def versions() -> dict[str, str]:
