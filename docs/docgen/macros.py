@@ -25,6 +25,7 @@ RESULTS_MACROS: dict[str, Callable[..., str]] = {
     "cold_start_table": tables.cold_start_table,
     "jax_agreement_table": tables.jax_agreement_table,
     "jax_throughput_table": tables.jax_throughput_table,
+    "jax_train_table": tables.jax_train_table,
 }
 """The macros that read results files (their `root` and `style` set by `expand`)."""
 MACROS: dict[str, Callable[..., str]] = {

@@ -11,8 +11,11 @@ import textwrap
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from docgen import ROOT
 from docgen.results import files_of, kwargs_text, percent, read_file, read_results
+from tether_gym.evaluation.statistics import t_interval
 
 LADDER_YARDSTICKS = ("greedy planner", "lookahead planner", "random")
 """The agents every baseline summary also plays, in the order `ladder_seeds_table` shows."""
@@ -454,6 +457,46 @@ def jax_throughput_table(sources: dict[str, str], root: Path = ROOT, style: str 
                 + " (in brackets: with jax's persistent compilation cache filled)"
             )
         notes.append(note + ".")
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
+
+
+def jax_train_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """PPO compiled with the JAX env (`benchmarks.experiments.jax_train`) beside SB3's row on
+    the same test episodes: per trainer, its seeds x timesteps, wall time, steps/s and success
+    (mean [95% CI], worst seed)."""
+    _check_sources(sources)
+    lines = [
+        "| trainer | seeds x timesteps | wall time | steps/s | success [95% CI] | worst seed |",
+        "|---|---|---:|---:|---|---:|",
+    ]
+    notes = []
+    for path in (path for p in sources for path in files_of(p, root)):
+        data = read_file(path)
+        setup, details = data["setup"], data["details"]
+        success = np.array([row["success"] for row in data["rows"]])
+        low, high = t_interval(success)
+        lines.append(
+            f"| JAX PPO (one run, seeds under `vmap`) | {len(success)} x "
+            f"{setup['timesteps_per_seed']:,} | {data['seconds']:,.0f} s | "
+            f"{details['steps_per_second']:,} | {100 * success.mean():.1f}% "
+            f"[{100 * low:.1f}, {100 * high:.1f}] | {100 * success.min():.1f}% |"
+        )
+        sb3 = details.get("sb3")
+        if sb3:
+            low, high = sb3["success_ci"]
+            trained = sum(sb3["train_seconds"] or [0])
+            lines.append(
+                f"| SB3 PPO (`{sb3['file']}`, one seed after another) | {sb3['seeds']} x "
+                f"{sb3['timesteps']:,} | {trained:,.0f} s of training | - | "
+                f"{100 * sb3['success_mean']:.1f}% [{100 * low:.1f}, {100 * high:.1f}] | "
+                f"{100 * sb3['worst']:.1f}% |"
+            )
+        notes.append(
+            _run_line(data, {"device": setup["device"]}).rstrip(".")
+            + f"; compiling {details['compile_seconds']:.0f} s, peak RSS "
+            f"{details['peak_rss_mb']:,} MB; {setup['episodes']:,} test episodes (seed "
+            f"{setup['test_seed']:,}), the same as SB3's final table."
+        )
     return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
 
 
