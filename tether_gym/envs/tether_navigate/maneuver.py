@@ -99,7 +99,8 @@ def maneuver(s, p, anchor, length, alpha, e, aim_x, aim_y, out):
     s.x, s.y, s.vx, s.vy, s.angle, s.spin = puck
     s.maneuvers_left -= 1
     at_rest = math.hypot(puck.vx, puck.vy) < task.REST_SPEED
-    path = out[OUT.path : OUT.path + 2 * PATH_POINTS].reshape(PATH_POINTS, 2)
+    k = min(n + 1, PATH_POINTS)  # the drawn points and the end: the rest repeats the end
+    path = out[OUT.path : OUT.path + 2 * k].reshape(k, 2)
     reward, success, progress, term_success, term_maneuver, term_post = task.terms(
         p.task, p.reward_type, path, s.goal_x, s.goal_y, at_rest, hit_post
     )
