@@ -108,36 +108,6 @@ def speed_bound(vx, vy, spin):
     return 1.001 * jnp.sqrt(vx * vx + vy * vy + INERTIA_RATIO * (PUCK_RADIUS * spin) ** 2)
 
 
-def rk4(y, a1, h, p: physics.Tether):
-    """`hybrid._rk4`: (cx, cy, vx, vy, rx, ry, w) after a step of length h, and the angle
-    turned."""
-    cx, cy, vx, vy, rx, ry, w = y
-    ax1, ay1, al1 = a1
-    h2 = 0.5 * h
-    y2 = (cx + h2 * vx, cy + h2 * vy, vx + h2 * ax1, vy + h2 * ay1,
-          rx - h2 * w * ry, ry + h2 * w * rx, w + h2 * al1)  # fmt: skip
-    (ax2, ay2, al2), _ = physics._accel(y2, p)
-    _, _, vx2, vy2, rx2, ry2, w2 = y2
-    y3 = (cx + h2 * vx2, cy + h2 * vy2, vx + h2 * ax2, vy + h2 * ay2,
-          rx - h2 * w2 * ry2, ry + h2 * w2 * rx2, w + h2 * al2)  # fmt: skip
-    (ax3, ay3, al3), _ = physics._accel(y3, p)
-    _, _, vx3, vy3, rx3, ry3, w3 = y3
-    y4 = (cx + h * vx3, cy + h * vy3, vx + h * ax3, vy + h * ay3,
-          rx - h * w3 * ry3, ry + h * w3 * rx3, w + h * al3)  # fmt: skip
-    (ax4, ay4, al4), _ = physics._accel(y4, p)
-    _, _, vx4, vy4, rx4, ry4, w4 = y4
-    h6 = h / 6.0
-    return (
-        cx + h6 * (vx + 2.0 * vx2 + 2.0 * vx3 + vx4),
-        cy + h6 * (vy + 2.0 * vy2 + 2.0 * vy3 + vy4),
-        vx + h6 * (ax1 + 2.0 * ax2 + 2.0 * ax3 + ax4),
-        vy + h6 * (ay1 + 2.0 * ay2 + 2.0 * ay3 + ay4),
-        rx - h6 * (w * ry + 2.0 * w2 * ry2 + 2.0 * w3 * ry3 + w4 * ry4),
-        ry + h6 * (w * rx + 2.0 * w2 * rx2 + 2.0 * w3 * rx3 + w4 * rx4),
-        w + h6 * (al1 + 2.0 * al2 + 2.0 * al3 + al4),
-    ), h6 * (w + 2.0 * w2 + 2.0 * w3 + w4)
-
-
 def first_touch(y, a, span, gap0, gap1, bound, p, o: Table, active):
     """(tau, state, turn, which): `hybrid._first_touch` (tau = inf if none, or not `active`)."""
     zero = 0.0 * span
@@ -145,7 +115,7 @@ def first_touch(y, a, span, gap0, gap1, bound, p, o: Table, active):
     stack = stack.at[0].set(jnp.stack([zero, gap0 + TOUCH, span, gap1 + TOUCH]))
 
     def gap_at(tau):
-        s, _ = rk4(y, a, tau, p)
+        s, _ = physics.rk4(y, a, tau, p)
         return entering_clearance(o, s[0], s[1], s[2], s[3])[0] + TOUCH
 
     def cond(c):
@@ -199,7 +169,7 @@ def first_touch(y, a, span, gap0, gap1, bound, p, o: Table, active):
 
     low = lax.while_loop(refining, illinois, (*bracket, jnp.int32(0), jnp.int32(0)))[0]
     low = jnp.where(found, low, zero)
-    s, turn = rk4(y, a, low, p)
+    s, turn = physics.rk4(y, a, low, p)
     which = entering_clearance(o, s[0], s[1], s[2], s[3])[1]
     return jnp.where(found, low, jnp.inf), s, turn, jnp.where(found, which, -1)
 
@@ -281,7 +251,7 @@ def contact(puck: Puck, s, params, ax, ay, length, e, path, n):
     def body(q: _Carry) -> _Carry:
         y, angle, a, tension = q.y, q.angle, q.a, q.tension
         out_of_budget = ~(q.steps < steps)
-        new, turn = rk4(y, a, h, p)
+        new, turn = physics.rk4(y, a, h, p)
         new_a, new_tension = physics._accel(new, p)
         slack = ~(new_tension > 0.0)
 
@@ -295,7 +265,7 @@ def contact(puck: Puck, s, params, ax, ay, length, e, path, n):
                 flat, low, (low * g_high - high * g_low) / jnp.where(flat, 1.0, g_high - g_low)
             )
             tau = jnp.where((low < tau) & (tau < high), tau, 0.5 * (low + high))
-            state, turned = rk4(y, a, tau, p)
+            state, turned = physics.rk4(y, a, tau, p)
             g = physics._accel(state, p)[1]
             up = g > 0.0
             new_low, new_g_low = jnp.where(up, tau, low), jnp.where(up, g, g_low)

@@ -246,28 +246,22 @@ def _accel(y, p: Tether):
     return tuple(keep(x, p.one) for x in a), keep(tension, p.one)
 
 
-def _rk4(y, a1, h, p: Tether):
-    """One classic RK4 step of length h from y, a1 the acceleration there
-    (`physics.hybrid._rk4` without the orientation angle, which the env does not report)."""
+def rk4(y, a1, h, p: Tether):
+    """One classic RK4 step of length h from y, a1 the acceleration there (`physics.hybrid._rk4`):
+    (cx, cy, vx, vy, rx, ry, w) after it, and the angle the puck turned."""
     cx, cy, vx, vy, rx, ry, w = y
     ax1, ay1, al1 = a1
     h2 = 0.5 * h
-    y2 = (
-        cx + h2 * vx, cy + h2 * vy, vx + h2 * ax1, vy + h2 * ay1,
-        rx - h2 * w * ry, ry + h2 * w * rx, w + h2 * al1,
-    )  # fmt: skip
+    y2 = (cx + h2 * vx, cy + h2 * vy, vx + h2 * ax1, vy + h2 * ay1,
+          rx - h2 * w * ry, ry + h2 * w * rx, w + h2 * al1)  # fmt: skip
     (ax2, ay2, al2), _ = _accel(y2, p)
     _, _, vx2, vy2, rx2, ry2, w2 = y2
-    y3 = (
-        cx + h2 * vx2, cy + h2 * vy2, vx + h2 * ax2, vy + h2 * ay2,
-        rx - h2 * w2 * ry2, ry + h2 * w2 * rx2, w + h2 * al2,
-    )  # fmt: skip
+    y3 = (cx + h2 * vx2, cy + h2 * vy2, vx + h2 * ax2, vy + h2 * ay2,
+          rx - h2 * w2 * ry2, ry + h2 * w2 * rx2, w + h2 * al2)  # fmt: skip
     (ax3, ay3, al3), _ = _accel(y3, p)
     _, _, vx3, vy3, rx3, ry3, w3 = y3
-    y4 = (
-        cx + h * vx3, cy + h * vy3, vx + h * ax3, vy + h * ay3,
-        rx - h * w3 * ry3, ry + h * w3 * rx3, w + h * al3,
-    )  # fmt: skip
+    y4 = (cx + h * vx3, cy + h * vy3, vx + h * ax3, vy + h * ay3,
+          rx - h * w3 * ry3, ry + h * w3 * rx3, w + h * al3)  # fmt: skip
     (ax4, ay4, al4), _ = _accel(y4, p)
     _, _, vx4, vy4, rx4, ry4, w4 = y4
     h6 = h / 6.0
@@ -279,7 +273,7 @@ def _rk4(y, a1, h, p: Tether):
         rx - h6 * (w * ry + 2.0 * w2 * ry2 + 2.0 * w3 * ry3 + w4 * ry4),
         ry + h6 * (w * rx + 2.0 * w2 * rx2 + 2.0 * w3 * rx3 + w4 * rx4),
         w + h6 * (al1 + 2.0 * al2 + 2.0 * al3 + al4),
-    )
+    ), h6 * (w + 2.0 * w2 + 2.0 * w3 + w4)
 
 
 class _Contact(NamedTuple):
@@ -346,7 +340,7 @@ def _advance(problem: _Problem, s: _Contact) -> _Contact:
     tau = jnp.where(flat, s.low, (s.low * s.g_high - s.high * s.g_low) / span)
     tau = jnp.where((s.low < tau) & (tau < s.high), tau, 0.5 * (s.low + s.high))
     tau = jnp.where(s.refining, tau, h)
-    new = _rk4(s.y, s.a, tau, p)
+    new, _ = rk4(s.y, s.a, tau, p)
     a_new, g = _accel(new, p)
     # stepping: accept the step, or start refining it where T is no longer positive
     above = g > 0.0
