@@ -60,8 +60,8 @@ from tether_gym.tasks import navigate as task
 
 JAX_DYNAMICS = {"impulse": IMPULSE, "hybrid": HYBRID}
 """The dynamics of the JAX kernel, by name, and their codes (not pymunk's engine)."""
-JAX_CONTROLS = ("setup",)
-"""The control modes the JAX kernel plays so far."""
+JAX_CONTROLS = ("setup", "velocity", "aim")
+"""The control modes the JAX kernel plays: every one (`controls.CONTROL_MODES`)."""
 CELLS = GRID[0] * GRID[1]
 UNIFORMS = 3 * (MAX_ANCHORS + MAX_POSTS + 2) + 3
 """Uniforms an episode may draw: the most any configuration draws (`NavigateConfig.n_uniforms`:
@@ -318,7 +318,14 @@ def step_episode(s: EnvState, action: jax.Array, params: EnvParams) -> EnvState:
     """The episode after one maneuver (`maneuver.maneuver` after the control mode's set-up),
     its outcome row in `outcome`."""
     dynamics = JAX_DYNAMICS[params.dynamics]
-    anchor, length, alpha, e, aim_x, aim_y, command_met, command_error = solve_setup(action, s)
+    if params.control == "setup":
+        solved = solve_setup(action, s)
+    else:
+        from tether_gym.jax import navigate_velocity
+
+        clearance = nav.contact_clearance(s, dynamics, params.stiffness)
+        solved = navigate_velocity.solve(action, s, params, clearance)
+    anchor, length, alpha, e, aim_x, aim_y, command_met, command_error = solved
     ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
     reach = jnp.hypot(s.x + ARM * jnp.cos(s.angle) - ax, s.y + ARM * jnp.sin(s.angle) - ay)
     length = jnp.maximum(length, reach)
