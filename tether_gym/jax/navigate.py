@@ -52,6 +52,7 @@ from tether_gym.envs.tether_navigate.config import (
 )
 from tether_gym.envs.tether_navigate.controls import control_mode
 from tether_gym.envs.tether_navigate.controls.setup import ACTION as SETUP_ACTION
+from tether_gym.envs.tether_navigate.env import GoalMixin
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION, OUTCOME, SPIN_SCALE
 from tether_gym.jax import navigate_physics as nav
@@ -418,9 +419,10 @@ def compute_reward(params: EnvParams, desired_goal, path, at_rest, hit_post):
 
 class TetherNavigateFunctional(KernelFuncEnv):
     """TetherNavigate-v3 as a Gymnasium `FuncEnv`: the arguments of `TetherNavigateEnv`
-    (`dynamics` "impulse" or "hybrid", `control` "setup"), validated by `NavigateConfig`; the
+    (`dynamics` "impulse" or "hybrid", `control` any mode), validated by `NavigateConfig`; the
     state an `EnvState`, the params an `EnvParams`. The observation is the numba kernel's
-    plain row (the goal dict's parts concatenated: `spaces.GOAL_KEYS` splits it)."""
+    plain row (the goal dict's parts concatenated: `spaces.GOAL_KEYS` splits it, as the
+    Gymnasium envs do)."""
 
     n_uniforms = UNIFORMS
 
@@ -469,9 +471,13 @@ class TetherNavigateFunctional(KernelFuncEnv):
         return jax.tree.map(lambda x: x[0], new) if single else new
 
 
-class TetherNavigateJaxEnv(KernelJaxEnv):
-    """TetherNavigate-v3 on its JAX kernel through Gymnasium's functional API: the plain
-    observation row, the numba env's action, reward and info."""
+class TetherNavigateJaxEnv(GoalMixin, KernelJaxEnv):
+    """TetherNavigate-v3 on its JAX kernel through Gymnasium's functional API: the numba env's
+    goal dict (`observation`, `achieved_goal`, `desired_goal`, jax arrays), action, reward,
+    termination and truncation (Gymnasium's `FunctionalJaxEnv` reports a truncation as
+    terminated: split here), info, and `compute_reward` / `compute_terminated` /
+    `compute_truncated` for relabeling, vectorized (the numba env's, `GoalMixin`; the jitted
+    `compute_reward` of this module for callers on the device)."""
 
     metadata = {"render_modes": [], "render_fps": 4, "jax": True}
 
@@ -479,9 +485,10 @@ class TetherNavigateJaxEnv(KernelJaxEnv):
         super().__init__(TetherNavigateFunctional(**kwargs), render_mode)
 
 
-class TetherNavigateJaxVectorEnv(JaxVectorEnv):
+class TetherNavigateJaxVectorEnv(GoalMixin, JaxVectorEnv):
     """`num_envs` copies of `TetherNavigateJaxEnv` stepped by one jitted call with a masked
-    same-step autoreset (`jax.base.JaxVectorEnv`)."""
+    same-step autoreset (`jax.base.JaxVectorEnv`), numpy out: the goal dict, the numba vector
+    env's info, `compute_reward` vectorized."""
 
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs):
         super().__init__(TetherNavigateFunctional(**kwargs), num_envs, render_mode)
