@@ -29,12 +29,18 @@ def test_every_registered_id_maps_to_its_family():
         for env_id, spec in gym.registry.items()
         if str(spec.entry_point).startswith("tether_gym.")
     ]
-    backends = {env_id: BOUNCE for backend in BOUNCE.backends for env_id in backend.ids}
+    backends = {
+        env_id: env_family
+        for env_family in (BOUNCE, NAVIGATE)
+        for backend in env_family.backends
+        for env_id in backend.ids
+    }
     expected = {"TetherBounce-v0": BOUNCE, **dict.fromkeys(NAVIGATE.ids, NAVIGATE), **backends}
     assert "tether_gym/TetherBounce-jax-v0" in backends
+    assert "tether_gym/TetherNavigate_PostsReach-jax-v3" in backends
     assert {env_id: family(env_id) for env_id in ours} == expected
     assert all(gym.spec(i).kwargs == NAVIGATE.ids[i] for i in NAVIGATE.ids)
-    for backend in BOUNCE.backends:
+    for backend in (*BOUNCE.backends, *NAVIGATE.backends):
         for env_id in backend.ids:
             spec = gym.spec(env_id)
             assert spec.entry_point == backend.entry_point

@@ -196,6 +196,22 @@ NAVIGATE = Family(
         batch_agents={"aim-search": {"coast": True}},
     ),
     run_name_keys=("task", "dynamics"),
+    backends=(
+        Backend(
+            name="jax",
+            extra="jax",
+            ids={
+                "tether_gym/{}-jax-v{}".format(*env_id.rsplit("-v", 1)): kwargs
+                for env_id, kwargs in {
+                    f"TetherNavigate-v{ladder.VERSION}": {"reward_type": "dense"},
+                    f"TetherNavigateSparse-v{ladder.VERSION}": {"reward_type": "sparse"},
+                    **ladder.ids(),
+                }.items()
+            },
+            entry_point="tether_gym.jax.navigate:TetherNavigateJaxEnv",
+            vector_entry_point="tether_gym.jax.navigate:TetherNavigateJaxVectorEnv",
+        ),
+    ),
 )
 FAMILIES: list[Family] = [BOUNCE, NAVIGATE]
 """Every env family, the package's first (`tether_gym/__init__.py` registers their ids), then

@@ -16,11 +16,14 @@ compared on every continuous column and the observation; one whose flags differ 
 outcome, classed by the flags that differ.
 
     python -m benchmarks.validation.jax_navigate_agreement [--cases 10000] [--dynamics impulse]
+        [--controls setup velocity aim velocity+coast aim+coast] [--precision float32] [--merge]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import time
 from pathlib import Path
 
@@ -52,8 +55,16 @@ def ladder_ids() -> dict[str, dict]:
     return ladder.ids()
 
 
+CONTROLS = ("setup", "velocity", "aim", "velocity+coast", "aim+coast")
+"""The control modes compared (`controls.CONTROL_MODES`), "+coast" with `coast=True` (aimed
+modes only)."""
+
+
 def configuration(env_id: str, dynamics: str, control: str = "setup") -> NavigateConfig:
-    return NavigateConfig(**ladder_ids()[env_id], dynamics=dynamics, control=control)
+    """The id's arguments with `dynamics` and `control` (a `CONTROLS` entry)."""
+    mode, _, coast = control.partition("+")
+    extra = {"coast": True} if coast == "coast" else {}
+    return NavigateConfig(**ladder_ids()[env_id], dynamics=dynamics, control=mode, **extra)
 
 
 def cases(config: NavigateConfig, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -169,30 +180,66 @@ def bearing_tie(states, actions, tolerance: float = 1e-9) -> np.ndarray:
     return two[:, 1] - two[:, 0] <= tolerance
 
 
-def compare(config: NavigateConfig, states, actions) -> dict:
+SETUP_FIELDS = ("tether_length", "restitution", "wheel_target")
+"""The set-up a control mode found (with the peg, `anchor`)."""
+DIVERGED = 1e-6
+"""A case whose flags agree but whose continuous outcome differs by more than this is a
+changed outcome too (a search or a flight that took another branch on rounding)."""
+SAME_SCORE = 1e-6
+"""Aimed modes: two set-ups whose command errors (the search's score, m) agree to this are a
+tie of the search (the golden-section steps or the pegs' comparison decided by rounding)."""
+
+
+def compare(config: NavigateConfig, states, actions, diverged_at: float = DIVERGED) -> dict:
     """The observation's and the outcome's differences per field, `changed` (the cases whose
-    peg, flags or counts differ) and their classes (a peg hooked otherwise: "peg tie" where two
-    pegs lie at one bearing, `bearing_tie`), and `given_up` (numba's contact not completed)."""
+    peg, flags or counts differ, or whose continuous outcome differs by more than `DIVERGED`)
+    and their classes, and `given_up` (numba's contact not completed). Classes: a peg hooked
+    otherwise ("peg tie (equal bearings)" where two pegs lie at one bearing, `bearing_tie`;
+    under the aimed modes "peg (search tie)" where the two set-ups' command errors agree to
+    `SAME_SCORE`), under the aimed modes a set-up found otherwise on the same peg ("set-up
+    (search tie)" likewise) or the same set-up flown otherwise ("flight (offset at +-pi/2)"
+    where the wheel's target is a grid end, a tautening at a right angle), and the flags and
+    counts that differ."""
     want = numba_side(config, states, actions)
     got = jax_side(config, states, actions)
     result = {
         "observation": differences(OBSERVATION, canonical(got[0]), canonical(want[0])),
         "outcome": differences(OUTCOME, got[1], want[1]),
     }
+    out = result["outcome"]
     changed = np.zeros(len(states), bool)
     classes: dict[str, int] = {}
     per_case = [[] for _ in range(len(states))]
-    other_peg = result["outcome"]["anchor"] != 0.0
-    if config.control == "setup":
+    other_peg = out["anchor"] != 0.0
+    aimed = config.control != "setup"
+    error = OUTCOME.index["command_error"]
+    if aimed:
+        scale = SAME_SCORE * np.maximum(1.0, np.abs(want[1][:, error]))
+        tie = np.abs(got[1][:, error] - want[1][:, error]) <= scale
+    else:
         tie = bearing_tie(states, actions)
-        for i in np.flatnonzero(other_peg):
+    for i in np.flatnonzero(other_peg):
+        if aimed:
+            per_case[i].append("peg (search tie)" if tie[i] else "peg")
+        else:
             per_case[i].append("peg tie (equal bearings)" if tie[i] else "peg")
-        changed |= other_peg
+    changed |= other_peg
     for name in (*FLAGS, *COUNTS):
-        moved = result["outcome"][name] != 0.0
+        moved = out[name] != 0.0
         changed |= moved
         for i in np.flatnonzero(moved):
             per_case[i].append(name)
+    continuous = np.max([v for name, v in out.items() if name not in (*FLAGS, *COUNTS)], axis=0)
+    diverged = ~changed & (continuous > diverged_at)
+    setup = np.max([out[name] for name in SETUP_FIELDS], axis=0) > diverged_at
+    target = np.abs(want[1][:, OUTCOME.index["wheel_target"]])
+    for i in np.flatnonzero(diverged):
+        if setup[i]:
+            per_case[i].append("set-up (search tie)" if tie[i] else "set-up")
+        else:
+            right = target[i] == 0.5 * np.pi
+            per_case[i].append("flight (offset at +-pi/2)" if right else "flight")
+    changed |= diverged
     for names in per_case:
         if names:
             key = "+".join(names)
@@ -215,24 +262,33 @@ def worst(result: dict, part: str, cases: np.ndarray | None = None) -> tuple[str
     return name, found[name]
 
 
-def cell(env_id: str, dynamics: str, control: str, n: int, seed: int) -> dict:
-    """One row of the table."""
+def cell(env_id: str, dynamics: str, control: str, n: int, seed: int,
+         precision: str = "float64") -> dict:  # fmt: skip
+    """One row of the table. In float32 only a peg, a flag or a count that differs is a
+    changed outcome (every continuous value moves by float32's rounding)."""
     config = configuration(env_id, dynamics, control)
     states, actions = cases(config, n, seed)
     start = time.perf_counter()
-    result = compare(config, states, actions)
+    result = compare(config, states, actions, DIVERGED if precision == "float64" else np.inf)
     agree = ~result["changed"] & ~result["given_up"]
     field, outcome = worst(result, "outcome", agree)
     given_up = ~result["changed"] & result["given_up"]
     return {
-        "id": env_id, "dynamics": dynamics, "control": control, "cases": n,
-        "worst_outcome": outcome, "worst_field": field,
+        "id": env_id, "dynamics": dynamics, "control": control, "precision": precision,
+        "cases": n, "worst_outcome": outcome, "worst_field": field,
         "worst_observation": worst(result, "observation", agree)[1],
         "given_up": int(given_up.sum()),
         "worst_given_up": worst(result, "outcome", given_up)[1] if given_up.any() else 0.0,
         "changed": int(result["changed"].sum()), "classes": result["classes"],
         "seconds": round(time.perf_counter() - start, 1),
     }  # fmt: skip
+
+
+NO_FMA = "--xla_cpu_max_isa=SSE4_2"
+"""XLA's CPU code without fused multiply-adds (no FMA instructions below AVX2), as numba
+compiles (it does not contract a * b + c): the two then round the arithmetic alike and differ
+only by the transcendental functions (libm's or XLA's). `--fma` measures the default build."""
+KEY = ("id", "dynamics", "control", "precision")
 
 
 def main() -> None:
@@ -244,33 +300,54 @@ def main() -> None:
     parser.add_argument("--hybrid-ids", nargs="+", default=None, help="default: --ids")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--dynamics", nargs="+", default=["impulse", "hybrid"])
-    parser.add_argument("--control", nargs="+", default=["setup"])
+    parser.add_argument("--controls", "--control", nargs="+", default=["setup"],
+                        choices=CONTROLS)  # fmt: skip
     parser.add_argument("--ids", nargs="+", default=list(ladder_ids()))
+    parser.add_argument("--precision", choices=("float64", "float32"), default="float64")
+    parser.add_argument("--fma", action="store_true", help="XLA's default build (`NO_FMA`)")
+    parser.add_argument("--merge", action="store_true", help="keep the file's other rows (`KEY`)")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args()
-    jax.config.update("jax_enable_x64", True)
-    rows, start = [], time.perf_counter()
-    print(f"jax {jax.__version__} on {jax.devices()[0]}, float64")
+    if not args.fma:
+        os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {NO_FMA}".strip()
+    jax.config.update("jax_enable_x64", args.precision == "float64")
+    rows = []
+    began = time.perf_counter()
+    print(f"jax {jax.__version__} on {jax.devices()[0]}, {args.precision}")
     for dynamics in args.dynamics:
-        for control in args.control:
+        for control in args.controls:
             hybrid = dynamics == "hybrid"
             ids = (args.hybrid_ids or args.ids) if hybrid else args.ids
             n = (args.hybrid_cases or args.cases) if hybrid else args.cases
             for k, env_id in enumerate(ids):
-                row = cell(env_id, dynamics, control, n, args.seed + k)
+                row = cell(env_id, dynamics, control, n, args.seed + k, args.precision)
+                row["fma"] = bool(args.fma)
                 rows.append(row)
                 print(
-                    f"{env_id:36} {dynamics:8} {control:8} outcome {row['worst_outcome']:8.1e} "
+                    f"{env_id:36} {dynamics:8} {control:14} outcome {row['worst_outcome']:8.1e} "
                     f"({row['worst_field']}) obs {row['worst_observation']:8.1e} given up "
                     f"{row['given_up']} ({row['worst_given_up']:.1e}) changed {row['changed']} "
                     f"{row['classes']} {row['seconds']} s",
                     flush=True,
                 )
     command = results_file.script_command(__file__)
-    record = results_file.record(command, rows, {"precision": "float64"},
-                                 {"device": str(jax.devices()[0])},
-                                 round(time.perf_counter() - start, 1))  # fmt: skip
-    results_file.write(args.out, record)
+    details = {"jax": jax.__version__, "device": str(jax.devices()[0]),
+               "xla_flags": os.environ.get("XLA_FLAGS", ""), "commands": [command]}  # fmt: skip
+    if args.merge and args.out.exists():
+        old = json.loads(args.out.read_text())
+        new_keys = {tuple(r.get(k, "float64") for k in KEY) for r in rows}
+        kept = [r for r in old.get("rows", []) if
+                tuple(r.get(k, "float64") for k in KEY) not in new_keys]  # fmt: skip
+        for r in kept:  # rows from before `precision` and `fma` were recorded
+            r.setdefault("precision", "float64")
+            r.setdefault("fma", True)
+        rows = kept + rows
+        previous = old.get("details", {}).get("commands", [old.get("command")])
+        details["commands"] = [c for c in previous if c and c != command] + [command]
+    setup = {"warmup": WARMUP, "diverged": DIVERGED, "same_score": SAME_SCORE,
+             "controls": list(CONTROLS)}  # fmt: skip
+    data = results_file.record(command, rows, setup, details, time.perf_counter() - began)
+    results_file.write(args.out, data)
     print(f"wrote {args.out}")
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
+import json
 import shlex
 import sys
 from dataclasses import dataclass

@@ -119,7 +119,14 @@ class KernelJaxEnv(FunctionalJaxEnv):
         check_render_mode(render_mode, self.metadata["render_modes"])
         func_env.transform(jax.jit)
         super().__init__(func_env, metadata=self.metadata, render_mode=render_mode)
+        self.observation_space = func_env.kernel.observation_space()  # a goal env's Dict
         self._ended = True
+        self._end = tuple(func_env.kernel.outcome.index[name] for name in EPISODE_END[1:])
+
+    @property
+    def kernel(self) -> Kernel:
+        """The numba kernel of the same configuration (its fields, spaces and task)."""
+        return self.func_env.kernel
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         obs, info = super().reset(seed=seed)
@@ -127,18 +134,21 @@ class KernelJaxEnv(FunctionalJaxEnv):
             self.state = self.func_env.with_options(self.state, options)
             obs = self.func_env.observation(self.state, None)
         self._ended = False
-        return obs, info
+        return self.kernel.view(obs), info
 
     def step(self, action):
         if self._ended:
             raise RuntimeError("the episode is over: call reset() before step()")
         actions = self.func_env.kernel.as_actions(action, 1)
         check_finite(int(not np.isfinite(actions).all()), actions)
-        obs, reward, terminated, truncated, info = super().step(
-            actions[0].astype(np.float64, copy=False)
-        )
+        obs, reward, ended, _, info = super().step(actions[0].astype(np.float64, copy=False))
+        # FunctionalJaxEnv reports every end as terminated (its `terminal`): split it as the
+        # numba env does, from the step's outcome
+        outcome = np.asarray(self.state.outcome)
+        terminated, truncated = (bool(outcome[i] != 0.0) for i in self._end)
+        assert terminated or truncated or not ended
         self._ended = terminated or truncated
-        return obs, reward, terminated, truncated, info
+        return self.kernel.view(obs), reward, terminated, truncated, info
 
 
 class JaxVectorEnv(VectorEnv):
@@ -171,7 +181,7 @@ class JaxVectorEnv(VectorEnv):
         self.render_mode = None
         self.params = func_env.default_params
         self.single_action_space = func_env.action_space
-        self.single_observation_space = func_env.observation_space
+        self.single_observation_space = func_env.kernel.observation_space()  # a goal env's Dict
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._info = InfoLayout(func_env.kernel.outcome, skip=EPISODE_END)
@@ -181,6 +191,11 @@ class JaxVectorEnv(VectorEnv):
         self.state = None
         """The copies' states (a pytree of jax arrays, batch first), None before a reset."""
         self._key: jax.Array | None = None
+
+    @property
+    def kernel(self) -> Kernel:
+        """The numba kernel of the same configuration (its fields, spaces and task)."""
+        return self.func_env.kernel
 
     def _reset_batch(self, key: jax.Array, params):
         """(state, key, obs): every copy starts an episode, the batch's uniforms drawn at once."""
@@ -237,7 +252,7 @@ class JaxVectorEnv(VectorEnv):
                 state, None, self.params
             )
         self.state = state
-        return np.array(obs), {}
+        return self.func_env.kernel.view(np.array(obs)), {}
 
     def step(self, actions):
         if self.state is None:
@@ -255,6 +270,7 @@ class JaxVectorEnv(VectorEnv):
         info = self._info.many(outcome)
         info["final_info"] = dict(info)
         info["_final_info"] = ended
-        info["final_obs"] = final_obs
+        view = self.func_env.kernel.view
+        info["final_obs"] = view(final_obs)
         info["_final_obs"] = ended.copy()
-        return obs, reward, terminated, truncated, info
+        return view(obs), reward, terminated, truncated, info

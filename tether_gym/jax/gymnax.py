@@ -23,6 +23,7 @@ import numpy as np
 
 from tether_gym.jax.base import KernelFuncEnv
 from tether_gym.jax.bounce import TetherBounceFunctional
+from tether_gym.jax.navigate import TetherNavigateFunctional
 
 
 class Box:
@@ -50,7 +51,8 @@ def _box(space) -> Box:
 
 class GymnaxEnv:
     """A `KernelFuncEnv` behind the gymnax 1.0 convention (see the module's docstring). `info`
-    holds the numba env's info of the step and gymnax's `discount` (0 where the episode ended).
+    holds the numba env's info of the step, gymnax's `discount` (0 where the episode ended) and
+    `truncated` (the end a truncation: `done` covers both).
     As in gymnax, `step` replaces a finished episode by a new one drawn from the step's key and
     returns the new episode's observation."""
 
@@ -84,6 +86,9 @@ class GymnaxEnv:
         done = func.terminal(next_state, key, params)
         info: dict[str, Any] = func.transition_info(state, action, next_state, params)
         info["discount"] = self.discount(next_state, params)
+        # `done` is the end of the episode either way; say which (a truncation bootstraps)
+        truncated = next_state.outcome[..., func.kernel.outcome.index["truncated"]]
+        info["truncated"] = truncated != 0.0
         return (
             func.observation(next_state, key, params),
             next_state,
@@ -128,3 +133,13 @@ class TetherBounceGymnax(GymnaxEnv):
 
     def __init__(self, **kwargs):
         super().__init__(TetherBounceFunctional(**kwargs))
+
+
+class TetherNavigateGymnax(GymnaxEnv):
+    """TetherNavigate-v3's JAX kernel in the gymnax convention; the arguments are
+    TetherNavigate-v3's (`dynamics` "impulse" or "hybrid", any `control`). The observation is
+    the plain row (the goal dict's parts concatenated, `spaces.GOAL_KEYS`); `done` is the end
+    of the episode, terminated or truncated (`info` tells them apart)."""
+
+    def __init__(self, **kwargs):
+        super().__init__(TetherNavigateFunctional(**kwargs))

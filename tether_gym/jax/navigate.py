@@ -52,6 +52,7 @@ from tether_gym.envs.tether_navigate.config import (
 )
 from tether_gym.envs.tether_navigate.controls import control_mode
 from tether_gym.envs.tether_navigate.controls.setup import ACTION as SETUP_ACTION
+from tether_gym.envs.tether_navigate.env import GoalMixin
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION, OUTCOME, SPIN_SCALE
 from tether_gym.jax import navigate_physics as nav
@@ -60,13 +61,13 @@ from tether_gym.tasks import navigate as task
 
 JAX_DYNAMICS = {"impulse": IMPULSE, "hybrid": HYBRID}
 """The dynamics of the JAX kernel, by name, and their codes (not pymunk's engine)."""
-JAX_CONTROLS = ("setup",)
+JAX_CONTROLS = ("setup", "velocity", "aim")
+"""The control modes the JAX kernel plays: every one (`controls.CONTROL_MODES`)."""
 SAME_ANGLE = 1e-12
 """rad: the offset angle met is the command's (`offset_angle_met`) within this. The numba kernel
 compares them exactly, as its flight returns the command itself where the wheel meets it; XLA
 may compute the command twice (in two fusions, one with fused multiply-adds), an ulp apart.
 Any other angle met is the wheel bisection's, at least its resolution (about 5e-5 rad) away."""
-"""The control modes the JAX kernel plays so far."""
 CELLS = GRID[0] * GRID[1]
 UNIFORMS = 3 * (MAX_ANCHORS + MAX_POSTS + 2) + 3
 """Uniforms an episode may draw: the most any configuration draws (`NavigateConfig.n_uniforms`:
@@ -323,7 +324,14 @@ def step_episode(s: EnvState, action: jax.Array, params: EnvParams) -> EnvState:
     """The episode after one maneuver (`maneuver.maneuver` after the control mode's set-up),
     its outcome row in `outcome`."""
     dynamics = JAX_DYNAMICS[params.dynamics]
-    anchor, length, alpha, e, aim_x, aim_y, command_met, command_error = solve_setup(action, s)
+    if params.control == "setup":
+        solved = solve_setup(action, s)
+    else:
+        from tether_gym.jax import navigate_velocity
+
+        clearance = nav.contact_clearance(s, dynamics, params.stiffness)
+        solved = navigate_velocity.solve(action, s, params, clearance)
+    anchor, length, alpha, e, aim_x, aim_y, command_met, command_error = solved
     ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
     reach = jnp.hypot(s.x + ARM * jnp.cos(s.angle) - ax, s.y + ARM * jnp.sin(s.angle) - ay)
     length = jnp.maximum(length, reach)
@@ -416,9 +424,10 @@ def compute_reward(params: EnvParams, desired_goal, path, at_rest, hit_post):
 
 class TetherNavigateFunctional(KernelFuncEnv):
     """TetherNavigate-v3 as a Gymnasium `FuncEnv`: the arguments of `TetherNavigateEnv`
-    (`dynamics` "impulse" or "hybrid", `control` "setup"), validated by `NavigateConfig`; the
+    (`dynamics` "impulse" or "hybrid", `control` any mode), validated by `NavigateConfig`; the
     state an `EnvState`, the params an `EnvParams`. The observation is the numba kernel's
-    plain row (the goal dict's parts concatenated: `spaces.GOAL_KEYS` splits it)."""
+    plain row (the goal dict's parts concatenated: `spaces.GOAL_KEYS` splits it, as the
+    Gymnasium envs do)."""
 
     n_uniforms = UNIFORMS
 
@@ -467,9 +476,13 @@ class TetherNavigateFunctional(KernelFuncEnv):
         return jax.tree.map(lambda x: x[0], new) if single else new
 
 
-class TetherNavigateJaxEnv(KernelJaxEnv):
-    """TetherNavigate-v3 on its JAX kernel through Gymnasium's functional API: the plain
-    observation row, the numba env's action, reward and info."""
+class TetherNavigateJaxEnv(GoalMixin, KernelJaxEnv):
+    """TetherNavigate-v3 on its JAX kernel through Gymnasium's functional API: the numba env's
+    goal dict (`observation`, `achieved_goal`, `desired_goal`, jax arrays), action, reward,
+    termination and truncation (Gymnasium's `FunctionalJaxEnv` reports a truncation as
+    terminated: split here), info, and `compute_reward` / `compute_terminated` /
+    `compute_truncated` for relabeling, vectorized (the numba env's, `GoalMixin`; the jitted
+    `compute_reward` of this module for callers on the device)."""
 
     metadata = {"render_modes": [], "render_fps": 4, "jax": True}
 
@@ -477,9 +490,10 @@ class TetherNavigateJaxEnv(KernelJaxEnv):
         super().__init__(TetherNavigateFunctional(**kwargs), render_mode)
 
 
-class TetherNavigateJaxVectorEnv(JaxVectorEnv):
+class TetherNavigateJaxVectorEnv(GoalMixin, JaxVectorEnv):
     """`num_envs` copies of `TetherNavigateJaxEnv` stepped by one jitted call with a masked
-    same-step autoreset (`jax.base.JaxVectorEnv`)."""
+    same-step autoreset (`jax.base.JaxVectorEnv`), numpy out: the goal dict, the numba vector
+    env's info, `compute_reward` vectorized."""
 
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs):
         super().__init__(TetherNavigateFunctional(**kwargs), num_envs, render_mode)
