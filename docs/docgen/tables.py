@@ -460,6 +460,39 @@ def jax_throughput_table(sources: dict[str, str], root: Path = ROOT, style: str 
     return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
 
 
+def jax_navigate_agreement_table(
+    sources: dict[str, str], root: Path = ROOT, style: str = "page"
+) -> str:
+    """TetherNavigate's JAX kernel against numba's in float64
+    (`benchmarks.validation.jax_navigate_agreement`): per dynamics x control over its ids, the
+    cases, the worst difference of the outcome and of the observation where the outcome agrees,
+    and the changed outcomes with their classes."""
+    _check_sources(sources)
+    lines = [
+        "| dynamics | control | ids | cases | worst outcome difference | worst observation "
+        "difference | changed outcomes | fused multiply-adds |",
+        "|---|---|---:|---:|---:|---:|---:|---|",
+    ]
+    notes = []
+    for path in (path for p in sources for path in files_of(p, root)):
+        data = read_file(path)
+        cells: dict[tuple, list[dict[str, Any]]] = {}
+        for row in data["rows"]:
+            key = (row["dynamics"], row["control"], row.get("precision", "float64"), row["fma"])
+            cells.setdefault(key, []).append(row)
+        for (dynamics, control, precision, fma), rows in cells.items():
+            cases = sum(row["cases"] for row in rows)
+            changed = sum(row["changed"] for row in rows)
+            lines.append(
+                f"| {dynamics} | {control} ({precision}) | {len(rows)} | {cases:,} | "
+                f"{max(row['worst_outcome'] for row in rows):.1e} | "
+                f"{max(row['worst_observation'] for row in rows):.1e} | {changed:,} "
+                f"({100 * changed / cases:.2f}%) | {'on' if fma else 'off'} |"
+            )
+        notes.append(_run_line(data))
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
+
+
 def jax_train_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
     """PPO compiled with the JAX env (`benchmarks.experiments.jax_train`) beside SB3's row on
     the same test episodes: per trainer, its seeds x timesteps, wall time, steps/s and success

@@ -144,6 +144,10 @@ def _change(path: Path) -> str:
         first["cases" if "outcome_field" in first else "jax_scan"] = 123456
         path.write_text(json.dumps(data))
         return "123,456"
+    if "worst_outcome" in first:  # benchmarks/validation/jax_navigate_agreement.py: the worst
+        first["worst_outcome"] = 123456.0
+        path.write_text(json.dumps(data))
+        return "1.2e+05"
     if "rollout_success_last" in first:  # benchmarks/experiments/jax_train.py: the worst seed
         first["success"] = 0.123456
     elif "decisions_per_second" in first:  # benchmarks/speed/planners.py
