@@ -10,6 +10,8 @@ import it.
 - `folders`: run folders and checkpoints; `callbacks`: the periodic evaluation against the
   yardstick (`yardsticks`); `sb3`: the SB3 `VecEnv` adapter over the native vector env; `her`:
   hindsight relabeling over the path of a maneuver;
+- `jax_ppo`: PPO compiled with the env's JAX kernel, seeds under `jax.vmap` (the "jax" extra);
+  `jax_run`: `tether-train --backend jax`, its run folder and final table;
 - `sweep`: the `tether-sweep` command (`cluster` starts or joins Ray); `summary`: results over
   seeds.
 """

@@ -156,10 +156,17 @@ def final_results(run_dir: Path, model: BaseAlgorithm, config: RunConfig) -> lis
         best = load_model(run_dir / "best", config, make_venv(config))
         agents[f"{label(config)} (best)"] = as_agent(best, config)
     agents[f"{label(config)} (last)"] = as_agent(model, config)
-    agents.update(baselines(config))
+    return final_table(config, agents)
+
+
+def final_table(config: RunConfig, agents: Mapping[str, object]) -> list[Result]:
+    """`agents` (the trained policies) and the env's `baselines` on the run's fresh test
+    episodes (`TEST_SEED`), the policies first: the final table of an SB3 run and of a
+    `--backend jax` run (`jax_run`)."""
     return evaluate(
-        agents, config.env_kwargs, config.eval_episodes, TEST_SEED, env_id=config.env_id
-    )
+        {**agents, **baselines(config)}, config.env_kwargs, config.eval_episodes, TEST_SEED,
+        env_id=config.env_id,
+    )  # fmt: skip
 
 
 def eval_success(model: BaseAlgorithm, config: RunConfig) -> float:

@@ -177,12 +177,26 @@ class PPOConfig:
         `hyperparams/ppo.yml`), `overrides` applied (`--hyperparams`), SB3's defaults for the
         rest; `timesteps` (default the entry's `n_timesteps`), `env_kwargs` over the entry's.
         ValueError for what the JAX trainer does not do."""
+        from tether_gym.training.zoo import DEFAULT_CONF, load_hyperparams
+
+        params = load_hyperparams(conf or DEFAULT_CONF, overrides, env_id)
+        return cls.from_params(env_id, params, timesteps, env_kwargs)
+
+    @classmethod
+    def from_params(
+        cls,
+        env_id: str,
+        params: dict[str, Any],
+        timesteps: int | None = None,
+        env_kwargs: dict[str, Any] | None = None,
+    ) -> PPOConfig:
+        """The recipe of the zoo entry `params` (a `RunConfig`'s `hyperparams`, or an entry
+        read from the file, overrides applied), as `from_zoo` reads it."""
         from stable_baselines3 import PPO
         from stable_baselines3.common.policies import ActorCriticPolicy
 
-        from tether_gym.training.zoo import DEFAULT_CONF, algo_kwargs, load_hyperparams
+        from tether_gym.training.zoo import algo_kwargs
 
-        params = load_hyperparams(conf or DEFAULT_CONF, overrides, env_id)
         if params.get("policy", "MlpPolicy") != "MlpPolicy":
             raise ValueError(f"the JAX trainer builds MlpPolicy only, not {params['policy']!r}")
         if params.get("normalize"):
@@ -502,12 +516,17 @@ class SeedsRun:
 
 
 def train_seeds(
-    config: PPOConfig, seeds: list[int], chunk: int = 50, log: Callable[[str], None] | None = None
+    config: PPOConfig,
+    seeds: list[int],
+    chunk: int = 50,
+    log: Callable[[str], None] | None = None,
+    after_chunk: Callable[[int, Any], None] | None = None,
 ) -> SeedsRun:
     """Train `seeds` (keys `jax.random.PRNGKey(seed)`) at once: `vmap` over seeds of the run of
     `make_train`, compiled ahead of time (announced, timed), then called in pieces of `chunk`
     updates so that `log` (e.g. `print`) gets the progress: updates done, the seeds' rollout
-    success and steps/s."""
+    success and steps/s. `after_chunk(updates_done, params)` (the parameters stacked over seeds)
+    runs after each piece, off the training clock (a periodic evaluation)."""
     say = log or (lambda _: None)
     init, update = make_stages(config)
     chunk = max(1, min(chunk, config.n_updates))
@@ -537,6 +556,10 @@ def train_seeds(
             f"update {done}/{config.n_updates}: rollout success per seed [{success}], "
             f"{rate:,.0f} steps/s, {elapsed:.0f} s"
         )
+        if after_chunk is not None:
+            paused = time.perf_counter()
+            after_chunk(done, state.params)
+            clock += time.perf_counter() - paused
     train_seconds = time.perf_counter() - clock
     metrics = {
         name: np.concatenate([m[name] for m in pieces], axis=1)[:, : config.n_updates]

@@ -6,6 +6,7 @@
     tether-train --env TetherNavigate-v3 --env-kwargs n_obstacles:3   # maneuvering
     tether-train --algo sac --env TetherNavigateSparse-v3             # SAC + HER
     tether-train --resume runs/<name>                # continue an interrupted run
+    tether-train --backend jax --seeds 5             # 5 seeds of PPO compiled with the JAX env
 
 (`python train.py ...` from a clone's root is the same command.) `--algo` picks the algorithm
 (`ALGOS`); its hyperparameters come from the packaged `hyperparams/<algo>.yml` in
@@ -22,6 +23,12 @@ the greedy and lookahead planners; and a random agent) play the same fresh test 
 the table is printed and saved to `runs/<name>/results.md`. Ctrl-C
 saves the last model before exiting, and so does every periodic evaluation (a killed run
 resumes from its last evaluation); an existing run is never overwritten without `--overwrite`.
+
+`--backend jax` trains `--seeds N` seeds (from `--seed` on) of the same recipe at once with PPO
+compiled with the env's JAX kernel (`tether_gym.training.jax_run`; TetherBounce-v0 only, PPO
+only, no variants, no `--resume` yet; the `jax` extra): the run folder holds each seed's policy
+(`seed<k>.msgpack`, which `tether-evaluate --agents` plays) and the same final table, with the
+mean over seeds.
 
 This module is the command line; the run is `tether_gym.training.experiment.train(config,
 run_dir)` (re-exported here), for callers that make their own configs (a sweep's trials), with
@@ -61,6 +68,7 @@ __all__ = [
     "default_name",
     "main",
     "make_config",
+    "resolve_config",
     "train",
 ]
 
@@ -68,6 +76,9 @@ RUN_OPTIONS = (
     "algo", "seed", "n_envs", "timesteps", "eval_episodes", "eval_freq", "save_replay_buffer",
 )  # fmt: skip
 """`RunConfig` fields that the command line sets (None: not given)."""
+BACKENDS = ("sb3", "jax")
+"""`--backend`: stable-baselines3 (`experiment.train`), or PPO compiled with the env's JAX
+kernel (`jax_run`)."""
 RESUME_OPTIONS = ("timesteps", "eval_episodes", "eval_freq", "save_replay_buffer")
 """The options a resumed run may change."""
 
@@ -98,12 +109,25 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     run = parser.add_argument_group("training")
+    run.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        default="sb3",
+        help="sb3: stable-baselines3 on the numba envs (default); jax: PPO compiled with the "
+        "env's JAX kernel, several seeds at once (--seeds)",
+    )
     run.add_argument("--algo", choices=sorted(ALGOS), help="the algorithm (default ppo)")
     run.add_argument("--n-envs", type=int, help="parallel envs (default: the conf file's)")
     run.add_argument(
         "--timesteps", type=float, help="total timesteps (default: the conf file's n_timesteps)"
     )
     run.add_argument("--seed", type=int, help="seed of the run (default 0)")
+    run.add_argument(
+        "--seeds",
+        type=int,
+        metavar="N",
+        help="--backend jax: train N seeds at once, --seed .. --seed + N - 1 (default 1)",
+    )
     run.add_argument(
         "--conf-file",
         type=Path,
@@ -123,7 +147,7 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         type=int,
         default=1,
         help="torch threads (default 1: a seed gives one result on any machine; `make train` "
-        "runs 2)",
+        "runs 2; not --backend jax)",
     )
     run.add_argument("--eval-episodes", type=int, help="episodes per evaluation (default 1000)")
     run.add_argument(
@@ -179,7 +203,13 @@ def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
         fixed += [f"--{key}" for key in ("name", "hyperparams") if getattr(args, key)]
         if fixed:
             raise ValueError(f"--resume takes the config of {args.resume}: drop {', '.join(fixed)}")
-        config = RunConfig.from_dict(read_config(args.resume / "config.yaml"))
+        saved = read_config(args.resume / "config.yaml")
+        if saved.get("backend", "sb3") != "sb3":
+            raise ValueError(
+                f"--resume {args.resume}: a --backend {saved['backend']} run, which --resume "
+                "does not continue yet"
+            )
+        config = RunConfig.from_dict(saved)
         if given_env_options(args):
             check_resumed_env(args, config)
         config = config.replace(
@@ -187,6 +217,19 @@ def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
         )
         check_run(config, args.resume, resume=True)
         return config, args.resume
+    config = resolve_config(args)
+    check_config(config)
+    name = args.name or default_name(config.env_id, config.env_kwargs, config.seed, config.algo)
+    run_dir = args.runs_dir / name
+    prepare_run_dir(run_dir, args.overwrite)
+    return config, run_dir
+
+
+def resolve_config(args: argparse.Namespace) -> RunConfig:
+    """A new run's config from the command line, unchecked (`check_config`): the zoo entry of
+    the env (`run_entry`, its recipe's control mode or a variant's), `--hyperparams` over it,
+    the command line's env arguments over the entry's."""
+    given = {key: getattr(args, key) for key in RUN_OPTIONS if getattr(args, key) is not None}
     env_id, env_kwargs = env_from_args(args, check=False)  # checked once merged: check_config
     conf_file = args.conf_file or default_conf(args.algo or "ppo")
     overrides = parse_overrides(args.hyperparams)
@@ -198,12 +241,7 @@ def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
     if notice:
         print(f"tether-train: {notice}", file=sys.stderr)
     params = {**params, **overrides}
-    config = make_config(env_id, env_kwargs, params, **given)
-    check_config(config)
-    name = args.name or default_name(env_id, config.env_kwargs, config.seed, config.algo)
-    run_dir = args.runs_dir / name
-    prepare_run_dir(run_dir, args.overwrite)
-    return config, run_dir
+    return make_config(env_id, env_kwargs, params, **given)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -212,6 +250,12 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.num_threads < 1:
         parser.error(f"--num-threads must be at least 1, got {args.num_threads}")
+    if args.backend == "jax":
+        from tether_gym.training import jax_run
+
+        return jax_run.main(args, parser)
+    if args.seeds is not None:
+        parser.error("--seeds is for --backend jax; an SB3 run trains one seed (--seed)")
     try:
         config, run_dir = run_from_args(args)
     except ValueError as error:

@@ -1,0 +1,204 @@
+"""`tether-train --backend jax`: a tiny two-seed run writes the run folder (config, policies,
+evaluations, the final table with both seeds, the yardsticks and the mean over seeds),
+`tether-evaluate` plays a saved seed with no env flags, and what the JAX path does not train is
+refused up front, naming the option."""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import io
+import json
+import subprocess
+import sys
+
+import pytest
+import yaml
+
+pytest.importorskip("stable_baselines3")
+
+from tests.helpers import ROOT
+from tether_gym.training import train
+
+TINY = ["--backend", "jax", "--seeds", "2", "--timesteps", "4096", "--eval-episodes", "20",
+        "--dynamics", "impulse"]  # fmt: skip
+"""The issue's tiny run, on impulse dynamics (half the compile time of hybrid's)."""
+
+
+@pytest.fixture(scope="module")
+def jax_run(request, tmp_path_factory):
+    """The tiny run's folder and printed output, jax's compilation cache in pytest's (as
+    tests/training/test_jax_ppo.py): a second run loads the compiled trainer."""
+    jax = pytest.importorskip("jax")
+    pytest.importorskip("flax")
+    pytest.importorskip("optax")
+    cache = getattr(request.config, "cache", None)
+    if cache is not None:
+        jax.config.update("jax_compilation_cache_dir", str(cache.mkdir("jax-compilation-cache")))
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+    runs = tmp_path_factory.mktemp("runs")
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert train.main([*TINY, "--runs-dir", str(runs)]) == 0
+    (run_dir,) = runs.iterdir()
+    return run_dir, out.getvalue()
+
+
+def test_a_tiny_run_writes_the_run_folder_and_the_final_table(jax_run):
+    run_dir, output = jax_run
+    assert run_dir.name == "ppo_jax_mixed_impulse_seeds0-1"
+    names = {path.name for path in run_dir.iterdir()}
+    assert {"config.yaml", "evaluations.csv", "results.md", "results.json"} <= names
+    assert {"seed0.msgpack", "seed0.json", "seed1.msgpack", "seed1.json"} <= names
+    config = yaml.safe_load((run_dir / "config.yaml").read_text())
+    assert (config["backend"], config["seeds"], config["algo"]) == ("jax", [0, 1], "ppo")
+    assert config["env_kwargs"] == {"dynamics": "impulse"} and config["timesteps"] == 4096
+    assert config["hyperparams"]["batch_size"] == 512  # the zoo entry, as an SB3 run's
+    # the compile step said before training, a progress line, steps/s and wall time at the end
+    compiling, progress = output.index("compiling PPO"), output.index("update 2/2")
+    assert compiling < output.index("compiled in") < progress
+    assert "steps/s, wall time" in output.splitlines()[-1]
+    evaluations = (run_dir / "evaluations.csv").read_text().splitlines()
+    assert evaluations[0].startswith("timesteps,seed,success_rate,oracle_success_rate")
+    assert [row.split(",")[:2] for row in evaluations[1:]] == [["4096", "0"], ["4096", "1"]]
+    summary = json.loads((run_dir / "results.json").read_text())
+    rows = [r["name"] for r in summary["results"]]
+    assert rows == ["PPO jax seed0", "PPO jax seed1", "impulse oracle", "shooting oracle",
+                    "random"]  # fmt: skip
+    assert all(r["episodes"] == 20 for r in summary["results"])
+    assert (summary["backend"], summary["seeds"], summary["timesteps"]) == ("jax", [0, 1], 4096)
+    mean = summary["mean_over_seeds"]
+    assert (
+        mean["seeds"] == 2 and len(mean["per_seed"]) == 2 and mean["worst"] <= mean["success_mean"]
+    )
+    assert summary["steps_per_second"] > 0 and summary["compile_seconds"] > 0
+    table = (run_dir / "results.md").read_text()
+    assert "| PPO jax seed1 | 20 |" in table and "| impulse oracle | 20 |" in table
+    assert "PPO jax, mean of 2 seeds (t interval over seeds) | 2 x 20 |" in table
+    assert table.strip() in output
+
+
+def test_the_yardsticks_play_the_sb3_final_tables_episodes(jax_run):
+    # the baselines' rows are those of `experiment.final_table`: the same TEST_SEED episodes
+    from tether_gym.training.config import RunConfig
+    from tether_gym.training.experiment import final_table
+
+    run_dir, _ = jax_run
+    config = yaml.safe_load((run_dir / "config.yaml").read_text())
+    config = RunConfig.from_dict({k: v for k, v in config.items() if k not in ("backend", "seeds")})
+    again = {r.name: r.success_rate for r in final_table(config, {})}
+    summary = json.loads((run_dir / "results.json").read_text())
+    assert {r["name"]: r["success_rate"] for r in summary["results"][2:]} == again
+
+
+def test_tether_evaluate_plays_a_saved_seed_without_env_flags(jax_run, tmp_path, capsys):
+    from tether_gym.evaluation.cli import main
+    from tether_gym.seeds import TEST_SEED
+
+    run_dir, _ = jax_run
+    policy, written = run_dir / "seed0.msgpack", tmp_path / "evaluated.json"
+    main(["--agents", str(policy), "random", "--episodes", "20", "--seed", str(TEST_SEED),
+          "--json", str(written), "--no-progress-bar"])  # fmt: skip
+    assert "| seed0 | 20 |" in capsys.readouterr().out
+    evaluated = json.loads(written.read_text())
+    assert evaluated["setup"]["env_kwargs"] == {"dynamics": "impulse"}  # the run's env
+    # on the final table's episodes it plays as the final table said
+    (row,) = [r for r in evaluated["rows"] if r["name"] == "seed0"]
+    (final,) = [r for r in json.loads((run_dir / "results.json").read_text())["results"]
+                if r["name"] == "PPO jax seed0"]  # fmt: skip
+    for key in ("success_rate", "reward_mean", "heading_error_mean_deg"):
+        assert row[key] == pytest.approx(final[key]), key
+
+
+def test_an_existing_run_folder_is_not_overwritten(jax_run, capsys):
+    run_dir, _ = jax_run
+    with pytest.raises(SystemExit):
+        train.main([*TINY, "--runs-dir", str(run_dir.parent)])
+    assert "--overwrite" in capsys.readouterr().err
+    assert (run_dir / "seed0.msgpack").is_file()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--env", "TetherNavigate-v3"], "the JAX trainer does not train TetherNavigate-v3 yet"),
+        (["--env", "TetherNavigate_PostsReach-v3"], "--env must be one of ['TetherBounce-v0']"),
+        (["--algo", "sac"], "--backend jax trains ppo only, not --algo sac"),
+        (["--resume", "runs/x"], "--resume is not supported yet for --backend jax"),
+        (["--hyperparams", "residual:greedy"], "no planner-backed variant: drop residual"),
+        (["--hyperparams", "policy:AimPolicy"], "MlpPolicy only, not AimPolicy"),
+        (["--hyperparams", "use_sde:True"], "gSDE (use_sde)"),
+        (["--seeds", "0"], "--seeds must be at least 1, got 0"),
+        (["--rho", "0.5"], "rho must be"),
+    ],
+)
+def test_what_the_jax_path_does_not_train_is_refused_up_front(tmp_path, capsys, args, message):
+    if "use_sde" in " ".join(args):  # the trainer's own refusal: after the jax import
+        pytest.importorskip("jax")
+    with pytest.raises(SystemExit):
+        train.main(["--backend", "jax", *args, "--runs-dir", str(tmp_path / "runs")])
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "runs").exists(), "nothing is written before the checks pass"
+
+
+def test_an_env_without_a_jax_backend_is_refused_before_jax_is_imported(
+    tmp_path, capsys, monkeypatch
+):
+    import dataclasses
+
+    from tether_gym import families
+    from tether_gym.training import jax_run
+
+    def without_backends(env_id):
+        return dataclasses.replace(families.family(env_id), backends=())
+
+    monkeypatch.setattr(jax_run, "family", without_backends)
+    with pytest.raises(SystemExit):
+        train.main(["--backend", "jax", "--env", "TetherNavigate-v3", "--runs-dir", str(tmp_path)])
+    error = capsys.readouterr().err
+    assert "--backend jax: TetherNavigate-v3 has no JAX backend (a TetherNavigate env)" in error
+
+
+def test_seeds_is_for_the_jax_backend_and_resume_refuses_a_jax_run(tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        train.main(["--seeds", "2", "--runs-dir", str(tmp_path / "runs")])
+    assert "--seeds is for --backend jax" in capsys.readouterr().err
+    run_dir = tmp_path / "jaxrun"
+    run_dir.mkdir()
+    (run_dir / "config.yaml").write_text(
+        yaml.safe_dump({"backend": "jax", "env_id": "TetherBounce-v0", "seeds": [0]})
+    )
+    with pytest.raises(SystemExit):
+        train.main(["--resume", str(run_dir)])
+    assert "a --backend jax run, which --resume does not continue yet" in capsys.readouterr().err
+
+
+def test_a_missing_jax_names_the_extra(tmp_path, capsys, monkeypatch):
+    find_spec = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util,
+        "find_spec",
+        lambda name, *a: None if name == "optax" else find_spec(name, *a),
+    )
+    with pytest.raises(SystemExit):
+        train.main(["--backend", "jax", "--runs-dir", str(tmp_path / "runs")])
+    error = capsys.readouterr().err
+    assert 'needs the optional extra "jax" (optax not installed)' in error
+    assert 'pip install "tether-gym[jax]"' in error
+
+
+def test_help_and_the_sb3_path_do_not_import_jax():
+    code = (
+        "import sys\n"
+        "from tether_gym.training import train\n"
+        "train.build_parser().format_help()\n"
+        "try:\n"
+        "    train.main(['--seeds', '2'])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "print('jax' in sys.modules, 'tether_gym.training.jax_run' in sys.modules)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True
+    ).stdout
+    assert out.split() == ["False", "False"]

@@ -1,0 +1,328 @@
+"""`tether-train --backend jax`: several seeds of PPO compiled with the env's JAX kernel
+(`tether_gym.training.jax_ppo`) in one run, written to a run folder as an SB3 run is.
+
+    tether-train --backend jax --seeds 5                 # TetherBounce-v0, seeds 0 .. 4
+    tether-train --backend jax --seeds 3 --seed 10 --timesteps 1e6 --dynamics impulse
+
+The recipe is resolved as the SB3 path resolves it (`train.resolve_config`: the zoo entry, its
+`env_kwargs` under the command line's, `--hyperparams`, the `RunConfig`), then read by
+`PPOConfig.from_params`; `--seeds N` trains seeds `--seed` .. `--seed` + N - 1 under `jax.vmap`.
+Refused up front (ValueError naming the option): an env without a JAX backend
+(`families.family(env_id).backends`) or one the trainer does not train yet
+(`jax_ppo.ENVS`: TetherBounce-v0), an algorithm other than ppo, the planner-backed variants
+and the aim policy, `--resume` (not supported yet), and whatever the JAX trainer cannot honour.
+
+The run folder holds `config.yaml` (the `RunConfig` with `backend: jax` and `seeds`),
+`seed<k>.msgpack` + `seed<k>.json` per seed (`save_trained`; `tether-evaluate --agents
+RUN/seed0.msgpack` plays one on its env), `evaluations.csv` (every `eval_freq` timesteps, a row
+per seed: its deterministic policy on the periodic evaluation's episodes beside the yardstick)
+and the final table, `results.md` and `results.json`: each seed's policy and the env's
+baselines on the same test episodes (`TEST_SEED`) as an SB3 run's final table
+(`experiment.final_table`), and the mean over seeds with its 95% t interval. The compile step
+is announced and timed apart; the training clock starts after it.
+
+Imports jax only for an env with a JAX backend, after `require_extra` (which names the `jax`
+extra).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import yaml
+
+from tether_gym.arguments import require_extra
+from tether_gym.families import FAMILIES, family
+from tether_gym.seeds import EVAL_SEED, TEST_SEED
+from tether_gym.training.config import RunConfig
+from tether_gym.training.folders import EVALUATIONS, append_row, prepare_run_dir
+from tether_gym.training.summary import RESULTS
+
+if TYPE_CHECKING:
+    from tether_gym.evaluation.results import Result
+    from tether_gym.training.jax_ppo import PPOConfig
+
+BACKEND = "jax"
+"""The `--backend` this module trains with (the `Backend.name` of the families' JAX kernels)."""
+MODULES = ("jax", "flax", "optax")
+"""Import names of the `jax` extra the trainer needs."""
+PROGRESS_LINES = 20
+"""Progress lines of a run without periodic evaluations (one per chunk of updates)."""
+
+
+@dataclass(frozen=True)
+class JaxRun:
+    """A checked `--backend jax` run: its config, the trainer's recipe, the seeds and the
+    folder."""
+
+    config: RunConfig
+    ppo: PPOConfig
+    seeds: list[int]
+    run_dir: Path
+
+    def label(self) -> str:
+        return f"{self.config.algo.upper()} jax"
+
+
+def has_jax_backend(env_id: str) -> bool:
+    """Whether the family of `env_id` has a JAX backend (`Family.backends`)."""
+    return any(backend.name == BACKEND for backend in family(env_id).backends)
+
+
+def jax_env_ids() -> list[str]:
+    """The env ids whose family has a JAX backend."""
+    return [
+        env_id for env_family in FAMILIES for env_id in env_family.ids if has_jax_backend(env_id)
+    ]
+
+
+def check_jax_config(config: RunConfig) -> None:
+    """ValueError for what `--backend jax` does not train: an env without a JAX backend
+    (before jax is imported: ModuleNotFoundError naming the `jax` extra if it is missing) or
+    one the trainer does not train yet (`jax_ppo.ENVS`), an algorithm other than ppo, a
+    planner-backed variant or the aim policy."""
+    from tether_gym.agents.planned import planned_keys
+
+    if not has_jax_backend(config.env_id):
+        raise ValueError(
+            f"--backend jax: {config.env_id} has no JAX backend (a {family(config.env_id).name} "
+            f"env); --env must be one of {jax_env_ids()}"
+        )
+    require_extra("tether-train --backend jax", MODULES, "jax")
+    from tether_gym.training.jax_ppo import ENVS
+
+    if config.env_id not in ENVS:
+        raise ValueError(
+            f"--backend jax: the JAX trainer does not train {config.env_id} yet (its JAX kernel "
+            f"is there); --env must be one of {sorted(ENVS)}"
+        )
+    if config.algo != "ppo":
+        raise ValueError(f"--backend jax trains ppo only, not --algo {config.algo}")
+    variant_keys = sorted(key for key in config.hyperparams if key in planned_keys())
+    if variant_keys:
+        raise ValueError(
+            f"--backend jax trains no planner-backed variant: drop {', '.join(variant_keys)} "
+            "(--backend sb3 trains them)"
+        )
+    policy = config.hyperparams.get("policy", "MlpPolicy")
+    if policy != "MlpPolicy":
+        raise ValueError(f"--backend jax builds policy MlpPolicy only, not {policy}")
+
+
+def ppo_config(config: RunConfig) -> PPOConfig:
+    """The JAX trainer's recipe of `config` (its zoo entry, n_envs, timesteps and env
+    arguments); ValueError for what the trainer cannot honour."""
+    from tether_gym.training.jax_ppo import PPOConfig
+
+    params = {**config.hyperparams, "n_envs": config.n_envs}
+    return PPOConfig.from_params(config.env_id, params, config.timesteps, config.env_kwargs)
+
+
+def run_name(config: RunConfig, seeds: list[int]) -> str:
+    """runs/<name>: the SB3 run's default name with `<algo>_jax` and the seeds
+    (`seeds0-4`, or `seed3` for one)."""
+    from tether_gym.training.train import default_name
+
+    name = default_name(config.env_id, config.env_kwargs, seeds[0], f"{config.algo}_jax")
+    stem = name.removesuffix(f"seed{seeds[0]}")
+    return stem + (f"seed{seeds[0]}" if len(seeds) == 1 else f"seeds{seeds[0]}-{seeds[-1]}")
+
+
+def run_from_args(args: argparse.Namespace) -> JaxRun:
+    """The checked run of the command line (ValueError; ModuleNotFoundError naming the `jax`
+    extra), its folder prepared (`prepare_run_dir`: never overwritten without --overwrite)."""
+    from tether_gym.training.experiment import check_config
+    from tether_gym.training.train import resolve_config
+
+    if args.resume is not None:
+        raise ValueError(
+            "--resume is not supported yet for --backend jax: start the run again (--overwrite)"
+        )
+    if args.save_replay_buffer:
+        raise ValueError("--save-replay-buffer: --backend jax trains ppo, which has none")
+    count = 1 if args.seeds is None else args.seeds
+    if count < 1:
+        raise ValueError(f"--seeds must be at least 1, got {count}")
+    config = resolve_config(args)
+    check_jax_config(config)
+    check_config(config)  # the env arguments, resolved once (`RunConfig.env`), the sizes
+    ppo = ppo_config(config)
+    seeds = list(range(config.seed, config.seed + count))
+    run_dir = args.runs_dir / (args.name or run_name(config, seeds))
+    prepare_run_dir(run_dir, args.overwrite)
+    return JaxRun(config, ppo, seeds, run_dir)
+
+
+def chunk_updates(run: JaxRun) -> int:
+    """Updates per compiled call (a progress line each): `eval_freq`'s worth, or a
+    `PROGRESS_LINES`th of the run without periodic evaluations."""
+    ppo = run.ppo
+    if run.config.eval_freq:
+        return max(1, round(run.config.eval_freq / ppo.rollout_size))
+    return max(1, math.ceil(ppo.n_updates / PROGRESS_LINES))
+
+
+class PeriodicEval:
+    """After each chunk of updates (if `eval_freq`): each seed's deterministic policy on the
+    periodic evaluation's episodes (`EVAL_SEED`) beside the family's yardstick, a row per seed
+    appended to `evaluations.csv` (the SB3 run's columns, and `seed`) and a line printed."""
+
+    def __init__(self, run: JaxRun):
+        from tether_gym.training.yardsticks import yardstick
+
+        self.run = run
+        self.yardstick, self.baseline = yardstick(run.config)
+        self.yardstick_rate: float | None = None
+        self.family = family(run.config.env_id)
+        self.agents: dict[str, Any] = {}
+
+    def _evaluate(self, agents: dict[str, Any]) -> list[Result]:
+        from tether_gym.evaluation.runner import evaluate
+
+        config = self.run.config
+        return evaluate(agents, config.env_kwargs, config.eval_episodes, EVAL_SEED,
+                        env_id=config.env_id)  # fmt: skip
+
+    def __call__(self, updates: int, params: Any) -> None:
+        from tether_gym.agents.jax_policy import JaxPolicyAgent
+        from tether_gym.training.jax_ppo import policy_config, unstack
+
+        if self.yardstick_rate is None:
+            (result,) = self._evaluate({self.yardstick: self.baseline})
+            self.yardstick_rate = result.success_rate
+        if not self.agents:  # one agent per seed, its parameters replaced: compiled once
+            played = policy_config(self.run.ppo)
+            self.agents = {f"seed{s}": JaxPolicyAgent(None, played) for s in self.run.seeds}
+        for i, agent in enumerate(self.agents.values()):
+            agent.params = unstack(params, i)
+        timesteps = min(updates, self.run.ppo.n_updates) * self.run.ppo.rollout_size
+        results = self._evaluate(self.agents)
+        for seed, result in zip(self.run.seeds, results, strict=True):
+            numbers = {"timesteps": timesteps, "seed": seed, "success_rate": result.success_rate,
+                       self.family.yardstick_column: self.yardstick_rate}  # fmt: skip
+            numbers.update({name: getattr(result, name) for name in self.family.metrics})
+            numbers["reward_mean"] = result.reward_mean
+            append_row(self.run.run_dir / EVALUATIONS, numbers)
+        rates = ", ".join(f"{100 * r.success_rate:.1f}%" for r in results)
+        print(f"[eval] {timesteps:,} timesteps: {self.run.label()} per seed [{rates}] vs "
+              f"{self.yardstick} {100 * self.yardstick_rate:.1f}% success", flush=True)  # fmt: skip
+
+
+def seeds_row(results: list[Result], label: str) -> tuple[str, dict[str, Any]]:
+    """The final table's row of the mean over the seeds' results (their 95% t interval, the
+    worst seed), in the table's columns, and the same figures for results.json."""
+    from tether_gym.evaluation.statistics import t_interval
+
+    success = np.array([r.success_rate for r in results])
+    low, high = t_interval(success)
+    interval = "" if math.isnan(low) else f" [{100 * low:.1f}, {100 * high:.1f}]"
+    cells = [
+        f"{label}, mean of {len(results)} seeds (t interval over seeds)",
+        f"{len(results)} x {results[0].episodes}",
+        f"{100 * success.mean():.1f}%{interval}, worst {100 * success.min():.1f}%",
+        *("-" for _ in type(results[0]).columns),
+    ]
+    figures = {
+        "seeds": len(results),
+        "per_seed": success.tolist(),
+        "success_mean": float(success.mean()),
+        "success_ci": None if math.isnan(low) else [low, high],
+        "worst": float(success.min()),
+    }
+    return f"| {' | '.join(cells)} |", figures
+
+
+def train(run: JaxRun, progress: bool = True) -> dict[str, Any]:
+    """Train the seeds of `run`, save their policies, play the final table; returns the
+    summary written to results.json, with `table` (Markdown) added."""
+    from tether_gym.evaluation.reports import format_table
+    from tether_gym.training.experiment import final_table
+    from tether_gym.training.jax_ppo import save_trained, train_seeds, unstack
+
+    wall = time.perf_counter()
+    config, ppo, seeds, run_dir = run.config, run.ppo, run.seeds, run.run_dir
+    saved = {"backend": BACKEND, **config.as_dict(), "seeds": seeds}
+    (run_dir / "config.yaml").write_text(yaml.safe_dump(saved, sort_keys=False))
+    trained = ppo.n_updates * ppo.rollout_size
+    rounded = "" if trained == config.timesteps else (
+        f" ({config.timesteps:,} asked, rounded up to whole rollouts)"
+    )  # fmt: skip
+    print(f"training {run.label()} ({len(seeds)} seeds: {', '.join(map(str, seeds))}) for "
+          f"{trained:,} timesteps each{rounded} into {run_dir}", flush=True)  # fmt: skip
+    hook = PeriodicEval(run) if config.eval_freq else None
+
+    def log(line: str) -> None:
+        if progress or not line.startswith("update "):  # the compile step is always said
+            print(line, flush=True)
+
+    out = train_seeds(ppo, seeds, chunk_updates(run), log=log, after_chunk=hook)
+    for i, seed in enumerate(seeds):
+        save_trained(run_dir / f"seed{seed}", unstack(out.params, i), ppo)
+    print(f"trained {len(seeds)} seeds x {out.timesteps:,} timesteps in {out.train_seconds:.1f} s "
+          f"({out.steps_per_second:,.0f} steps/s) after {out.compile_seconds:.1f} s compiling; "
+          f"policies saved as {run_dir}/seed<k>.msgpack", flush=True)  # fmt: skip
+    clock = time.perf_counter()
+    named = {f"{run.label()} seed{seed}": out.agent(i) for i, seed in enumerate(seeds)}
+    results = final_table(config, named)
+    eval_seconds = time.perf_counter() - clock
+    row, figures = seeds_row(results[: len(seeds)], run.label())
+    table = format_table(results) + "\n" + row
+    (run_dir / "results.md").write_text(table + "\n")
+    summary = {
+        "run_dir": str(run_dir),
+        "backend": BACKEND,
+        "env_id": config.env_id,
+        "env_kwargs": config.env_kwargs,
+        "seeds": seeds,
+        "timesteps": out.timesteps,
+        "train_seconds": out.train_seconds,
+        "compile_seconds": out.compile_seconds,
+        "steps_per_second": out.steps_per_second,
+        "final_table_seconds": eval_seconds,
+        "wall_seconds": time.perf_counter() - wall,
+        "device": _device(),
+        "mean_over_seeds": figures,
+        "results": [result.summary() for result in results],
+    }
+    (run_dir / RESULTS).write_text(json.dumps(summary, indent=1) + "\n")
+    return {**summary, "table": table}
+
+
+def _device() -> str:
+    import jax
+
+    device = jax.devices()[0]
+    return f"{device} ({jax.default_backend()})"
+
+
+def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """`tether-train --backend jax`: check, train, print the table, the steps/s and the wall
+    time; returns the exit status (130 after Ctrl-C)."""
+    clock = time.perf_counter()
+    try:
+        run = run_from_args(args)
+    except (ValueError, ModuleNotFoundError) as error:
+        parser.error(str(error))
+    try:
+        summary = train(run, progress=not args.no_progress_bar)
+    except KeyboardInterrupt:
+        kept = {entry.name for entry in run.run_dir.iterdir()} - {"config.yaml"}
+        again = "pass --overwrite to start it again" if kept else "the same command starts it again"
+        print(f"\ninterrupted: a --backend jax run keeps its policies only at the end; {again}",
+              file=sys.stderr)  # fmt: skip
+        return 130
+    env = run.config.env_kwargs or "default env"
+    print(f"\nTest episodes (seed {TEST_SEED}), {run.config.env_id} {env}:\n{summary['table']}")
+    print(f"\n{len(run.seeds)} seeds on {summary['device']}: {summary['steps_per_second']:,.0f} "
+          f"steps/s, wall time {time.perf_counter() - clock:.1f} s (compile "
+          f"{summary['compile_seconds']:.1f} s, training {summary['train_seconds']:.1f} s, "
+          f"final table {summary['final_table_seconds']:.1f} s)")  # fmt: skip
+    return 0
