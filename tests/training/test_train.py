@@ -293,6 +293,10 @@ def test_a_bad_hyperparameter_file_fails_up_front(tmp_path, capsys, text, messag
         (["--n-envs", "0"], "n_envs must be at least 1"),
         (["--num-threads", "0"], "--num-threads must be at least 1, got 0"),
         (["--algo", "a2c"], "invalid choice: 'a2c'"),
+        (
+            ["--algo", "sac", "--env", "TetherNavigate_PostsReach-v3"],
+            "did you mean 'TetherNavigate_PostsReachSparse-v3'?",
+        ),
     ],
 )
 def test_bad_options_name_the_parameter_before_any_work(tmp_path, capsys, args, message):

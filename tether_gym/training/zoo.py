@@ -22,7 +22,7 @@ from stable_baselines3.common.utils import LinearSchedule
 
 from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtractor, ProposalPolicy
 from tether_gym.agents.planned import planned_keys
-from tether_gym.arguments import DEFAULT_ENV_ID
+from tether_gym.arguments import DEFAULT_ENV_ID, did_you_mean
 from tether_gym.families import family
 from tether_gym.training.her import PathHerReplayBuffer
 
@@ -91,7 +91,9 @@ def entry(conf: dict[str, Any], path: Path | Traversable, env_id: str) -> dict[s
     """The entry for `env_id` of the file `path` read as `conf`; ValueError if it is missing or
     its `env_kwargs` is not a mapping."""
     if not isinstance(conf.get(env_id), dict):
-        raise ValueError(f"hyperparameter file {str(path)!r} has no mapping for {env_id!r}")
+        known = [key for key, value in conf.items() if isinstance(value, dict)]
+        hint = did_you_mean(env_id, known) or f" (its entries: {', '.join(known)})"
+        raise ValueError(f"hyperparameter file {str(path)!r} has no mapping for {env_id!r}{hint}")
     if not isinstance(conf[env_id].get("env_kwargs", {}), dict):
         raise ValueError(
             f"env_kwargs of {env_id!r} in {str(path)!r} must be a mapping of env arguments, "
