@@ -26,6 +26,7 @@ from tether_gym.agents.saved import load_agent
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.spaces import decode_observation
+from tether_gym.evaluation import results_file
 from tether_gym.evaluation.results import NavigationResult
 from tether_gym.evaluation.runner import evaluate
 from tether_gym.training import (
@@ -475,7 +476,7 @@ def test_a_ladder_id_trains_the_recipe_of_its_results_by_default(tmp_path, rung)
     # the rung's row as last measured (its file names the env version it was measured on)
     results = max((ROOT / "results" / "baselines").glob(
         f"ppo_TetherNavigate_{rung}-v*_control-aim_coast-True.json"))  # fmt: skip
-    documented = json.loads(results.read_text())
+    documented = results_file.read(results)["setup"]
     assert config.env_kwargs == documented["env_kwargs"] == {"control": "aim", "coast": True}
     assert config.hyperparams.items() >= documented["hyperparams"].items()
     assert config.hyperparams["policy"] == "AimPolicy" and "env_kwargs" not in config.hyperparams
