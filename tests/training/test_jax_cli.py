@@ -20,6 +20,8 @@ pytest.importorskip("stable_baselines3")
 from tests.helpers import ROOT
 from tether_gym.training import train
 
+pytestmark = pytest.mark.jax_train
+
 TINY = ["--backend", "jax", "--seeds", "2", "--timesteps", "4096", "--eval-episodes", "20",
         "--dynamics", "impulse"]  # fmt: skip
 """The issue's tiny run, on impulse dynamics (half the compile time of hybrid's)."""

@@ -10,6 +10,8 @@ import dataclasses
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.jax_train
+
 jax = pytest.importorskip("jax")
 pytest.importorskip("flax")
 pytest.importorskip("optax")
