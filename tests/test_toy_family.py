@@ -222,7 +222,7 @@ def test_a_toy_family_plugs_in_through_the_family_record_only(toy, capsys, monke
 def test_a_toy_family_names_its_training_runs(toy):
     """The run name says the family's `run_name_keys`, then the other arguments given."""
     pytest.importorskip("stable_baselines3")
-    from tether_gym.training.train import default_name
+    from tether_gym.training.recipe import default_name
 
     name = default_name("TetherPoint-v0", {"start": 0.5}, 0)
     assert name == "ppo_TetherPoint-v0_0.05_start0.5_seed0"

@@ -33,6 +33,7 @@ from tether_gym.training import (
     experiment,
     folders,
     pretrain,
+    recipe,
     residual,
     summary,
     train,
@@ -117,7 +118,7 @@ def test_the_default_hyperparameters_have_navigate_entries():
 
 
 def test_default_names_use_the_navigate_envs_defaults():
-    name = train.default_name("TetherNavigate-v3", {"n_obstacles": 3}, 1)
+    name = recipe.default_name("TetherNavigate-v3", {"n_obstacles": 3}, 1)
     assert name == "ppo_TetherNavigate-v3_reach_hybrid_nobstacles3_seed1"
 
 

@@ -16,7 +16,7 @@ pytest.importorskip("stable_baselines3")
 
 from tests.helpers import ROOT
 from tests.helpers.training import TINY_NET, TINY_PPO, TINY_SAC, saved_timesteps
-from tether_gym.training import callbacks, experiment, train, zoo
+from tether_gym.training import callbacks, experiment, recipe, train, zoo
 
 FAST_PARAMS = [*TINY_PPO, "policy_kwargs:dict(net_arch=[16], log_std_init=-1.0)"]
 FAST = [
@@ -307,12 +307,12 @@ def test_bad_options_name_the_parameter_before_any_work(tmp_path, capsys, args, 
 
 
 def test_default_names_differ_by_config_and_seed():
-    assert train.default_name("TetherBounce-v0", {}, 0) == "ppo_mixed_hybrid_seed0"
-    low = train.default_name("TetherBounce-v0", {"rho": [5.0, 100.0], "task": "heading"}, 1)
+    assert recipe.default_name("TetherBounce-v0", {}, 0) == "ppo_mixed_hybrid_seed0"
+    low = recipe.default_name("TetherBounce-v0", {"rho": [5.0, 100.0], "task": "heading"}, 1)
     assert low == "ppo_heading_hybrid_rho5-100_seed1"
-    navigate = train.default_name("TetherNavigate-v3", {}, 2)
+    navigate = recipe.default_name("TetherNavigate-v3", {}, 2)
     assert navigate == "ppo_TetherNavigate-v3_reach_hybrid_seed2"
-    assert train.default_name("TetherBounce-v0", {}, 0, "sac") == "sac_mixed_hybrid_seed0"
+    assert recipe.default_name("TetherBounce-v0", {}, 0, "sac") == "sac_mixed_hybrid_seed0"
 
 
 @pytest.mark.slow

@@ -4,7 +4,7 @@
     tether-train --backend jax --seeds 5                 # TetherBounce-v0, seeds 0 .. 4
     tether-train --backend jax --seeds 3 --seed 10 --timesteps 1e6 --dynamics impulse
 
-The recipe is resolved as the SB3 path resolves it (`train.resolve_config`: the zoo entry, its
+The recipe is resolved as the SB3 path resolves it (`recipe.resolve_config`: the zoo entry, its
 `env_kwargs` under the command line's, `--hyperparams`, the `RunConfig`), then read by
 `PPOConfig.from_params`; `--seeds N` trains seeds `--seed` .. `--seed` + N - 1 under `jax.vmap`.
 Refused up front (ValueError naming the option): an env without a JAX backend
@@ -44,6 +44,7 @@ from tether_gym.families import FAMILIES, family
 from tether_gym.seeds import EVAL_SEED, TEST_SEED
 from tether_gym.training.config import RunConfig
 from tether_gym.training.folders import EVALUATIONS, append_row, prepare_run_dir
+from tether_gym.training.recipe import default_name, resolve_config
 from tether_gym.training.summary import RESULTS
 
 if TYPE_CHECKING:
@@ -129,8 +130,6 @@ def ppo_config(config: RunConfig) -> PPOConfig:
 def run_name(config: RunConfig, seeds: list[int]) -> str:
     """runs/<name>: the SB3 run's default name with `<algo>_jax` and the seeds
     (`seeds0-4`, or `seed3` for one)."""
-    from tether_gym.training.train import default_name
-
     name = default_name(config.env_id, config.env_kwargs, seeds[0], f"{config.algo}_jax")
     stem = name.removesuffix(f"seed{seeds[0]}")
     return stem + (f"seed{seeds[0]}" if len(seeds) == 1 else f"seeds{seeds[0]}-{seeds[-1]}")
@@ -140,7 +139,6 @@ def run_from_args(args: argparse.Namespace) -> JaxRun:
     """The checked run of the command line (ValueError; ModuleNotFoundError naming the `jax`
     extra), its folder prepared (`prepare_run_dir`: never overwritten without --overwrite)."""
     from tether_gym.training.experiment import check_config
-    from tether_gym.training.train import resolve_config
 
     if args.resume is not None:
         raise ValueError(

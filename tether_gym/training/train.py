@@ -40,15 +40,12 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
 
 from tether_gym.agents.saved import read_config
 from tether_gym.arguments import (
-    DEFAULT_ENV_ID,
     ArgumentParser,
     add_env_arguments,
     chosen_env,
-    env_arguments,
     env_from_args,
     given_env_options,
 )
@@ -57,48 +54,24 @@ from tether_gym.seeds import TEST_SEED
 from tether_gym.training.config import RunConfig, make_config
 from tether_gym.training.experiment import check_config, check_run, train
 from tether_gym.training.folders import prepare_run_dir
-from tether_gym.training.variants import control_asked
-from tether_gym.training.zoo import ALGOS, default_conf, parse_overrides, run_entry
+from tether_gym.training.recipe import RUN_OPTIONS, default_name, resolve_config
+from tether_gym.training.zoo import ALGOS
 
 __all__ = [
     "RunConfig",
     "build_parser",
     "check_config",
     "check_run",
-    "default_name",
     "main",
     "make_config",
-    "resolve_config",
     "train",
 ]
 
-RUN_OPTIONS = (
-    "algo", "seed", "n_envs", "timesteps", "eval_episodes", "eval_freq", "save_replay_buffer",
-)  # fmt: skip
-"""`RunConfig` fields that the command line sets (None: not given)."""
 BACKENDS = ("sb3", "jax")
 """`--backend`: stable-baselines3 (`experiment.train`), or PPO compiled with the env's JAX
 kernel (`jax_run`)."""
 RESUME_OPTIONS = ("timesteps", "eval_episodes", "eval_freq", "save_replay_buffer")
 """The options a resumed run may change."""
-
-
-def default_name(env_id: str, env_kwargs: dict[str, Any], seed: int, algo: str = "ppo") -> str:
-    """runs/<name>: the algorithm (then the env id if not the default), the values of the
-    family's `run_name_keys` (`<algo>_<task>_<dynamics>`), the other env arguments given, and
-    the seed."""
-    parts = [algo] if env_id == DEFAULT_ENV_ID else [algo, env_id]
-    defaults, keys = env_arguments(env_id), family(env_id).run_name_keys
-    parts += [str(env_kwargs.get(key, defaults.get(key))) for key in keys]
-    for key, value in env_kwargs.items():
-        if key not in keys:
-            values = value if isinstance(value, list) else [value]
-            text = "-".join(
-                str(v) if isinstance(v, bool) or not isinstance(v, (int, float)) else f"{v:g}"
-                for v in values
-            )
-            parts.append(f"{key.replace('_', '')}{text}")
-    return "_".join([*parts, f"seed{seed}"])
 
 
 def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
@@ -223,25 +196,6 @@ def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
     run_dir = args.runs_dir / name
     prepare_run_dir(run_dir, args.overwrite)
     return config, run_dir
-
-
-def resolve_config(args: argparse.Namespace) -> RunConfig:
-    """A new run's config from the command line, unchecked (`check_config`): the zoo entry of
-    the env (`run_entry`, its recipe's control mode or a variant's), `--hyperparams` over it,
-    the command line's env arguments over the entry's."""
-    given = {key: getattr(args, key) for key in RUN_OPTIONS if getattr(args, key) is not None}
-    env_id, env_kwargs = env_from_args(args, check=False)  # checked once merged: check_config
-    conf_file = args.conf_file or default_conf(args.algo or "ppo")
-    overrides = parse_overrides(args.hyperparams)
-    control = control_asked(overrides)
-    if control and "control" not in env_kwargs and family(env_id).planners:
-        # a planner-backed variant plays in its planners' control mode
-        env_kwargs = {**env_kwargs, "control": control}
-    params, notice = run_entry(conf_file, env_id, env_kwargs)
-    if notice:
-        print(f"tether-train: {notice}", file=sys.stderr)
-    params = {**params, **overrides}
-    return make_config(env_id, env_kwargs, params, **given)
 
 
 def main(argv: list[str] | None = None) -> int:
