@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# The GPU figures of docs/jax.md in one run, on a machine with jax's CUDA plugin:
+#   bash benchmarks/device.sh OUTDIR
+# 1. TetherBounce's `make train` recipe, 5 seeds in one compiled JAX PPO run, scored on the SB3
+#    run's test episodes (benchmarks/experiments/jax_train.py);
+# 2. the JAX kernels' throughput on the device beside the numba vector envs on the host's CPU
+#    (benchmarks/speed/jax_throughput.py), TetherBounce and TetherNavigate's set-up and velocity
+#    controls, every batch up to 65,536.
+# numba's kernels compile in the background meanwhile (`tether compile`), for the numba columns
+# and the final table. Each stage has a time limit; every figure and log goes to OUTDIR.
+set -u -o pipefail
+out=${1:?usage: bash benchmarks/device.sh OUTDIR}
+py=${PYTHON:-python3}
+mkdir -p "$out"
+export PYTHONUNBUFFERED=1
+nvidia-smi -L
+"$py" -c "import jax, numba, numpy; print('jax', jax.__version__, jax.devices(), 'numba', numba.__version__, 'numpy', numpy.__version__)"
+"$py" -m tether_gym.cli compile >"$out/numba_compile.log" 2>&1 &
+timeout "${TRAIN_LIMIT:-270}" "$py" -m benchmarks.experiments.jax_train --seeds 5 --chunk 250 \
+    --json "$out/jax_train.json" 2>&1 | tee "$out/jax_train.log"
+wait
+timeout "${BOUNCE_LIMIT:-130}" "$py" -m benchmarks.speed.jax_throughput --no-compile \
+    --sides scan numba --json "$out/throughput.json" 2>&1 | tee "$out/throughput.log"
+timeout "${NAVIGATE_LIMIT:-170}" "$py" -m benchmarks.speed.jax_throughput --env TetherNavigate \
+    --controls setup velocity --no-compile --sides scan numba \
+    --json "$out/navigate_throughput.json" 2>&1 | tee "$out/navigate_throughput.log"
