@@ -6,8 +6,8 @@
 # 2. the JAX kernels' throughput on the device beside the numba vector envs on the host's CPU
 #    (benchmarks/speed/jax_throughput.py), TetherBounce and TetherNavigate's set-up and velocity
 #    controls, every batch up to 65,536.
-# numba's kernels compile in the background meanwhile (`tether compile`), for the numba columns
-# and the final table. Each stage has a time limit; every figure and log goes to OUTDIR.
+# numba's vector kernels compile in the background during 1 (`tether compile --part vector`),
+# awaited before 2, whose numba columns they serve. Each stage has a time limit; every figure and log goes to OUTDIR.
 set -u -o pipefail
 out=${1:?usage: bash benchmarks/device.sh OUTDIR}
 py=${PYTHON:-python3}
@@ -15,7 +15,7 @@ mkdir -p "$out"
 export PYTHONUNBUFFERED=1
 nvidia-smi -L
 "$py" -c "import jax, numba, numpy; print('jax', jax.__version__, jax.devices(), 'numba', numba.__version__, 'numpy', numpy.__version__)"
-"$py" -m tether_gym.cli compile >"$out/numba_compile.log" 2>&1 &
+timeout 300 "$py" -m tether_gym.cli compile --part vector >"$out/numba_compile.log" 2>&1 &
 timeout "${TRAIN_LIMIT:-270}" "$py" -m benchmarks.experiments.jax_train --seeds 5 --chunk 250 \
     --json "$out/jax_train.json" 2>&1 | tee "$out/jax_train.log"
 wait
