@@ -13,7 +13,10 @@ today's planners.
         --figure results/baselines/curves.png
 
 Each seed is `tether-train --seed k --name <config>_seed<k>` in `--runs-dir` (a finished run
-is read, not retrained; an interrupted one resumes). The summary goes to `--out/<config>.json`;
+is read, not retrained; an interrupted one resumes), with the options given here: without
+`--timesteps`, `--eval-freq` or `--eval-episodes` a seed trains the zoo entry's, as
+`tether-train --env ID` alone does. The summary goes to `--out/<config>.json`, its `setup`
+holding the runs' config (`config`: seed 0's `RunConfig` less the seed);
 `--plot` draws the learning curves of summaries in one figure, a panel per algorithm, a band
 (the seeds' range) and the mean per configuration.
 """
@@ -48,11 +51,14 @@ def config_name(args: argparse.Namespace) -> str:
 
 
 def train_command(args: argparse.Namespace, seed: int, run_dir: Path) -> list[str]:
+    """The `tether-train` command of one seed: the options given, the zoo entry's otherwise."""
     command = [str(Path(sys.executable).parent / "tether-train"), "--algo", args.algo,
-               "--env", args.env, "--seed", str(seed), "--timesteps", str(args.timesteps),
-               "--eval-freq", str(args.eval_freq), "--eval-episodes", str(args.eval_episodes),
-               "--runs-dir", str(run_dir.parent), "--name", run_dir.name,
-               "--num-threads", str(args.num_threads), "--no-progress-bar"]  # fmt: skip
+               "--env", args.env, "--seed", str(seed), "--runs-dir", str(run_dir.parent),
+               "--name", run_dir.name, "--num-threads", str(args.num_threads),
+               "--no-progress-bar"]  # fmt: skip
+    for option in ("timesteps", "eval_freq", "eval_episodes"):
+        if getattr(args, option) is not None:
+            command += [f"--{option.replace('_', '-')}", str(getattr(args, option))]
     if args.env_kwargs:
         command += ["--env-kwargs", *args.env_kwargs]
     if args.hyperparams:
@@ -109,11 +115,19 @@ def replayed_rates(run_dirs: list[Path]) -> list[dict[str, float]]:
     return rates
 
 
+def trained_config(run_dir: Path) -> RunConfig:
+    """The config a seed's run trained with (its `config.yaml`)."""
+    from tether_gym.agents.saved import read_config
+
+    return RunConfig.from_dict(read_config(run_dir / "config.yaml"))
+
+
 def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
     """The runs' test tables as one: per agent the mean success over seeds (`success_rate`),
     its 95% t interval (`success_ci`), the worst seed and each seed's; and the curves. On
     TetherNavigate what depends on the planners is played anew (`replayed_rates`)."""
     runs = [json.loads((run_dir / RESULTS).read_text()) for run_dir in run_dirs]
+    config = trained_config(run_dirs[0])
     if family(args.env).planners:
         replayed = replayed_rates(run_dirs)
     else:
@@ -125,15 +139,16 @@ def summarize(args: argparse.Namespace, run_dirs: list[Path]) -> dict:
     results = []
     for name, values in rates.items():
         values = np.asarray(values)
-        results.append({"name": name, "episodes": args.eval_episodes,
+        results.append({"name": name, "episodes": config.eval_episodes,
                         "success_rate": float(values.mean()),
                         "success_ci": list(t_interval(values)), "worst": float(values.min()),
                         "per_seed": values.tolist()})  # fmt: skip
     setup = {
         "algo": args.algo, "env_id": args.env, "env_kwargs": runs[0]["env_kwargs"],
         "hyperparams": dict(kv.split(":", 1) for kv in args.hyperparams),
-        "timesteps": args.timesteps, "seeds": list(range(args.seeds)), "test_seed": TEST_SEED,
+        "timesteps": config.timesteps, "seeds": list(range(args.seeds)), "test_seed": TEST_SEED,
         "jobs": args.jobs, "num_threads": args.num_threads,
+        "config": {key: value for key, value in config.as_dict().items() if key != "seed"},
     }  # fmt: skip
     details = {"train_seconds": [round(run["train_seconds"], 1) for run in runs],
                "curves": [read_curve(run_dir) for run_dir in run_dirs]}  # fmt: skip
@@ -148,8 +163,10 @@ def paired_against(args: argparse.Namespace, run_dirs: list[Path], env_kwargs: d
     from tether_gym.evaluation.runner import evaluate
     from tether_gym.evaluation.statistics import paired
 
+    episodes = trained_config(run_dirs[0]).eval_episodes
+
     def play(agent):
-        (result,) = evaluate({"agent": agent}, env_kwargs, args.eval_episodes, TEST_SEED,
+        (result,) = evaluate({"agent": agent}, env_kwargs, episodes, TEST_SEED,
                              env_id=args.env)  # fmt: skip
         return result.success
 
@@ -164,7 +181,7 @@ def paired_against(args: argparse.Namespace, run_dirs: list[Path], env_kwargs: d
               f"{100 * reference.mean():.1f}%, wins {wins}, losses {losses}, "
               f"p {p:.2g}")  # fmt: skip
     return {"reference": args.paired, "reference_success_rate": float(reference.mean()),
-            "episodes": args.eval_episodes, "per_seed": per_seed}  # fmt: skip
+            "episodes": episodes, "per_seed": per_seed}  # fmt: skip
 
 
 def plot(summaries: list[dict], path: Path) -> None:
@@ -202,15 +219,14 @@ def plot(summaries: list[dict], path: Path) -> None:
     plt.close(figure)
 
 
-def main() -> None:
+def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--algo", choices=("ppo", "sac"), default="ppo")
     parser.add_argument("--env", default="TetherNavigate_PostsReach-v3")
     parser.add_argument("--env-kwargs", nargs="*", default=[], metavar="KEY:VALUE")
     parser.add_argument("--hyperparams", nargs="*", default=[], metavar="KEY:VALUE")
-    parser.add_argument("--timesteps", type=int, default=1_500_000)
-    parser.add_argument("--eval-freq", type=int, default=100_000)
-    parser.add_argument("--eval-episodes", type=int, default=1000)
+    for option in ("--timesteps", "--eval-freq", "--eval-episodes"):
+        parser.add_argument(option, type=int, help="default: the zoo entry's (tether-train's)")
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--jobs", type=int, default=2, help="runs at once")
     parser.add_argument("--num-threads", type=int, default=1,
@@ -227,6 +243,11 @@ def main() -> None:
                         "p")  # fmt: skip
     parser.add_argument("--plot", nargs="+", type=Path, help="summaries to draw in one figure")
     parser.add_argument("--figure", type=Path, help="the --plot figure's file")
+    return parser
+
+
+def main() -> None:
+    parser = build_parser()
     args = parser.parse_args()
     if args.plot:
         if args.figure is None:

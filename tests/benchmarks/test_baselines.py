@@ -29,6 +29,9 @@ def test_seeds_train_once_and_are_summarized_with_their_curves(tmp_path):
     summary = json.loads(summary_file.read_text())
     setup, details = summary["setup"], summary["details"]
     assert setup["env_id"] == "TetherNavigate_OpenReach-v3" and setup["seeds"] == [0, 1]
+    config = setup["config"]  # the runs' config: what decides the models, the seed left out
+    assert (config["timesteps"], config["eval_freq"], config["eval_episodes"]) == (1024, 512, 10)
+    assert config["env_kwargs"] == {"control": "aim", "coast": True} and "seed" not in config
     rows = {row["name"]: row for row in summary["rows"]}
     policy = rows["PPO (best)"]
     assert len(policy["per_seed"]) == 2 and policy["worst"] == min(policy["per_seed"])

@@ -17,7 +17,6 @@ import torch
 from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.torch_layers import CombinedExtractor
 
-from tests.helpers import ROOT
 from tests.helpers.envs import vector_env
 from tests.helpers.training import TINY_NAVIGATE_NET, TINY_PPO, TINY_SAC, saved_timesteps
 from tether_gym.agents import planned
@@ -26,7 +25,6 @@ from tether_gym.agents.saved import load_agent
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.spaces import decode_observation
-from tether_gym.evaluation import results_file
 from tether_gym.evaluation.results import NavigationResult
 from tether_gym.evaluation.runner import evaluate
 from tether_gym.training import (
@@ -464,28 +462,6 @@ def test_tether_train_gives_an_aim_policy_the_env_s_control_mode(tmp_path):
     assert isinstance(model.policy, AimPolicy) and model.policy.control == "velocity"
 
 
-RUNGS = ("OpenReach", "OpenStop", "PostsReach", "PostsStop", "WallReach", "WallStop")
-
-
-@pytest.mark.parametrize("rung", RUNGS)
-def test_a_ladder_id_trains_the_recipe_of_its_results_by_default(tmp_path, rung):
-    """`tether-train --env <rung>` alone resolves to the command behind the rung's row of the
-    Results page (results/baselines/), without training."""
-    env_id = f"TetherNavigate_{rung}-v3"
-    args = train.build_parser().parse_args(["--env", env_id, "--runs-dir", str(tmp_path)])
-    config, run_dir = train.run_from_args(args)
-    # the rung's row as last measured (its file names the env version it was measured on)
-    results = max((ROOT / "results" / "baselines").glob(
-        f"ppo_TetherNavigate_{rung}-v*_control-aim_coast-True.json"))  # fmt: skip
-    documented = results_file.read(results)["setup"]
-    assert config.env_kwargs == documented["env_kwargs"] == {"control": "aim", "coast": True}
-    assert config.hyperparams.items() >= documented["hyperparams"].items()
-    assert config.hyperparams["policy"] == "AimPolicy" and "env_kwargs" not in config.hyperparams
-    assert config.timesteps == documented["timesteps"]
-    task = "reach" if rung.endswith("Reach") else "stop"
-    assert run_dir.name == f"ppo_{env_id}_{task}_hybrid_controlaim_coastTrue_seed0"
-
-
 def test_control_setup_trains_a_ladder_id_in_the_hard_mode(tmp_path, capsys):
     env_id = "TetherNavigate_PostsReach-v3"
     argv = ["--env", env_id, "--env-kwargs", "control:setup", "--runs-dir", str(tmp_path)]
@@ -495,8 +471,8 @@ def test_control_setup_trains_a_ladder_id_in_the_hard_mode(tmp_path, capsys):
     (notice,) = capsys.readouterr().err.splitlines()
     assert notice == (
         f"tether-train: control 'setup' is not the {env_id} recipe's ('aim'): training with the "
-        "TetherNavigate-v3 entry, without the recipe's coast:True, n_timesteps, policy, "
-        "policy_kwargs"
+        "TetherNavigate-v3 entry, without the recipe's coast:True, eval_freq, n_timesteps, "
+        "policy, policy_kwargs"
     )
 
 

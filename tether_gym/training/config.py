@@ -72,6 +72,25 @@ class RunConfig:
         return dataclasses.replace(self, **changes)
 
 
+ENTRY_KEYS = {
+    "n_envs": "n_envs", "timesteps": "n_timesteps", "eval_episodes": "eval_episodes",
+    "eval_freq": "eval_freq",
+}  # fmt: skip
+"""The `RunConfig` fields a zoo entry may set, and the entry's key for each."""
+
+
+def entry_value(name: str, given: float | None, entry: Mapping[str, Any]) -> int:
+    """The `RunConfig` field `name`: `given` (the command line's), else the zoo `entry`'s
+    (`ENTRY_KEYS`), else `RunConfig`'s default; ValueError naming the key if not a number."""
+    key = ENTRY_KEYS[name]
+    default = next(f.default for f in dataclasses.fields(RunConfig) if f.name == name)
+    value = entry.get(key, default) if given is None else given
+    try:
+        return int(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{key} must be a whole number, got {value!r}") from None
+
+
 def make_config(
     env_id: str,
     env_kwargs: dict[str, Any],
@@ -79,28 +98,28 @@ def make_config(
     seed: int = 0,
     n_envs: int | None = None,
     timesteps: float | None = None,
-    eval_episodes: int = 1000,
-    eval_freq: float = 250_000,
+    eval_episodes: int | None = None,
+    eval_freq: float | None = None,
     algo: str = "ppo",
     save_replay_buffer: bool = False,
 ) -> RunConfig:
-    """A run's config from its zoo entry `hyperparams` for `algo`: `n_envs` and `timesteps`
-    default to the entry's `n_envs` and `n_timesteps`, the env's arguments are the entry's
-    `env_kwargs` overridden key by key by `env_kwargs` (the config records them, and keeps the
-    rest of the entry as `hyperparams`). Not checked (`check_config`)."""
+    """A run's config from its zoo entry `hyperparams` for `algo`: `n_envs`, `timesteps`,
+    `eval_episodes` and `eval_freq` default to the entry's (`ENTRY_KEYS`: `n_timesteps` for
+    `timesteps`), else to `RunConfig`'s; the env's arguments are the entry's `env_kwargs`
+    overridden key by key by `env_kwargs` (the config records them, and keeps the rest of the
+    entry as `hyperparams`). Not checked (`check_config`)."""
     recipe = hyperparams.get("env_kwargs") or {}
     if not isinstance(recipe, Mapping):
         raise ValueError(f"env_kwargs of the zoo entry must be a mapping, got {recipe!r}")
     hyperparams = {key: value for key, value in hyperparams.items() if key != "env_kwargs"}
+    given = {"n_envs": n_envs, "timesteps": timesteps, "eval_episodes": eval_episodes,
+             "eval_freq": eval_freq}  # fmt: skip
     return RunConfig(
         algo=algo,
         env_id=env_id,
         env_kwargs={**recipe, **env_kwargs},
         seed=seed,
-        n_envs=int(hyperparams.get("n_envs", 8) if n_envs is None else n_envs),
-        timesteps=int(hyperparams.get("n_timesteps", 1e6) if timesteps is None else timesteps),
-        eval_episodes=eval_episodes,
-        eval_freq=int(eval_freq),
+        **{name: entry_value(name, value, hyperparams) for name, value in given.items()},
         save_replay_buffer=save_replay_buffer,
         hyperparams=hyperparams,
     )

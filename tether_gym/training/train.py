@@ -11,7 +11,9 @@
 (`python train.py ...` from a clone's root is the same command.) `--algo` picks the algorithm
 (`ALGOS`); its hyperparameters come from the packaged `hyperparams/<algo>.yml` in
 rl-baselines3-zoo's format (keyed by env id, `lin_<x>` for a linear schedule, `policy_kwargs` as a
-Python expression), or `--conf-file`, and `--hyperparams key:value ...` overrides them. The native
+Python expression), or `--conf-file`, and `--hyperparams key:value ...` overrides them; an entry
+may set the run's `n_envs`, `n_timesteps`, `eval_freq` and `eval_episodes` too (a ladder rung's
+does: its Results row's), which the options of the same names override. The native
 vector env feeds SB3 through `tether_gym.training.sb3`. Every `--eval-freq` timesteps the
 deterministic policy plays the same fixed, seeded episodes as the env's yardstick (`yardstick`:
 TetherBounce's impulse oracle, TetherNavigate's greedy planner); the best policy so far and the
@@ -122,9 +124,17 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         help="torch threads (default 1: a seed gives one result on any machine; `make train` "
         "runs 2; not --backend jax)",
     )
-    run.add_argument("--eval-episodes", type=int, help="episodes per evaluation (default 1000)")
     run.add_argument(
-        "--eval-freq", type=float, help="timesteps between evaluations (default 250000; 0: none)"
+        "--eval-episodes",
+        type=int,
+        help="episodes of each evaluation and of the final table (default: the conf file's "
+        "eval_episodes, else 1000)",
+    )
+    run.add_argument(
+        "--eval-freq",
+        type=float,
+        help="timesteps between evaluations, which pick the best model (default: the conf "
+        "file's eval_freq, else 250000; 0: none)",
     )
     out = parser.add_argument_group("output")
     out.add_argument("--name", help="run folder runs/<name> (default: from the config and seed)")

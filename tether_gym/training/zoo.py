@@ -1,8 +1,8 @@
 """Hyperparameter files in rl-baselines3-zoo's format: a mapping per env id, `lin_<x>` for a
 linear schedule, `policy_kwargs` and `replay_buffer_kwargs` as Python expressions, the zoo's
 own keys (`n_timesteps`, `n_envs`, `policy`, `normalize`, `env_kwargs`) beside the algorithm's
-arguments, and ours (`planned_keys()`: those of the planner-backed variants in
-`tether_gym.agents.planned.PLANNED`).
+arguments, and ours: `eval_freq` and `eval_episodes` (`RUN_KEYS`) and those of the
+planner-backed variants in `tether_gym.agents.planned.PLANNED` (`planned_keys()`).
 
 An entry's `env_kwargs` are the env arguments its recipe was tuned with (a ladder rung's control
 mode and coast): the command line's override them key by key (`make_config`), and a control mode
@@ -33,14 +33,19 @@ ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
 """`--algo` names and their SB3 classes; each has its zoo file `hyperparams/<name>.yml`."""
 OWN_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_kwargs")
 """The zoo's own keys of an entry."""
+RUN_KEYS = ("eval_freq", "eval_episodes")
+"""tether-train's keys of an entry: the periodic evaluations, which pick the run's best model,
+and the final table's episodes (the command line's `--eval-freq`, `--eval-episodes` win;
+rl_zoo3 takes them on its command line only)."""
 
 
 def zoo_keys() -> tuple[str, ...]:
-    """Keys of a zoo entry that are not arguments of the algorithm: the zoo's own and those of
-    the planner-backed variants in `PLANNED` as it is now (`residual`, `residual_scale`: a
-    residual policy on a TetherNavigate planner; `pretrain`: PPO cloned from a planner first;
-    `proposals`, `proposals_k`, `proposals_depth`: PPO picking among a planner's proposals)."""
-    return (*OWN_KEYS, *planned_keys())
+    """Keys of a zoo entry that are not arguments of the algorithm: the zoo's own, tether-train's
+    (`RUN_KEYS`) and those of the planner-backed variants in `PLANNED` as it is now
+    (`residual`, `residual_scale`: a residual policy on a TetherNavigate planner; `pretrain`:
+    PPO cloned from a planner first; `proposals`, `proposals_k`, `proposals_depth`: PPO
+    picking among a planner's proposals)."""
+    return (*OWN_KEYS, *RUN_KEYS, *planned_keys())
 
 
 REPLAY_BUFFERS = {"HerReplayBuffer": HerReplayBuffer, "PathHerReplayBuffer": PathHerReplayBuffer}
