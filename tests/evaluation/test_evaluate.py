@@ -28,6 +28,7 @@ from tether_gym.evaluation.cli import agent_names, main
 from tether_gym.evaluation.reports import format_table, paired_table
 from tether_gym.evaluation.runner import evaluate
 from tether_gym.evaluation.statistics import paired, wilson_interval
+from tether_gym.seeds import TEST_SEED
 
 
 def test_two_agents_see_identical_episodes():
@@ -321,7 +322,7 @@ def aim_model(tmp_path_factory) -> Path:
                 batch_size=32, device="cpu")  # fmt: skip
     (run / "best").mkdir(parents=True)
     model.save(run / "best" / "model.zip")
-    config = {"algo": "ppo", "env_id": env_id, "env_kwargs": env_kwargs,
+    config = {"algo": "ppo", "env_id": env_id, "env_kwargs": env_kwargs, "eval_episodes": 6,
               "hyperparams": {"policy": "AimPolicy"}}  # fmt: skip
     (run / "config.yaml").write_text(yaml.safe_dump(config))
     return run / "best" / "model.zip"
@@ -373,3 +374,106 @@ def test_a_saved_model_is_refused_in_one_line_on_an_env_it_cannot_play(aim_model
     assert f"{bare} (no config.yaml of its run found) observes Dict(" in error
     assert f"acts in Box(3,); {AIM_ENV[0]} observes Dict(" in error
     assert error.endswith("acts in Box(4,) (`tether-evaluate --help` lists the options)")
+
+
+def test_a_saved_model_plays_its_run_s_final_table_episodes_and_says_so(
+    aim_model, tmp_path, capsys
+):
+    """Without --seed and --episodes a saved model plays the episodes of its run's final table
+    (TEST_SEED, the run's eval_episodes), and the first line says so; the next says the env
+    arguments and the control mode it plays in. Each option given wins."""
+    payload = json.loads(evaluate_saved(aim_model, tmp_path=tmp_path))
+    assert payload["setup"]["seed"] == TEST_SEED and payload["rows"][0]["episodes"] == 6
+    config = aim_model.parent.parent / "config.yaml"
+    first, playing = capsys.readouterr().out.splitlines()[:2]
+    assert first == (
+        f"tether-evaluate: 6 episodes from seed {TEST_SEED} (its run's final table's: {config})"
+    )
+    assert playing == (
+        f"tether-evaluate: ppo_aim_posts (best) plays {AIM_ENV[0]} with control='aim', "
+        "coast=True (its run's control mode)"
+    )
+    payload = json.loads(evaluate_saved(aim_model, "--seed", "3", tmp_path=tmp_path))
+    assert payload["setup"]["seed"] == 3 and payload["rows"][0]["episodes"] == 6
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first == (
+        f"tether-evaluate: 6 episodes from seed 3 (--seed given, else its run's final table's: "
+        f"{config})"
+    )
+    out = tmp_path / "with_random.json"
+    main(["--agents", str(aim_model), "random", "--episodes", "4", "--no-progress-bar", "--json",
+          str(out)])  # fmt: skip
+    payload = json.loads(out.read_text())
+    assert payload["setup"]["seed"] == TEST_SEED  # the other agents play the same episodes
+    assert [row["episodes"] for row in payload["rows"]] == [4, 4]
+    assert capsys.readouterr().out.startswith(
+        f"tether-evaluate: 4 episodes from seed {TEST_SEED} (--episodes given, else its run's"
+    )
+
+
+def test_a_saved_model_without_its_run_s_config_says_which_episodes_and_why(
+    aim_model, tmp_path, capsys
+):
+    bare = tmp_path / "bare" / "model.zip"
+    bare.parent.mkdir()
+    shutil.copy(aim_model, bare)
+    env = ["--env", AIM_ENV[0], "--env-kwargs", "control:aim", "coast:True"]
+    payload = json.loads(evaluate_saved(bare, *env, "--episodes", "4", tmp_path=tmp_path))
+    assert payload["setup"]["seed"] == TEST_SEED
+    first, playing = capsys.readouterr().out.splitlines()[:2]
+    assert first == (
+        f"tether-evaluate: 4 episodes from seed {TEST_SEED} (--episodes given, else a run's final "
+        "table's seed, 1,000 episodes by default: no config.yaml of its run found)"
+    )
+    assert playing == (
+        f"tether-evaluate: bare plays {AIM_ENV[0]} with control='aim', coast=True (the command "
+        "line's control mode: no config.yaml of its run found)"
+    )
+
+
+@pytest.mark.parametrize(("option", "value"), [("--episodes", "0"), ("--seed", "-1")])
+def test_episodes_and_seed_out_of_range_are_refused_naming_the_option(capsys, option, value):
+    with pytest.raises(SystemExit):
+        main(["--agents", "random", option, value, "--no-progress-bar"])
+    least = 1 if option == "--episodes" else 0
+    assert f"{option} must be at least {least}, got {value}" in capsys.readouterr().err
+
+
+def test_a_saved_jax_policy_plays_its_run_s_final_table_episodes(tmp_path, capsys):
+    """A `--backend jax` run's `seed<k>.msgpack`: its run folder's config.yaml gives the final
+    table's episodes."""
+    pytest.importorskip("flax")
+    import jax
+
+    from tether_gym.agents.jax_policy import ActorCritic, PolicyConfig, save_policy
+
+    env = gym.make("TetherBounce-v0")
+    obs, act = env.observation_space, env.action_space
+    policy = PolicyConfig(
+        env_id="TetherBounce-v0", env_kwargs={"dynamics": "impulse"}, pi_arch=(8,),
+        vf_arch=(8,), activation="relu", log_std_init=0.0, obs_shape=obs.shape,
+        obs_low=obs.low.tolist(), obs_high=obs.high.tolist(), action_shape=act.shape,
+        action_low=act.low.tolist(), action_high=act.high.tolist(), recipe={},
+    )  # fmt: skip
+    network = ActorCritic(action_dim=act.shape[0], pi_arch=(8,), vf_arch=(8,))
+    params = network.init(jax.random.PRNGKey(0), np.zeros((1, *obs.shape), np.float32))
+    run = tmp_path / "ppo_jax_seeds0-1"
+    path = save_policy(run / "seed0", params, policy)
+    config = {"backend": "jax", "algo": "ppo", "env_id": "TetherBounce-v0", "seeds": [0, 1],
+              "env_kwargs": {"dynamics": "impulse"}, "eval_episodes": 5}  # fmt: skip
+    (run / "config.yaml").write_text(yaml.safe_dump(config))
+    payload = json.loads(evaluate_saved(path, tmp_path=tmp_path))
+    assert payload["setup"]["seed"] == TEST_SEED and payload["rows"][0]["episodes"] == 5
+    first, playing = capsys.readouterr().out.splitlines()[:2]
+    assert first == (
+        f"tether-evaluate: 5 episodes from seed {TEST_SEED} (its run's final table's: "
+        f"{run / 'config.yaml'})"
+    )
+    assert playing == "tether-evaluate: seed0 plays TetherBounce-v0 with dynamics='impulse'"
+
+
+def evaluate_saved(model: Path, *argv: str, tmp_path: Path) -> str:
+    """`tether-evaluate --agents MODEL ARGV` (no --episodes unless given): its JSON."""
+    out = tmp_path / "saved.json"
+    main(["--agents", str(model), *argv, "--no-progress-bar", "--json", str(out), "--overwrite"])
+    return out.read_text()

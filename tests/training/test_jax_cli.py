@@ -99,12 +99,13 @@ def test_tether_evaluate_plays_a_saved_seed_without_env_flags(jax_run, tmp_path,
 
     run_dir, _ = jax_run
     policy, written = run_dir / "seed0.msgpack", tmp_path / "evaluated.json"
-    main(["--agents", str(policy), "random", "--episodes", "20", "--seed", str(TEST_SEED),
-          "--json", str(written), "--no-progress-bar"])  # fmt: skip
-    assert "| seed0 | 20 |" in capsys.readouterr().out
+    main(["--agents", str(policy), "random", "--json", str(written), "--no-progress-bar"])
+    out = capsys.readouterr().out
+    assert out.startswith(f"tether-evaluate: 20 episodes from seed {TEST_SEED} (its run's final")
+    assert "| seed0 | 20 |" in out
     evaluated = json.loads(written.read_text())
     assert evaluated["setup"]["env_kwargs"] == {"dynamics": "impulse"}  # the run's env
-    # on the final table's episodes it plays as the final table said
+    # by default on the final table's episodes: it plays as the final table said
     (row,) = [r for r in evaluated["rows"] if r["name"] == "seed0"]
     (final,) = [r for r in json.loads((run_dir / "results.json").read_text())["results"]
                 if r["name"] == "PPO jax seed0"]  # fmt: skip

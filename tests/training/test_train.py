@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -11,6 +12,8 @@ import yaml
 
 from tether_gym.agents.saved import load_agent
 from tether_gym.agents.warm import env_kernels
+from tether_gym.evaluation.cli import main as evaluate_main
+from tether_gym.seeds import TEST_SEED
 
 pytest.importorskip("stable_baselines3")
 
@@ -49,6 +52,15 @@ def test_smoke_training_saves_models_logs_and_prints_the_table(tmp_path, capsys)
     for name in ("PPO (best)", "PPO (last)", "impulse oracle", "shooting oracle", "random"):
         assert f"| {name} |" in out
     assert "| PPO (last) |" in (folder / "results.md").read_text()
+    # tether-evaluate on the best model, no other option: the final table's episodes and number
+    evaluated = tmp_path / "evaluated.json"
+    evaluate_main(["--agents", str(folder / "best" / "model.zip"), "--json", str(evaluated),
+                   "--no-progress-bar"])  # fmt: skip
+    assert capsys.readouterr().out.startswith(f"tether-evaluate: 40 episodes from seed {TEST_SEED}")
+    (row,) = json.loads(evaluated.read_text())["rows"]
+    final = json.loads((folder / "results.json").read_text())["results"]
+    (best,) = [r for r in final if r["name"] == "PPO (best)"]
+    assert (row["episodes"], row["success_rate"]) == (best["episodes"], best["success_rate"])
 
 
 @pytest.mark.slow

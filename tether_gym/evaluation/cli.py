@@ -11,7 +11,9 @@ up), like a pretrained agent's card, names the env id and arguments it was train
 `--env` the episodes are that env's (with its arguments, unless `--env-kwargs` gives others);
 where the command line's env differs, a one-line warning says so and the model plays in its
 own control mode; an env of another family, or spaces that cannot match, is refused in one line
-naming both."""
+naming both. Without `--seed` and `--episodes` a saved model plays the episodes of its run's
+final table (`episodes_to_play`); the output's first line says which episodes and why, and a
+line per saved model the env arguments and the control mode it plays in."""
 
 from __future__ import annotations
 
@@ -40,13 +42,16 @@ from tether_gym.arguments import (
 )
 from tether_gym.evaluation import results_file
 from tether_gym.evaluation.reports import format_table, paired_table, plot
-from tether_gym.evaluation.runner import evaluate
-from tether_gym.families import current_id, env_config, family
+from tether_gym.evaluation.runner import evaluate, played_kwargs
+from tether_gym.families import FAMILIES, current_id, env_config, family
+from tether_gym.seeds import TEST_SEED
 
 CHECKPOINTS = ("best", "last")
 """The folders of a training run that hold a model (`runs/<name>/best/model.zip`)."""
 CONTROL_KEYS = ("control", "coast")
 """The env arguments that shape an agent's action: a saved model plays with its own."""
+EPISODES, SEED = 1000, 0
+"""`--episodes` and `--seed` without a saved model among the agents."""
 
 
 @dataclass(frozen=True)
@@ -80,6 +85,76 @@ def trained_env(
         return None
     path, config = found
     return Trained(current_id(config["env_id"]), config.get("env_kwargs") or {}, str(path))
+
+
+def is_saved(spec: str) -> bool:
+    """Whether the `--agents` entry `spec` is a saved model's path (not an agent's name)."""
+    names = {name for env_family in FAMILIES for name in env_family.agents}
+    return spec not in names and looks_like_path(spec)
+
+
+@dataclass(frozen=True)
+class Episodes:
+    """The episodes of an evaluation: how many, from which seed, and why."""
+
+    count: int
+    seed: int
+    why: str
+
+    def line(self) -> str:
+        """The output's first line, with a saved model among the agents."""
+        return f"tether-evaluate: {self.count:,} episodes from seed {self.seed} ({self.why})"
+
+
+def episodes_to_play(args: argparse.Namespace, specs: list[str]) -> Episodes:
+    """`--episodes` and `--seed`, and where not given, with a saved model among the agents (the
+    first), those of its run's final table: its test episodes (`TEST_SEED`, apart from the
+    training's and from the evaluations that picked the best model), as many as its run's
+    `config.yaml` says (`eval_episodes`; `EPISODES` where it is not found, said so). Without a
+    saved model, `EPISODES` from `SEED`. ValueError for a count below 1 or a negative seed."""
+    if args.episodes is not None and args.episodes < 1:
+        raise ValueError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.seed is not None and args.seed < 0:
+        raise ValueError(f"--seed must be at least 0, got {args.seed}")
+    saved = next(filter(is_saved, specs), None)
+    count, seed = EPISODES, SEED
+    why = "the defaults"
+    if saved is not None:
+        found = run_config(Path(saved))
+        seed = TEST_SEED
+        if found is not None and "eval_episodes" in found[1]:
+            count, why = int(found[1]["eval_episodes"]), f"its run's final table's: {found[0]}"
+        else:
+            where = (
+                f"{found[0]} has no eval_episodes" if found else "no config.yaml of its run found"
+            )
+            why = f"a run's final table's seed, {EPISODES:,} episodes by default: {where}"
+    given = [f"--{name}" for name in ("episodes", "seed") if getattr(args, name) is not None]
+    if given:
+        why = " and ".join(given) + ("" if len(given) == 2 else f" given, else {why}")
+    return Episodes(
+        count if args.episodes is None else args.episodes,
+        seed if args.seed is None else args.seed,
+        why,
+    )
+
+
+def playing_line(name: str, agent, env_id: str, env_kwargs: dict[str, Any]) -> str:
+    """A line saying which env arguments the saved model `agent` (its table's `name`) plays
+    in, its control mode among them, and whose control mode that is."""
+    played = played_kwargs(agent, env_kwargs)
+    config = env_config(env_id, played)
+    shown = {key: value for key, value in played.items() if key not in CONTROL_KEYS}
+    shown.update({key: getattr(config, key) for key in CONTROL_KEYS if hasattr(config, key)})
+    given = ", ".join(f"{key}={value!r}" for key, value in shown.items())
+    line = f"tether-evaluate: {name} plays {env_id} with {given or 'its default arguments'}"
+    if not hasattr(config, "control"):
+        return line
+    if getattr(agent, "control_kwargs", None):
+        return f"{line} (its run's control mode)"
+    if getattr(agent, "control_mode", None) is not None:
+        return f"{line} (its planner's control mode)"
+    return f"{line} (the command line's control mode: no config.yaml of its run found)"
 
 
 def env_to_play(args: argparse.Namespace, specs: list[str]) -> tuple[str, dict[str, Any]]:
@@ -121,7 +196,7 @@ def _describe(space: gym.Space) -> str:
 
 def fit_agent(spec: str, agent, env_id: str, env_kwargs: dict[str, Any]) -> None:
     """Make the agent `spec` play the env `env_id(**env_kwargs)` as it was trained: a saved
-    model in its run's control mode (`SB3Agent.control_kwargs`). Prints a one-line warning
+    model (SB3's or JAX's) in its run's control mode (`control_kwargs`). Prints a one-line warning
     where the env it was trained on differs; ValueError naming both for an env of another
     family or spaces that cannot match."""
     trained = trained_env(spec, env_id, env_kwargs)
@@ -133,7 +208,7 @@ def fit_agent(spec: str, agent, env_id: str, env_kwargs: dict[str, Any]) -> None
                 f"it cannot play {env_id}, a {given.name} env"
             )
         mine, ours = env_config(trained.env_id, trained.env_kwargs), env_config(env_id, env_kwargs)
-        if isinstance(agent, SB3Agent):
+        if hasattr(agent, "control_kwargs"):  # a saved model, SB3's or JAX's
             agent.control_kwargs = {k: getattr(mine, k) for k in CONTROL_KEYS if hasattr(mine, k)}
         names = [f.name for f in dataclasses.fields(mine)]
         differ = [n for n in names if _plain(getattr(mine, n)) != _plain(getattr(ours, n))]
@@ -141,7 +216,7 @@ def fit_agent(spec: str, agent, env_id: str, env_kwargs: dict[str, Any]) -> None
             said = ", ".join(f"{n}={getattr(mine, n)!r}" for n in differ)
             asked = ", ".join(f"{n}={getattr(ours, n)!r}" for n in differ)
             own_control = any(n in CONTROL_KEYS for n in differ) and (
-                isinstance(agent, SB3Agent) or hasattr(agent, "control_mode")
+                hasattr(agent, "control_kwargs") or hasattr(agent, "control_mode")
             )
             plays = "in its own control mode, " if own_control else ""
             print(
@@ -207,7 +282,8 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         prog="tether-evaluate",
         description="Evaluate agents on the same fixed, seeded episodes of an env. Without "
         "--env, the env a saved model's run (its config.yaml) or a pretrained agent's card "
-        "names; a saved model plays in its own control mode.",
+        "names; a saved model plays in its own control mode, by default on its run's final "
+        "table's episodes.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add = parser.add_argument
@@ -220,8 +296,12 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         "in control aim) on TetherNavigate; "
         "random, or a saved SB3 model zip path (default: oracle shooting random, or greedy "
         "lookahead random on TetherNavigate)")  # fmt: skip
-    add("--episodes", type=int, default=1000, help="episodes per agent (default 1000)")
-    add("--seed", type=int, default=0, help="seed of the episodes (default 0)")
+    add("--episodes", type=int,
+        help="episodes per agent (default: with a saved model, its run's final table's; else "
+        f"{EPISODES})")  # fmt: skip
+    add("--seed", type=int,
+        help=f"seed of the episodes (default: with a saved model, its run's final table's, "
+        f"{TEST_SEED}; else {SEED})")  # fmt: skip
     add("--csv", type=Path, metavar="PATH", help="write the table as CSV")
     add("--json", type=Path, metavar="PATH", help="write the table and the config as JSON")
     add("--plot", type=Path, metavar="PNG",
@@ -255,14 +335,21 @@ def main(argv: list[str] | None = None) -> None:
         paired = args.paired and dict(zip(specs, names, strict=True)).get(args.paired, args.paired)
         if paired and paired not in names:
             raise ValueError(f"--paired must be one of --agents {specs}, got {args.paired!r}")
+        episodes = episodes_to_play(args, specs)
         agents = {
             name: make_agent(spec, env_kwargs, env_id=env_id)
             for name, spec in zip(names, specs, strict=True)
         }
+        pairs = zip(specs, agents.items(), strict=True)
+        saved = [(name, agent) for spec, (name, agent) in pairs if is_saved(spec)]
+        if saved:
+            print(episodes.line(), flush=True)
         for spec, agent in zip(specs, agents.values(), strict=True):
             fit_agent(spec, agent, env_id, env_kwargs)
+        for name, agent in saved:
+            print(playing_line(name, agent, env_id, env_kwargs), flush=True)
         results = evaluate(
-            agents, env_kwargs, args.episodes, args.seed, not args.no_progress_bar, env_id
+            agents, env_kwargs, episodes.count, episodes.seed, not args.no_progress_bar, env_id
         )
     except (ValueError, ModuleNotFoundError) as error:
         parser.error(str(error))
@@ -281,7 +368,7 @@ def main(argv: list[str] | None = None) -> None:
                                  *(s[k] for k in names[4:])])  # fmt: skip
     if args.json is not None:
         command = shlex.join(["tether-evaluate", *(sys.argv[1:] if argv is None else argv)])
-        setup = {"env_id": env_id, "env_kwargs": env_kwargs, "seed": args.seed}
+        setup = {"env_id": env_id, "env_kwargs": env_kwargs, "seed": episodes.seed}
         rows = [r.summary() for r in results]
         results_file.write(args.json, results_file.record(command, rows, setup))
     if args.plot is not None:
