@@ -154,7 +154,9 @@ def test_a_zoo_entry_sets_the_evaluations_and_the_command_line_overrides_them():
     defaults = RunConfig(env_id="TetherBounce-v0")
     config = make_config("TetherBounce-v0", {}, {})
     assert (config.eval_freq, config.eval_episodes) == (defaults.eval_freq, defaults.eval_episodes)
-    with pytest.raises(ValueError, match="eval_freq must be a whole number, got 'often'"):
+    with pytest.raises(
+        ValueError, match="eval_freq of the zoo entry must be a whole number, got 'often'"
+    ):
         make_config("TetherBounce-v0", {}, {"eval_freq": "often"})
     with pytest.raises(ValueError, match="eval_freq must be at least 0, got -1"):
         check_config(make_config("TetherBounce-v0", {}, {"eval_freq": -1}))

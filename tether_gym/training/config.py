@@ -88,7 +88,7 @@ def entry_value(name: str, given: float | None, entry: Mapping[str, Any]) -> int
     try:
         return int(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{key} must be a whole number, got {value!r}") from None
+        raise ValueError(f"{key} of the zoo entry must be a whole number, got {value!r}") from None
 
 
 def make_config(

@@ -13,7 +13,8 @@
 rl-baselines3-zoo's format (keyed by env id, `lin_<x>` for a linear schedule, `policy_kwargs` as a
 Python expression), or `--conf-file`, and `--hyperparams key:value ...` overrides them; an entry
 may set the run's `n_envs`, `n_timesteps`, `eval_freq` and `eval_episodes` too (a ladder rung's
-does: its Results row's), which the options of the same names override. The native
+entry sets those of its Results row), which `--n-envs`, `--timesteps`, `--eval-freq` and
+`--eval-episodes` override. The native
 vector env feeds SB3 through `tether_gym.training.sb3`. Every `--eval-freq` timesteps the
 deterministic policy plays the same fixed, seeded episodes as the env's yardstick (`yardstick`:
 TetherBounce's impulse oracle, TetherNavigate's greedy planner); the best policy so far and the
