@@ -203,7 +203,7 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
         except KERNEL_FAILURES as error:
             raise KernelError.of(self, self._state, action, 0, error) from error
         self.outcome = outcome[0]
-        values = outcome[0].tolist()
+        values = outcome[0, : self._info.listed].tolist()
         reward, terminated, truncated = (
             values[self._end[0]],
             values[self._end[1]],
@@ -354,7 +354,8 @@ class KernelVectorEnv(VectorEnv):
         if self.num_envs > 1:
             info = self._info.many(outcome)
         else:
-            info = _as_arrays(self._info.one(outcome[0].tolist(), outcome[0]))
+            values = outcome[0, : self._info.listed].tolist()
+            info = _as_arrays(self._info.one(values, outcome[0]))
         info["final_info"] = dict(info)
         info["_final_info"] = ended
         info["final_obs"] = self.kernel.view(final_obs)

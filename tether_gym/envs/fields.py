@@ -155,6 +155,9 @@ class InfoLayout:
                 keys, columns = self.groups.setdefault(f.group, ((), []))
                 self.groups[f.group] = ((*keys, f.key or f.name), [*columns, i])
         self._get = _getter(self._columns)
+        self.listed = 1 + max(outcome.index[f.name] for f in outcome.fields if not f.shape)
+        """The scalar columns end before this one: `one` and the episode's end read a row's
+        `[:listed]` (the array fields after the last scalar one are not listed)."""
         self._group_get = [
             (group, keys, _getter(columns)) for group, (keys, columns) in self.groups.items()
         ]
@@ -162,8 +165,8 @@ class InfoLayout:
     # zip() here pairs sequences built together in __init__, equal by construction; its strict
     # keyword (even strict=False) costs a sixth of a single env's step, hence the noqa.
     def one(self, values: list, row: np.ndarray) -> dict:
-        """The info of one outcome row, given as a list (`row.tolist()`) and as the array:
-        Python scalars, and views of `row` for the entries of several columns."""
+        """The info of one outcome row, given as a list (`row[:listed].tolist()`) and as the
+        array: Python scalars, and views of `row` for the entries of several columns."""
         info = dict(zip(self.names, self._get(values)))  # noqa: B905
         for flag in self.flags:
             info[flag] = bool(info[flag])

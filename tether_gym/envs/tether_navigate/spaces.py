@@ -136,8 +136,9 @@ OUTCOME = Fields(
     Field("at_rest", flag=True),
     Field("hit_post", flag=True),
     Field("maneuvers_left"),
-    Field("path", doc="m, the maneuver's polyline (padded)", shape=(PATH_POINTS, 2)),
     *(Field(f"term_{name}", group="reward_terms", key=name) for name in task.REWARD_TERMS),
+    # last: a single env lists the columns before it (`InfoLayout.listed`), not its 284
+    Field("path", doc="m, the maneuver's polyline (padded)", shape=(PATH_POINTS, 2)),
 )
 OUT = OUTCOME.columns
 
