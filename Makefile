@@ -28,7 +28,7 @@ $(TRAIN_STAMP): pyproject.toml constraints.txt
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(MAKE) --no-print-directory docs
-	$(BIN)/python -m pytest -q -n auto -m "not jax_train" --durations=15
+	$(BIN)/python -m pytest -q -n auto --dist worksteal -m "not jax_train" --durations=15
 
 # The JAX PPO's tests, apart and under a time limit: XLA's CPU runtime has been seen to stall
 # (every thread waiting) in a compiled PPO update, rarely; a stall fails here, not `make test`.
@@ -39,7 +39,7 @@ test-jax-train: $(STAMP)
 # wheel, the docs' commands).
 test-fast: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -q -n auto -m "not slow and not jax_train" --durations=10
+	$(BIN)/python -m pytest -q -n auto --dist worksteal -m "not slow and not jax_train" --durations=10
 
 # The documentation site into build/site; --strict: a broken link, a missing reference or a
 # results table whose file is gone fails the build.

@@ -141,9 +141,11 @@ AIMED_TOLERANCE = DIVERGED
 AIMED = (
     ("TetherNavigate_PostsReach-v3", "impulse", "velocity", 32),
     ("TetherNavigate_WallStop-v3", "impulse", "aim+coast", 12),
-    ("TetherNavigate_OpenReach-v3", "hybrid", "velocity+coast", 4),
 )
-"""(id, dynamics, control, cases): a sample per control mode (the benchmark sweeps 10,000)."""
+"""(id, dynamics, control, cases): a sample per control mode, impulse dynamics (the hybrid
+contact is held to numba's by the set-up tests above; the aimed controls under hybrid dynamics,
+whose program takes the longest to compile, are measured by the benchmark, which sweeps 10,000
+cases per cell, and fuzzed by `benchmarks.validation.jax_fuzz`)."""
 MAX_AIMED_CHANGED = 2
 """Changed outcomes allowed per aimed cell (measured: about 1 in 150, in the classes of the
 module docstring)."""
