@@ -1,4 +1,4 @@
-"""The fuzz classes of `benchmarks/fuzz_navigate.py` on TetherNavigate's JAX kernel: random
+"""The fuzz classes of `benchmarks.validation.fuzz_navigate` on TetherNavigate's JAX kernel: random
 maneuvers through the JAX vector entry point (`tether_gym.jax.navigate.TetherNavigateJaxVectorEnv`,
 one jitted step, same-step autoreset), every transition checked by `fuzz_navigate`'s own
 `audit_vector_step` (off the table, inside a post, through a post, observation out of its space,
@@ -15,7 +15,6 @@ fuzz's own comparisons, not run here).
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from collections import Counter
 from pathlib import Path
@@ -23,9 +22,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from benchmarks.fuzz_navigate import HOLES, NOTES, audit_vector_step, random_actions
+from benchmarks.validation.fuzz_navigate import HOLES, NOTES, audit_vector_step, random_actions
 from benchmarks.validation.jax_navigate_agreement import CONTROLS, configuration
 from tether_gym.evaluation import results_file
 
@@ -34,32 +31,43 @@ RUN = tuple(name for name in HOLES if name not in ("path_off_arc", "vector_vs_si
 """The classes checked here."""
 
 
-def fuzz(env_id: str, dynamics: str, control: str, maneuvers: int, num_envs: int,
-         seed: int) -> Counter:  # fmt: skip
-    """The findings of `maneuvers` random maneuvers (rounded up to whole batches)."""
-    from tether_gym.jax.navigate import TetherNavigateJaxVectorEnv
-
-    config = configuration(env_id, dynamics, control)
-    kwargs = {name: getattr(config, name) for name in ("dynamics", "control", "coast")}
-    env = TetherNavigateJaxVectorEnv(num_envs, **configuration_kwargs(env_id), **kwargs)
+def fuzz(env, maneuvers: int, seed: int) -> Counter:
+    """The findings of `maneuvers` random maneuvers (rounded up to whole batches) of `env`, a
+    `TetherNavigateJaxVectorEnv` playing its `params`."""
     rng = np.random.default_rng(seed)
     env.reset(seed=seed)
-    space = env.single_observation_space
+    space, n = env.single_observation_space, env.num_envs
     counts = Counter()
-    for _ in range(-(-maneuvers // num_envs)):
+    for _ in range(-(-maneuvers // n)):
         before = {"posts": np.asarray(env.state.posts), "n_posts": np.asarray(env.state.n_posts)}
         actions = random_actions(rng, env.action_space.shape)
         try:
             obs, reward, terminated, truncated, info = env.step(actions)
         except Exception as error:
-            counts["exception"] += num_envs
-            print(f"{env_id} {dynamics} {control}: {type(error).__name__}: {error}")
+            counts["exception"] += n
+            print(f"{type(error).__name__}: {error}")
             env.reset(seed=int(rng.integers(2**31)))
             continue
         for found in audit_vector_step(before, obs, reward, terminated | truncated, info, space):
             counts.update(found)
-        counts["maneuvers"] += num_envs
+        counts["maneuvers"] += n
     return counts
+
+
+def cell(ids: list[str], dynamics: str, control: str, maneuvers: int, num_envs: int,
+         seed: int) -> Counter:  # fmt: skip
+    """`fuzz` of each id in turn, `maneuvers` over them all, through one vector env of the
+    dynamics and control mode: an id is its `EnvParams` (traced), so the step compiles once."""
+    from tether_gym.jax.navigate import EnvParams, TetherNavigateJaxVectorEnv
+
+    configs = [configuration(env_id, dynamics, control) for env_id in ids]
+    kwargs = {name: getattr(configs[0], name) for name in ("dynamics", "control", "coast")}
+    env = TetherNavigateJaxVectorEnv(num_envs, **configuration_kwargs(ids[0]), **kwargs)
+    total, share = Counter(), -(-maneuvers // len(ids))
+    for k, config in enumerate(configs):
+        env.params = EnvParams.from_config(config)
+        total += fuzz(env, share, seed + k)
+    return total
 
 
 def configuration_kwargs(env_id: str) -> dict:
@@ -84,10 +92,8 @@ def main() -> None:
     rows = []
     for dynamics in args.dynamics:
         for control in args.controls:
-            start, total = time.perf_counter(), Counter()
-            share = -(-args.maneuvers // len(args.ids))
-            for k, env_id in enumerate(args.ids):
-                total += fuzz(env_id, dynamics, control, share, args.num_envs, args.seed + k)
+            start = time.perf_counter()
+            total = cell(args.ids, dynamics, control, args.maneuvers, args.num_envs, args.seed)
             row = {"dynamics": dynamics, "control": control, "ids": list(args.ids),
                    "maneuvers": total["maneuvers"],
                    "findings": {name: total[name] for name in RUN},

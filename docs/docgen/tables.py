@@ -417,24 +417,31 @@ def jax_agreement_table(sources: dict[str, str], root: Path = ROOT, style: str =
 
 
 def jax_throughput_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
-    """TetherBounce's steps per second, JAX against numba in one run
-    (`benchmarks.speed.jax_throughput`): one row per dynamics and batch, and the ratio of the JAX
-    scan to the numba vector env; under it the machine and its load, the commit, and the first
-    `jit`'s seconds with an empty and with a filled persistent compilation cache."""
+    """Steps (TetherNavigate: maneuvers) per second, JAX against numba in one run
+    (`benchmarks.speed.jax_throughput`): one row per dynamics (and control mode) and batch, and
+    the ratio of the JAX scan to the numba vector env ("-" where a column was not measured);
+    under it the machine and its load, the commit, and the first `jit`'s seconds with an empty
+    and with a filled persistent compilation cache."""
     _check_sources(sources)
     lines = [
         "| dynamics | batch | JAX scan (steps/s) | JAX vector env | numba vector env | "
         "JAX scan / numba |",
         "|---|---:|---:|---:|---:|---:|",
     ]
+
+    def rate(value) -> str:
+        return "-" if value is None else f"{value:,.0f}"
+
     notes = []
     for path in (path for p in sources for path in files_of(p, root)):
         data = read_file(path)
         for row in data["rows"]:
+            label = " ".join(row[key] for key in ("dynamics", "control") if key in row)
+            scan, numba_vec = row["jax_scan"], row["numba_vec"]
+            ratio = "-" if None in (scan, numba_vec) else f"{scan / numba_vec:.2f}"
             lines.append(
-                f"| {row['dynamics']} | {row['batch']:,} | {row['jax_scan']:,.0f} | "
-                f"{row['jax_vec']:,.0f} | {row['numba_vec']:,.0f} | "
-                f"{row['jax_scan'] / row['numba_vec']:.2f} |"
+                f"| {label} | {row['batch']:,} | {rate(scan)} | {rate(row['jax_vec'])} | "
+                f"{rate(numba_vec)} | {ratio} |"
             )
         details, machine = data["details"], data["details"]["machine"]
         load = details.get("load_before"), details.get("load_after")

@@ -1,0 +1,28 @@
+"""Every benchmark script imports and has its `main`: a module moved or renamed under
+`benchmarks/` breaks here, not when someone next runs the script."""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+
+import pytest
+
+import benchmarks
+
+SCRIPTS = sorted(
+    info.name
+    for info in pkgutil.walk_packages(benchmarks.__path__, "benchmarks.")
+    if not info.ispkg and info.name != "benchmarks.common"
+)
+
+
+def test_every_script_is_found():
+    assert {"benchmarks.validation.jax_fuzz", "benchmarks.speed.jax_throughput"} <= set(SCRIPTS)
+
+
+@pytest.mark.parametrize("name", SCRIPTS)
+def test_the_script_imports(name):
+    pytest.importorskip("jax")  # the JAX scripts import it; the others import without it
+    module = importlib.import_module(name)
+    assert callable(getattr(module, "main", None)), f"{name} has no main()"
