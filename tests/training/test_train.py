@@ -111,7 +111,9 @@ def test_interruption_before_the_first_checkpoint_leaves_a_reusable_folder(
 @pytest.mark.slow
 def test_train_runs_a_config_as_the_cli_does(tmp_path, monkeypatch):
     """The seam for sweeps: `make_config` + `train()` give the CLI's run folder, periodic
-    evaluations (handed to `report`), summary and resume; the env's kernels are built first."""
+    evaluations (handed to `report`), summary and resume; the kernels it plays are built
+    first (`test_clock.py`): the policy's on the training env's copies, the policy's, the
+    oracles' and random's on the evaluation's."""
     built = []
     monkeypatch.setattr(
         experiment, "env_kernels", lambda *build: built.append(build) or env_kernels(*build)
@@ -124,7 +126,10 @@ def test_train_runs_a_config_as_the_cli_does(tmp_path, monkeypatch):
     folder = tmp_path / "trial"
     reports: list[dict] = []
     summary = train.train(config, folder, report=reports.append)
-    assert built == [("TetherBounce-v0", {"rho": [20.0, 200.0]}, (8, 40))]
+    assert [build[:3] for build in built] == [
+        ("TetherBounce-v0", {"rho": [20.0, 200.0]}, (copies,)) for copies in (8, 40, 40, 40, 40)
+    ]
+    assert summary["compile_seconds"] > 0
     assert [r["timesteps"] for r in reports] == [512, 1024]
     assert summary["best_eval_success_rate"] == max(r["success_rate"] for r in reports)
     assert yaml.safe_load((folder / "config.yaml").read_text()) == config.as_dict()

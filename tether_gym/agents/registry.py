@@ -83,6 +83,16 @@ def random_agent(request: AgentRequest) -> RandomAgent:
     return RandomAgent(request.seed, action_size(request.env_id, request.env_kwargs))
 
 
+def played_kwargs(agent: Any, env_kwargs: dict) -> dict:
+    """The env arguments `agent` plays in: `env_kwargs` with those of its own that shape its
+    action (`control_kwargs`: a saved model's control mode and coast), in its control mode where
+    it has one (`control_mode`, a `ControlMode`: a planner's set-ups). The episodes do not
+    depend on them."""
+    env_kwargs = {**env_kwargs, **getattr(agent, "control_kwargs", {})}
+    mode = getattr(agent, "control_mode", None)
+    return env_kwargs if mode is None else mode.env_kwargs(env_kwargs)
+
+
 def agent_choices(env_id: str) -> tuple[str, ...]:
     """The agent names `make_agent` takes on `env_id` (besides a saved model's path)."""
     return tuple(family(env_id).agents)

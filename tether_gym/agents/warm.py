@@ -7,7 +7,8 @@ spends its first step compiling. This plays each kernel once, for images, CI and
 would rather wait now: every env family's single and vector steps for each of its builds (its
 `Family.warm`: TetherNavigate's for every control mode's set-up and every dynamics; serial and
 parallel builds), and its agents' decisions (the planners') one at a time and in batches. The
-two parts compile side by side in two processes.
+two parts compile side by side in two processes. A training run compiles what it plays with the
+same pieces before its clock starts (`env_kernels` with its agents, under `compiling`).
 """
 
 from __future__ import annotations
@@ -15,12 +16,15 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from numba.core import event
 
-from tether_gym.agents.registry import make_agent
+from tether_gym.agents.registry import make_agent, played_kwargs
 from tether_gym.arguments import ArgumentParser
 from tether_gym.families import FAMILIES, load
 from tether_gym.kernel_cache import QUIET
@@ -29,28 +33,80 @@ PARALLEL_COPIES = 1024
 """Copies enough for every batch kernel to run across threads."""
 
 
-def _steps(env_id: str, kwargs: dict, copies: int | None) -> dict:
-    """One reset and one step of `env_id` (a vector env of `copies`, or the single env); the
-    last observation."""
+def _rows(obs: Any, n: int) -> Any:
+    """The first `n` rows of a batch of observations (a dict of arrays, or an array)."""
+    if isinstance(obs, dict):
+        return {key: np.asarray(value)[:n] for key, value in obs.items()}
+    return np.asarray(obs)[:n]
+
+
+def _steps(env_id: str, kwargs: dict, copies: int | None, agent: Any = None) -> Any:
+    """One reset and one step of `env_id` (a vector env of `copies`, or the single env) with
+    `agent`'s decision (a vector env's agent decides on its first row too), or a random action;
+    a goal env's reward of the step for its goals (`compute_reward`, as hindsight relabeling
+    asks it). The first observation."""
     if copies is None:
         env = gym.make(env_id, **kwargs)
     else:
         env = gym.make_vec(env_id, copies, vectorization_mode="vector_entry_point", **kwargs)
     env.action_space.seed(0)
     obs, _ = env.reset(seed=0)
-    env.step(env.action_space.sample())
+    if agent is None:
+        action = env.action_space.sample()
+    else:
+        action, _ = agent.predict(obs, deterministic=True)
+        if copies is not None:
+            agent.predict(_rows(obs, 1), deterministic=True)
+    _, _, _, _, info = env.step(action)
+    compute_reward = getattr(env.unwrapped, "compute_reward", None)
+    if compute_reward is not None:
+        compute_reward(obs["achieved_goal"], obs["desired_goal"], info)
     env.close()
     return obs
 
 
 def env_kernels(
-    env_id: str, kwargs: dict, copies: Sequence[int | None] = (None, 4, PARALLEL_COPIES)
+    env_id: str,
+    kwargs: dict,
+    copies: Sequence[int | None] = (None, 4, PARALLEL_COPIES),
+    agent: Any = None,
 ) -> None:
     """Compile (or load from the cache) the kernels of one env build that its single env
     (None) and vector envs of these `copies` run; by default every one it can run: the single
-    step, and the vector step with autoreset, serial and across threads."""
+    step, and the vector step with autoreset, serial and across threads. With an `agent`: in
+    the build it plays (`registry.played_kwargs`: its control mode), its decisions too."""
     for count in copies:
-        _steps(env_id, kwargs, count)
+        _steps(env_id, played_kwargs(agent, kwargs), count, agent)
+
+
+@contextmanager
+def compiling(what: str) -> Iterator[list[Any]]:
+    """Say once, in one line on stderr, that `what` compiles when numba first compiles a kernel
+    inside (the kernels' own first-run lines quiet: `kernel_cache.QUIET`); yields the list of
+    the numba dispatchers compiled inside, filled as they compile."""
+    compiled: list[Any] = []
+
+    class Listener(event.Listener):
+        def on_start(self, started: event.Event) -> None:
+            if not compiled:
+                print(f"tether_gym: compiling {what} for this machine (first run only, cached "
+                      "after; `tether compile` builds every kernel ahead of time)",
+                      file=sys.stderr, flush=True)  # fmt: skip
+            compiled.append(started.data["dispatcher"])
+
+        def on_end(self, ended: event.Event) -> None:
+            pass
+
+    quiet = os.environ.get(QUIET)
+    os.environ[QUIET] = "1"
+    try:
+        with event.install_listener("numba:compile", Listener()):
+            yield compiled
+    finally:
+        if quiet is None:
+            del os.environ[QUIET]
+        else:
+            os.environ[QUIET] = quiet
 
 
 def single() -> None:
@@ -77,10 +133,7 @@ def vector() -> None:
         for kwargs in load(warm.builds):
             for copies in (4, PARALLEL_COPIES):
                 obs = _steps(warm.env_id, kwargs, copies)
-        if isinstance(obs, dict):
-            batch = {key: np.asarray(value)[:64] for key, value in obs.items()}
-        else:
-            batch = np.asarray(obs)[:64]
+        batch = _rows(obs, 64)
         for name, agent_kwargs in {**warm.agents, **warm.batch_agents}.items():
             make_agent(name, dict(agent_kwargs), env_id=warm.env_id).predict(batch)
 
@@ -113,4 +166,4 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-__all__ = ["PARTS", "env_kernels", "main"]
+__all__ = ["PARTS", "compiling", "env_kernels", "main"]

@@ -13,6 +13,7 @@ import time
 import gymnasium as gym
 import numpy as np
 
+from tether_gym.agents.registry import played_kwargs
 from tether_gym.arguments import DEFAULT_ENV_ID
 from tether_gym.evaluation.results import Result
 from tether_gym.families import family, load
@@ -64,22 +65,13 @@ def run_bounce(
     return out
 
 
-def played_kwargs(agent, env_kwargs: dict) -> dict:
-    """The env arguments `agent` plays a navigation env's episodes in: `env_kwargs`, with its
-    own that shape its action (`control_kwargs`: a saved model's control mode and coast), in
-    its control mode (`control_mode`, a `ControlMode`: a planner's set-ups)."""
-    env_kwargs = {**env_kwargs, **getattr(agent, "control_kwargs", {})}
-    mode = getattr(agent, "control_mode", None)
-    return env_kwargs if mode is None else mode.env_kwargs(env_kwargs)
-
-
 def run_navigation(
     agent, env_id: str, env_kwargs: dict, episodes: int, seed: int, bar
 ) -> dict[str, np.ndarray]:
     """Per-episode outcomes of one agent on a navigation env, and its wall time. Copy i plays
     its first episodes in turn (`episodes` shared out among the copies), the same ones for
-    every agent, listed round by round, each agent in its own control mode (`played_kwargs`):
-    the episodes do not depend on it."""
+    every agent, listed round by round, each agent in its own control mode
+    (`agents.registry.played_kwargs`): the episodes do not depend on it."""
     copies = min(episodes, BATCH)
     quota = episodes // copies + (np.arange(copies) < episodes % copies)
     env_kwargs = played_kwargs(agent, env_kwargs)

@@ -124,12 +124,13 @@ def compute(task: int, reward_type: int, desired_goal, info) -> tuple[np.ndarray
         hit_post = np.array([i["hit_post"] for i in infos])
     desired = np.asarray(desired_goal, dtype=np.float64)
     shape = desired.shape[:-1]
-    path = np.ascontiguousarray(np.broadcast_to(path, (*shape, *np.shape(path)[-2:])))
-    flat = np.asarray(path, dtype=np.float64).reshape(-1, *path.shape[-2:])
+    path = np.broadcast_to(path, (*shape, *np.shape(path)[-2:]))
+    # fresh C arrays: one signature of `rewards` for every caller (each layout compiles anew)
+    flat = np.array(path, dtype=np.float64, order="C").reshape(-1, *path.shape[-2:])
     n = flat.shape[0]
     reward, met = np.empty(n), np.empty(n, dtype=bool)
     rewards(
-        task, reward_type, flat, desired.reshape(n, 2),
+        task, reward_type, flat, np.ascontiguousarray(desired.reshape(n, 2)),
         np.broadcast_to(np.asarray(at_rest, dtype=bool), shape).reshape(n),
         np.broadcast_to(np.asarray(hit_post, dtype=bool), shape).reshape(n), reward, met,
     )  # fmt: skip

@@ -1,6 +1,7 @@
 """A training run from its config to its final table, in named phases: the training env
-(`make_venv`), the model (`make_model`, new or resumed), learning with periodic evaluations
-(`YardstickEvalCallback`), and the final table (`final_results`); `train` runs them in turn.
+(`make_venv`), the model (`make_model`, new or resumed), the kernels it plays compiled
+(`compile_kernels`), learning with periodic evaluations on the training clock (`learn`,
+`YardstickEvalCallback`), and the final table (`final_results`); `train` runs them in turn.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from tether_gym.agents.saved import read_config
-from tether_gym.agents.warm import env_kernels
+from tether_gym.agents.warm import compiling, env_kernels
 from tether_gym.arguments import did_you_mean
 from tether_gym.evaluation.reports import format_table
 from tether_gym.evaluation.results import Result
@@ -169,6 +170,52 @@ def final_table(config: RunConfig, agents: Mapping[str, object]) -> list[Result]
     )  # fmt: skip
 
 
+def compile_kernels(config: RunConfig, model: BaseAlgorithm) -> float:
+    """Compile (or load from numba's cache) every kernel the run plays, so that none compiles
+    on its clock: the policy (`as_agent`: with a variant's planner) and the agents its variants
+    play beside it (a pretrain's teacher) on the training env's copies, the policy and the final
+    table's baselines (the yardstick among them) on the evaluation's, each in the env build it
+    plays (`agents.warm.env_kernels`); said once where one compiles (`agents.warm.compiling`).
+    Returns the seconds it took."""
+    clock = time.perf_counter()
+    policy = as_agent(model, config)
+    extra = [agent for variant in asked(config) for agent in variant.training_agents(config)]
+    evaluated = {label(config): policy, **baselines(config)}
+    plays = [(config.n_envs, agent) for agent in (policy, *extra)]
+    plays += [(min(config.eval_episodes, EVALUATION_BATCH), agent) for agent in evaluated.values()]
+    what = f"the kernels this run plays ({config.env_id}: {', '.join(evaluated)})"
+    with compiling(what) as compiled:
+        for copies, agent in plays:
+            env_kernels(config.env_id, config.env_kwargs, (copies,), agent)
+    seconds = time.perf_counter() - clock
+    if compiled:
+        print(f"compiled in {seconds:.1f} s", flush=True)
+    return seconds
+
+
+def learn(
+    model: BaseAlgorithm,
+    config: RunConfig,
+    timesteps: int,
+    callback: YardstickEvalCallback,
+    resume: bool,
+    progress_bar: bool,
+) -> None:
+    """What the training clock times (`train_seconds`): a new model's variants' work before
+    learning (a pretrain's cloning), then `timesteps` more of SB3's `learn` with the periodic
+    evaluations (`callback`)."""
+    if not resume:
+        for variant in asked(config):
+            variant.before_learning(model, config, lambda m: eval_success(m, config))
+    model.learn(
+        timesteps,
+        callback=callback,
+        reset_num_timesteps=not resume,
+        progress_bar=progress_bar,
+        tb_log_name=label(config),
+    )
+
+
 def eval_success(model: BaseAlgorithm, config: RunConfig) -> float:
     """The policy's success rate on the periodic evaluation's episodes."""
     (result,) = evaluate(
@@ -215,13 +262,14 @@ def train(
     to `report`; at the end `last/` is saved and the final table of the
     policy and the `baselines` is written to `results.md` (and `results.json`, which
     `tether_gym.training.summary` reads). On KeyboardInterrupt `last/` is saved and the
-    interrupt propagates. Runs on `threads` torch threads (`use_threads`). The kernels of its
-    training and evaluation envs compile (`agents.warm.env_kernels`) before the clock starts:
-    `train_seconds` is training.
+    interrupt propagates. Runs on `threads` torch threads (`use_threads`). Every kernel the
+    run plays compiles before the clock starts (`compile_kernels`): `train_seconds` times
+    `learn`.
 
     Returns:
-        The summary: `run_dir`, `timesteps`, `train_seconds`, `best_eval_success_rate`,
-        `results` (one summary dict per agent of the final table) and `table` (Markdown).
+        The summary: `run_dir`, `timesteps`, `compile_seconds`, `train_seconds`,
+        `best_eval_success_rate`, `results` (one summary dict per agent of the final table) and
+        `table` (Markdown).
 
     Raises:
         ValueError: from `check_run`, before any work.
@@ -244,23 +292,13 @@ def train(
     checkpoints = Checkpoints(run_dir, config)
     callback = YardstickEvalCallback(checkpoints, best, report)
     remaining = config.timesteps - start_timesteps
-    copies = (config.n_envs, min(config.eval_episodes, EVALUATION_BATCH))  # training, evaluation
-    env_kernels(config.env_id, config.env_kwargs, copies)  # a first run compiles: not training
+    compile_seconds = compile_kernels(config, model)
     trained = whole_rounds(model, remaining)
     rounded = "" if trained == remaining else f" ({remaining:,} asked, rounded up to whole rounds)"
     print(f"training {label(config)} for {trained:,} timesteps{rounded} into {run_dir}", flush=True)
     start = time.perf_counter()
-    if not resume:
-        for variant in asked(config):
-            variant.before_learning(model, config, lambda m: eval_success(m, config))
     try:
-        model.learn(
-            remaining,
-            callback=callback,
-            reset_num_timesteps=not resume,
-            progress_bar=progress_bar,
-            tb_log_name=label(config),
-        )
+        learn(model, config, remaining, callback, resume, progress_bar)
     except KeyboardInterrupt:
         path = checkpoints.save(model, "last")
         print(f"\ninterrupted at {model.num_timesteps:,} timesteps: saved {path}", file=sys.stderr)
@@ -279,6 +317,7 @@ def train(
         "env_id": config.env_id,
         "env_kwargs": config.env_kwargs,
         "timesteps": int(model.num_timesteps),
+        "compile_seconds": compile_seconds,
         "train_seconds": elapsed,
         "best_eval_success_rate": callback.best,
         "results": [result.summary() for result in results],

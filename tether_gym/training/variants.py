@@ -21,7 +21,7 @@ from tether_gym.agents.planned import PLANNED, RESIDUAL, Planned
 from tether_gym.envs.tether_navigate.controls import aimed_modes
 from tether_gym.families import family, load
 from tether_gym.training.config import RunConfig
-from tether_gym.training.pretrain import check_pretrain, clone_planner
+from tether_gym.training.pretrain import check_pretrain, clone_planner, make_teacher
 
 if TYPE_CHECKING:
     from stable_baselines3.common.base_class import BaseAlgorithm
@@ -56,6 +56,11 @@ class Variant:
     def before_learning(self, model: BaseAlgorithm, config: RunConfig, evaluate) -> None:
         """Work on a new model before `learn` (`evaluate(model)` plays it on the periodic
         evaluation's episodes)."""
+
+    def training_agents(self, config: RunConfig) -> list[Any]:
+        """The agents it plays on the training env's copies besides the policy (whose kernels
+        compile before the clock: `experiment.compile_kernels`)."""
+        return []
 
 
 class PlannedVariant(Variant):
@@ -150,6 +155,11 @@ class Pretrain(PlannedVariant):
 
     def label(self, config: RunConfig) -> str:
         return f"{config.algo.upper()} from {config.hyperparams[self.key]['planner']} demos"
+
+    def training_agents(self, config: RunConfig) -> list[Any]:
+        """The planner it demonstrates."""
+        planner = config.hyperparams[self.key]["planner"]
+        return [make_teacher(planner, config.env_kwargs, config.env_id)]
 
     def before_learning(self, model: BaseAlgorithm, config: RunConfig, evaluate) -> None:
         clock = time.perf_counter()
