@@ -85,9 +85,9 @@ def success_table(
     sources: dict[str, str], agents: list[str] | None = None, root: Path = ROOT, style: str = "page"
 ) -> str:
     """One row per results file and agent: env, its arguments, agent, episodes, success
-    [95% CI] (and maneuvers to the goal where the file has them). `sources` maps a glob of
-    results files to the command that writes them; `agents` keeps those agents, in that order.
-    """
+    [95% CI], and maneuvers to the goal where the files record them (the column left out where
+    none does). `sources` maps a glob of results files to the command that writes them; `agents`
+    keeps those agents, in that order."""
     _check_sources(sources)
     rows = []
     for pattern in sources:
@@ -99,18 +99,21 @@ def success_table(
                     continue
                 result = data["agents"][name]
                 maneuvers = result.get("maneuvers_mean")
-                rows.append(
+                rows.append((
                     f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | {name} | "
-                    f"{result['episodes']:,} | {percent(result)} | "
-                    f"{'-' if maneuvers is None else f'{maneuvers:.2f}'} |"
-                )
+                    f"{result['episodes']:,} | {percent(result)} |",
+                    "-" if maneuvers is None else f"{maneuvers:.2f}",
+                ))  # fmt: skip
     if not rows:
         raise ValueError(f"no agent of {agents} in {list(sources)}")
-    header = (
-        "| env | arguments | agent | episodes | success [95% CI] | maneuvers to goal |\n"
-        "|---|---|---|---:|---|---:|\n"
-    )
-    return header + "\n".join(rows) + sources_line(sources, style)
+    header = "| env | arguments | agent | episodes | success [95% CI] |"
+    align = "|---|---|---|---:|---|"
+    if any(maneuvers != "-" for _, maneuvers in rows):
+        header, align = header + " maneuvers to goal |", align + "---:|"
+        lines = [f"{row} {maneuvers} |" for row, maneuvers in rows]
+    else:
+        lines = [row for row, _ in rows]
+    return "\n".join([header, align, *lines]) + sources_line(sources, style)
 
 
 def ladder_table(

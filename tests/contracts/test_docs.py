@@ -456,6 +456,21 @@ def _results(rows: list[dict], setup: dict, details: dict | None = None) -> str:
                        "rows": rows, "details": details or {}})  # fmt: skip
 
 
+def test_a_success_table_shows_maneuvers_only_where_its_files_record_them(tmp_path):
+    """The maneuvers column where a row has them, `-` on the rows without; no column where no
+    file records them (a model card, a TetherBounce file)."""
+    setup = {"env_id": "TetherNavigate_OpenReach-v3", "env_kwargs": {}, "seed": 0}
+    row = {"name": "greedy", "episodes": 10, "success_rate": 0.5}
+    (tmp_path / "a.json").write_text(_results([row], setup))
+    (tmp_path / "b.json").write_text(_results([{**row, "maneuvers_mean": 2.346}], setup))
+    without = tables.success_table({"a.json": "tether-evaluate"}, root=tmp_path).splitlines()
+    assert without[0] == "| env | arguments | agent | episodes | success [95% CI] |"
+    assert without[2] == "| `TetherNavigate_OpenReach-v3` | defaults | greedy | 10 | 50.0% |"
+    both = tables.success_table({"*.json": "tether-evaluate"}, root=tmp_path).splitlines()
+    assert both[0].endswith("| success [95% CI] | maneuvers to goal |")
+    assert [line.rsplit("|", 2)[1].strip() for line in both[2:4]] == ["-", "2.35"]
+
+
 def test_a_seeds_table_says_each_seed_s_paired_comparison(tmp_path):
     """A summary with `baselines.py --paired` results gets a line per file under its table:
     each seed's wins and losses against the reference, from the file."""
