@@ -77,8 +77,10 @@ def test_python_block_runs(block, tmp_path, monkeypatch, capsys):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("block", BASH, ids=[b.id for b in BASH])
+@pytest.mark.filterwarnings("ignore:You have specified a mini-batch size:UserWarning")
 def test_bash_block_runs(block, tmp_path, monkeypatch):
-    """Each command of the block, in order in one folder, with a small budget."""
+    """Each command of the block, in order in one folder, with a small budget (`budget`: its 4
+    envs make a PPO rollout shorter than the recipes' mini-batch, which SB3 warns of)."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
     for words in commands(block.code):
