@@ -47,8 +47,9 @@ docs: $(STAMP)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
 
 # A headless Chromium (Debian's package: apt-get install chromium) opens every page of the built
-# site at 1280 px: no console error, no table cut off, each table with its source's rows, the
-# GIFs loaded; screenshots in build/screenshots/. In `make test` it skips without chromium.
+# site at 1280 px: no console error, no table cut off, on the pages that show results no table
+# wider than the page (scrolling or not), each table with its source's rows, the GIFs loaded;
+# screenshots in build/screenshots/. In `make test` it skips without chromium.
 docs-check: $(STAMP)
 	TETHER_REQUIRE_CHROMIUM=1 $(BIN)/python -m pytest -q tests/contracts/test_docs.py -k chromium
 

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import glob
+import statistics
 from pathlib import Path
 from typing import Any
 
@@ -76,6 +77,12 @@ def percent(result: dict[str, Any]) -> str:
     if ci:
         text += f" [{100 * ci[0]:.1f}, {100 * ci[1]:.1f}]"
     return text
+
+
+def train_minutes(summary: dict[str, Any]) -> str:
+    """A summary over seeds' median train time in minutes, one decimal: the one rounding of
+    every table that shows it."""
+    return f"{statistics.median(summary['train_seconds']) / 60:.1f}"
 
 
 def kwargs_text(kwargs: dict[str, Any]) -> str:

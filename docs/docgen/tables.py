@@ -14,11 +14,9 @@ from typing import Any
 import numpy as np
 
 from docgen import ROOT
-from docgen.results import files_of, kwargs_text, percent, read_file, read_results
+from docgen.results import files_of, kwargs_text, percent, read_file, read_results, train_minutes
 from tether_gym.evaluation.statistics import t_interval
 
-LADDER_YARDSTICKS = ("greedy planner", "lookahead planner", "random")
-"""The agents every baseline summary also plays, in the order `ladder_seeds_table` shows."""
 STYLES = ("page", "readme")
 
 
@@ -87,9 +85,9 @@ def success_table(
     sources: dict[str, str], agents: list[str] | None = None, root: Path = ROOT, style: str = "page"
 ) -> str:
     """One row per results file and agent: env, its arguments, agent, episodes, success
-    [95% CI] (and maneuvers to the goal where the file has them). `sources` maps a glob of
-    results files to the command that writes them; `agents` keeps those agents, in that order.
-    """
+    [95% CI], and maneuvers to the goal where the files record them (the column left out where
+    none does). `sources` maps a glob of results files to the command that writes them; `agents`
+    keeps those agents, in that order."""
     _check_sources(sources)
     rows = []
     for pattern in sources:
@@ -101,18 +99,21 @@ def success_table(
                     continue
                 result = data["agents"][name]
                 maneuvers = result.get("maneuvers_mean")
-                rows.append(
+                rows.append((
                     f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | {name} | "
-                    f"{result['episodes']:,} | {percent(result)} | "
-                    f"{'-' if maneuvers is None else f'{maneuvers:.2f}'} |"
-                )
+                    f"{result['episodes']:,} | {percent(result)} |",
+                    "-" if maneuvers is None else f"{maneuvers:.2f}",
+                ))  # fmt: skip
     if not rows:
         raise ValueError(f"no agent of {agents} in {list(sources)}")
-    header = (
-        "| env | arguments | agent | episodes | success [95% CI] | maneuvers to goal |\n"
-        "|---|---|---|---:|---|---:|\n"
-    )
-    return header + "\n".join(rows) + sources_line(sources, style)
+    header = "| env | arguments | agent | episodes | success [95% CI] |"
+    align = "|---|---|---|---:|---|"
+    if any(maneuvers != "-" for _, maneuvers in rows):
+        header, align = header + " maneuvers to goal |", align + "---:|"
+        lines = [f"{row} {maneuvers} |" for row, maneuvers in rows]
+    else:
+        lines = [row for row, _ in rows]
+    return "\n".join([header, align, *lines]) + sources_line(sources, style)
 
 
 def ladder_table(
@@ -166,14 +167,13 @@ def seeds_table(
             data = _flat(path)
             if "paired" in data:
                 notes.append(_paired_line(data))
-            minutes = sorted(data["train_seconds"])[len(data["train_seconds"]) // 2] / 60
             for result in data["rows"]:
                 if agents is not None and result["name"] not in agents:
                     continue
                 rows.append(
                     f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | "
                     f"{result['name']} | {len(data['seeds'])} | {data['timesteps']:,} | "
-                    f"{minutes:.1f} | {percent(result)} | {100 * result['worst']:.1f}% |"
+                    f"{train_minutes(data)} | {percent(result)} | {100 * result['worst']:.1f}% |"
                 )
     header = (
         "| env | arguments | agent | seeds | timesteps | train min (median) | "
@@ -183,59 +183,88 @@ def seeds_table(
 
 
 def ladder_seeds_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
-    """One row per summary over seeds (`benchmarks/experiments/baselines.py`), for comparing rungs
-    and control modes at a glance: the env, its arguments and the zoo's overridden policy, the
-    learned agent's best models' mean success with its 95% t interval and worst seed, the median
-    train time, and the planners and random on the same test episodes."""
+    """Summaries over seeds (`benchmarks/experiments/baselines.py`) for comparing rungs and control
+    modes at a glance, in two tables that fit the page. The learned agents, one row per summary:
+    the env, its arguments, a short agent label (its other hyperparameters named in a note), the
+    median train time, the best models' mean success with its 95% t interval and worst seed, and
+    the seeds won and lost against the paired reference. The yardsticks, one row per env id:
+    the planners, the paired reference and random in each control mode, on the same episodes."""
     _check_sources(sources)
-    rows = []
-    for pattern in sources:
-        for path in files_of(pattern, root):
-            data = _flat(path)
-            by_name = {result["name"]: result for result in data["rows"]}
-            learned = next(r for name, r in by_name.items() if name.endswith("(best)"))
-            agent = _agent_cell(data["algo"], data.get("hyperparams", {}))
-            minutes = sorted(data["train_seconds"])[len(data["train_seconds"]) // 2] / 60
-            yardsticks = " | ".join(
-                f"{100 * by_name[name]['success_rate']:.1f}%" for name in LADDER_YARDSTICKS
-            )
-            rows.append(
-                f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | "
-                f"{agent} | {len(data['seeds'])} | "
-                f"{data['timesteps']:,} | {minutes:.0f} | {percent(learned)} | "
-                f"{100 * learned['worst']:.1f}% | {yardsticks} | {_paired_cell(data)} |"
-            )
-    header = (
-        "| env | arguments | agent | seeds | timesteps | train min (median) | "
-        "success, mean [95% CI] | worst seed | greedy | lookahead | random | paired |\n"
-        "|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---|\n"
+    learned, overrides = [], []
+    yardsticks: dict[str, dict[str, str]] = {}
+    for path in (path for pattern in sources for path in files_of(pattern, root)):
+        data = _flat(path)
+        learned.append(_learned_row(data))
+        overrides += [k for k in data.get("hyperparams") or {} if k not in ("policy", *overrides)]
+        row = yardsticks.setdefault(data["env_id"], {})
+        for column, text in _yardsticks(data).items():
+            if row.setdefault(column, text) != text:
+                raise ValueError(f"{path.name}: {data['env_id']}'s {column} {text}, another "
+                                 f"file's {row[column]}")  # fmt: skip
+    note = "Agent: the learned agent and the policy its runs set"
+    if overrides:
+        named = ", ".join(f"`{key}`" for key in overrides)
+        note += f"; their other hyperparameters ({named}) in the commands below"
+    note += (
+        ". Paired: against the reference on the same episodes, the seeds where the best model "
+        "won and where it lost significantly (McNemar p < 0.05)."
     )
-    return header + "\n".join(rows) + sources_line(sources, style)
+    columns = list(dict.fromkeys(column for row in yardsticks.values() for column in row))
+    columns.sort(key=lambda column: column.startswith("random, "))  # random last
+    lines = [
+        "| env | arguments | agent | seeds x timesteps | train min (median) | "
+        "success, mean [95% CI] | worst seed | paired (seeds) |",
+        "|---|---|---|---:|---:|---|---:|---|",
+        *learned,
+        "",
+        note,
+        "",
+        "The yardsticks on the same test episodes (the planners in set-up control, random in "
+        "each run's control mode):",
+        "",
+        "| env | " + " | ".join(columns) + " |",
+        "|---|" + "---:|" * len(columns),
+        *(f"| `{env_id}` | " + " | ".join(row.get(c, "") for c in columns) + " |"
+          for env_id, row in yardsticks.items()),
+    ]  # fmt: skip
+    return "\n".join(lines) + sources_line(sources, style)
 
 
-def _agent_cell(algo: str, hyperparams: dict[str, str]) -> str:
-    """The algorithm and the policy a summary's runs overrode the zoo with; other overrides by
-    name only (their values are in the command under the table)."""
-    policy = hyperparams.get("policy")
-    others = [key for key in hyperparams if key != "policy"]
-    text = algo.upper() + (f" {policy}" if policy else "")
-    return text + (f", {' '.join(others)} as in the command" if others else "")
+def _learned_row(data: dict[str, Any]) -> str:
+    """A summary's learned agent as a row of `ladder_seeds_table`: its best models over seeds,
+    labelled by the agent's name and the policy its runs set."""
+    best = next(row for row in data["rows"] if row["name"].endswith(" (best)"))
+    agent = best["name"].removesuffix(" (best)")
+    policy = (data.get("hyperparams") or {}).get("policy")
+    return (
+        f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | "
+        f"{agent + (f', {policy}' if policy else '')} | "
+        f"{len(data['seeds'])} x {data['timesteps']:,} | {train_minutes(data)} | "
+        f"{percent(best)} | {100 * best['worst']:.1f}% | {_paired_cell(data)} |"
+    )
+
+
+def _yardsticks(data: dict[str, Any]) -> dict[str, str]:
+    """A summary's yardsticks by column: the planners, its paired reference (where it is not a
+    planner) and random in the run's control mode."""
+    rates = {row["name"]: row["success_rate"] for row in data["rows"]}
+    found = {"greedy": rates["greedy planner"], "lookahead": rates["lookahead planner"]}
+    paired = data.get("paired")
+    if paired is not None and paired["reference"] not in found:
+        found[paired["reference"]] = paired["reference_success_rate"]
+    found[f"random, {data['env_kwargs'].get('control', 'setup')}"] = rates["random"]
+    return {column: f"{100 * rate:.1f}%" for column, rate in found.items()}
 
 
 def _paired_cell(data: dict[str, Any]) -> str:
-    """A summary's paired comparison in a few words: the reference's success and on how many
-    seeds the best model won or lost significantly (McNemar p < 0.05) on the same episodes."""
+    """A summary's paired comparison in a few words: the reference, and on how many seeds the
+    best model won and lost significantly (McNemar p < 0.05) on the same episodes."""
     paired = data.get("paired")
     if paired is None:
         return "-"
-    seeds = paired["per_seed"]
-    significant = [row for row in seeds if row["mcnemar_p"] < 0.05]
+    significant = [row for row in paired["per_seed"] if row["mcnemar_p"] < 0.05]
     ahead = sum(row["wins"] > row["losses"] for row in significant)
-    behind = len(significant) - ahead
-    return (
-        f"{paired['reference']} {100 * paired['reference_success_rate']:.1f}%: "
-        f"ahead on {ahead}, behind on {behind} of {len(seeds)} seeds (p < 0.05)"
-    )
+    return f"{paired['reference']}: {ahead} ahead, {len(significant) - ahead} behind"
 
 
 def _paired_line(data: dict[str, Any]) -> str:

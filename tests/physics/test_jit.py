@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numba
+import numpy as np
 
 from tether_gym.physics.jit import serial_and_parallel, twin
 
@@ -22,7 +23,9 @@ def test_a_twin_is_its_own_kernel_with_its_globals_rebound():
 
 
 def test_the_parallel_build_is_a_twin_of_the_serial_one():
+    """On an array (on a scalar numba finds nothing to parallelize, and warns)."""
     serial, parallel = serial_and_parallel(scaled)
     assert parallel.py_func.__name__ == "scaled_parallel"
     assert parallel.targetoptions["parallel"] and "parallel" not in serial.targetoptions
-    assert serial(2.0) == parallel(2.0) == 4.0
+    x = np.arange(3.0)
+    assert np.array_equal(serial(x), 2.0 * x) and np.array_equal(parallel(x), 2.0 * x)

@@ -166,6 +166,10 @@ def test_at_rest_is_an_absolute_speed():
      "TetherNavigate_PostsReach-v2", "TetherNavigate_WallStopSparse-v2"],
 )  # fmt: skip
 def test_older_versions_are_refused_with_the_new_id(old):
+    """Gymnasium refuses an older version, naming the new id, after its own warning."""
     new = old[: -len("v1")] + f"v{ladder.VERSION}"
-    with pytest.raises(gym.error.DeprecatedEnv, match=new):
+    with (
+        pytest.warns(DeprecationWarning, match="is out of date"),
+        pytest.raises(gym.error.DeprecatedEnv, match=new),
+    ):
         gym.make(old)
