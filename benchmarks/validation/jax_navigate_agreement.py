@@ -32,7 +32,7 @@ import numpy as np
 
 from tether_gym import ladder
 from tether_gym.envs.tether_navigate.arguments import NavigateConfig
-from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_POSTS
+from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_POSTS, MIN_SPACING
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OBSERVATION, OUTCOME
 from tether_gym.evaluation import results_file
@@ -138,7 +138,7 @@ def differences(fields, got, want) -> dict[str, np.ndarray]:
             d = np.abs(np.pi - np.mod(np.pi - (a - b), 2.0 * np.pi))
         else:
             d = np.abs(a - b) / np.maximum(1.0, np.abs(b))
-        d = np.where(np.isnan(a) & np.isnan(b), 0.0, d)
+        d = np.where((a == b) | (np.isnan(a) & np.isnan(b)), 0.0, d)  # equal infinities too
         d = np.where(np.isnan(a) != np.isnan(b), np.inf, d)
         out[field.name] = d.max(axis=1)
     return out
@@ -185,6 +185,9 @@ SETUP_FIELDS = ("tether_length", "restitution", "wheel_target")
 DIVERGED = 1e-6
 """A case whose flags agree but whose continuous outcome differs by more than this is a
 changed outcome too (a search or a flight that took another branch on rounding)."""
+SAME_PEG = 0.01 * MIN_SPACING
+"""m: two anchors closer than this are one peg (pegs lie `MIN_SPACING` apart; float32 rounds a
+peg's coordinates by about 1e-7 m)."""
 SAME_SCORE = 1e-6
 """Aimed modes: two set-ups whose command errors (the search's score, m) agree to this are a
 tie of the search (the golden-section steps or the pegs' comparison decided by rounding)."""
@@ -210,12 +213,14 @@ def compare(config: NavigateConfig, states, actions, diverged_at: float = DIVERG
     changed = np.zeros(len(states), bool)
     classes: dict[str, int] = {}
     per_case = [[] for _ in range(len(states))]
-    other_peg = out["anchor"] != 0.0
+    other_peg = out["anchor"] > SAME_PEG
     aimed = config.control != "setup"
     error = OUTCOME.index["command_error"]
     if aimed:
         scale = SAME_SCORE * np.maximum(1.0, np.abs(want[1][:, error]))
-        tie = np.abs(got[1][:, error] - want[1][:, error]) <= scale
+        tie = (got[1][:, error] == want[1][:, error]) | (
+            np.abs(got[1][:, error] - want[1][:, error]) <= scale
+        )
     else:
         tie = bearing_tie(states, actions)
     for i in np.flatnonzero(other_peg):

@@ -63,11 +63,12 @@ JAX_DYNAMICS = {"impulse": IMPULSE, "hybrid": HYBRID}
 """The dynamics of the JAX kernel, by name, and their codes (not pymunk's engine)."""
 JAX_CONTROLS = ("setup", "velocity", "aim")
 """The control modes the JAX kernel plays: every one (`controls.CONTROL_MODES`)."""
-SAME_ANGLE = 1e-12
-"""rad: the offset angle met is the command's (`offset_angle_met`) within this. The numba kernel
-compares them exactly, as its flight returns the command itself where the wheel meets it; XLA
-may compute the command twice (in two fusions, one with fused multiply-adds), an ulp apart.
-Any other angle met is the wheel bisection's, at least its resolution (about 5e-5 rad) away."""
+SAME_ANGLE = {np.dtype(np.float64): 1e-12, np.dtype(np.float32): 1e-5}
+"""rad, per precision: the offset angle met is the command's (`offset_angle_met`) within this.
+The numba kernel compares them exactly, as its flight returns the command itself where the
+wheel meets it; XLA may compute the command twice (in two fusions, one with fused
+multiply-adds), an ulp apart, and float32 rounds the angles to about 1e-6 rad. Any other angle
+met is the wheel bisection's, at least its resolution (about 5e-5 rad) away."""
 CELLS = GRID[0] * GRID[1]
 UNIFORMS = 3 * (MAX_ANCHORS + MAX_POSTS + 2) + 3
 """Uniforms an episode may draw: the most any configuration draws (`NavigateConfig.n_uniforms`:
@@ -378,6 +379,7 @@ def step_episode(s: EnvState, action: jax.Array, params: EnvParams) -> EnvState:
     )
     terminated = success | at_rest | hit_post
     truncated = ~terminated & (left <= 0)
+    same_angle = SAME_ANGLE[f.met.dtype]
     values = {
         "reward": reward, "terminated": terminated, "truncated": truncated,
         "is_success": success, "position": jnp.stack([puck.x, puck.y]),
@@ -387,7 +389,7 @@ def step_episode(s: EnvState, action: jax.Array, params: EnvParams) -> EnvState:
         "taut_velocity": jnp.stack([taut_puck.vx, taut_puck.vy]),
         "taut_angle": taut_puck.angle, "taut_spin": taut_puck.spin, "bounced": bounced,
         "completed": completed, "tether_length": length, "tether_angle": beta,
-        "offset_angle": f.met, "offset_angle_met": jnp.abs(f.met - alpha) <= SAME_ANGLE,
+        "offset_angle": f.met, "offset_angle_met": jnp.abs(f.met - alpha) <= same_angle,
         "wheel_target": f.wheel_target, "wheel_target_time": f.wheel_target_time,
         "wheel_turn": f.wheel_turn, "restitution": e, "command_met": command_met,
         "command_error": command_error, "flight_time": f.time, "wall_hits": hits,
