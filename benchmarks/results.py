@@ -609,7 +609,8 @@ def wrote(job: Job, root: Path = ROOT) -> list[str]:
         elif found.older:
             lines.append(f"  {target}: still on an older version ({', '.join(found.older)})")
         else:
-            lines.append(f"  {target}: written, {found.seconds} s")
+            took = "" if found.seconds is None else f", {found.seconds} s"
+            lines.append(f"  {target}: written{took}")
     return lines
 
 
