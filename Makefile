@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 TRAIN_STAMP := $(VENV)/.installed-train
 PIP_INSTALL := $(BIN)/python -m pip install --quiet -c constraints.txt
 
-.PHONY: test test-fast test-jax-train train lint format docs docs-check figures bench clean clean-cache
+.PHONY: test test-fast test-jax-train train lint format docs docs-check figures bench results clean clean-cache
 
 # The venv with the package and the extras $(1); `make train` needs only "train", which
 # installs in half the time of "test" (Ray, Optuna, the zoo, the test tools), part of the
@@ -74,6 +74,13 @@ figures: $(STAMP)
 BENCH_SPEED := physics env train planners cold_start sweep_throughput jax_throughput
 bench: $(STAMP)
 	for name in $(BENCH_SPEED); do $(BIN)/python -m benchmarks.speed.$$name --quick || exit 1; done
+
+# Every results file from its command (results/manifest.yaml, benchmarks/results.py): PART=name
+# one part (or a file), STALE=1 the known-stale files only; the plan and its estimated cost
+# first; a file that exists is replaced only with OVERWRITE=1; DRY_RUN=1 prints the plan only.
+# All of it is about half a day on two cores: `python -m benchmarks.results --list`.
+results: $(STAMP)
+	$(BIN)/python -m benchmarks.results $(PART) $(if $(STALE),--stale) $(if $(OVERWRITE),--overwrite) $(if $(DRY_RUN),--dry-run)
 
 # Every kernel compiles anew on first use (importing tether_gym does the same by itself when
 # the kernels' sources changed: tether_gym/kernel_cache.py).

@@ -16,7 +16,9 @@ Each seed is `tether-train --seed k --name <config>_seed<k>` in `--runs-dir` (a 
 is read, not retrained; an interrupted one resumes), with the options given here: without
 `--timesteps`, `--eval-freq` or `--eval-episodes` a seed trains the zoo entry's, as
 `tether-train --env ID` alone does. The summary goes to `--out/<config>.json`, its `setup`
-holding the runs' config (`config`: seed 0's `RunConfig` less the seed);
+holding the runs' config (`config`: seed 0's `RunConfig` less the seed), its `seconds` this
+command's wall time (a finished run that is read costs nothing there; `details.train_seconds`
+holds each seed's training);
 `--plot` draws the learning curves of summaries in one figure, a panel per algorithm, a band
 (the seeds' range) and the mean per configuration.
 """
@@ -29,6 +31,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -258,6 +261,7 @@ def main() -> None:
     out = args.out / f"{name}.json"
     if out.exists() and not args.overwrite:
         parser.error(f"{out} exists: pass --overwrite to replace it")
+    started = time.perf_counter()
     run_dirs = [args.runs_dir / f"{name}_seed{seed}" for seed in range(args.seeds)]
     with ThreadPoolExecutor(args.jobs) as pool:
         list(pool.map(lambda seed: run_seed(args, seed, run_dirs[seed]), range(args.seeds)))
@@ -265,6 +269,7 @@ def main() -> None:
     if args.paired:
         env_kwargs = summary["setup"]["env_kwargs"]
         summary["details"]["paired"] = paired_against(args, run_dirs, env_kwargs)
+    summary["seconds"] = round(time.perf_counter() - started, 1)
     results_file.write(out, summary)
     for row in summary["rows"]:
         low, high = row["success_ci"]

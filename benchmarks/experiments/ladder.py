@@ -6,7 +6,9 @@ held-out test episodes of `tether-train`'s final tables (seed `TEST_SEED`).
 Each dense ladder id (the sparse twin has the same episodes and successes) gets one
 `tether-evaluate --json` file in `--out`: the greedy and lookahead planners (which act in
 `control="setup"`) and random in each control mode, so that a learned agent in any mode has
-its random floor on the same episodes. The table printed at the end is read from those files.
+its random floor on the same episodes. Each file records this script's command (the one that
+regenerates it, `results/manifest.yaml`) and its `tether-evaluate` run's wall time. A file
+that exists is kept unless `--overwrite`. The table printed at the end is read from those files.
 """
 
 from __future__ import annotations
@@ -26,12 +28,17 @@ def dense_ids() -> list[str]:
 
 
 def run(env_id: str, control: str, agents: list[str], path: Path, episodes: int, overwrite: bool):
+    """One rung and control mode's file: `tether-evaluate --json`, recording this script's
+    command in place of the `tether-evaluate` one it ran."""
     argv = ["--env", env_id, "--agents", *agents, "--episodes", str(episodes),
             "--seed", str(TEST_SEED), "--json", str(path), "--no-progress-bar",
             "--env-kwargs", f"control:{control}"]  # fmt: skip
     if overwrite:
         argv.append("--overwrite")
     evaluate_main(argv)
+    data = results_file.read(path)
+    data["command"] = results_file.script_command(__file__)
+    results_file.write(path, data)
 
 
 def main() -> None:

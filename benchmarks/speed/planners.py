@@ -290,6 +290,7 @@ def main() -> None:
         for planner, by_task in rates["numpy"].items() for task in by_task
     ]  # fmt: skip
     setup = {
+        "tasks": {task: TASKS[task] for task in args.tasks},  # the env ids: the version measured
         "threads": {name: os.environ[name] for name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS")},
         "repeats": args.repeats,
         "singles": args.singles,

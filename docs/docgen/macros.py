@@ -1,6 +1,11 @@
 """The placeholders: a page (or a README block) writes a call of one of `MACROS` with literal
 arguments, `{{ success_table({"results/ladder/*_setup.json": "python ..."}) }}`, and `render`
-replaces each with its Markdown."""
+replaces each with its Markdown.
+
+A results macro's files are on today's env versions, and the command shown for them is the one
+they record (`tests/contracts/test_results_manifest.py`, `benchmarks/results.py`); a table that
+compares with an older version says so in its call, `older_version=True`, and over the table
+(`older_note`)."""
 
 from __future__ import annotations
 
@@ -10,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from docgen import ROOT, tables
+from docgen import ROOT, results, tables
 from docgen.cli_reference import cli_help
 
 PLACEHOLDER = re.compile(r"\{\{\s*(\w+\(.*?\))\s*\}\}", re.DOTALL)
@@ -53,9 +58,32 @@ def expand(call_text: str, root: Path = ROOT, style: str = "page") -> str:
     """The Markdown of one placeholder's call (results paths relative to `root`; `style` the
     results tables' notes, `tables.STYLES`)."""
     name, args, kwargs = parse_call(call_text)
-    if name in RESULTS_MACROS:
-        kwargs.update(root=root, style=style)
-    return MACROS[name](*args, **kwargs)
+    if name not in RESULTS_MACROS:
+        return MACROS[name](*args, **kwargs)
+    compares = kwargs.pop("older_version", False)
+    kwargs.update(root=root, style=style)
+    table = MACROS[name](*args, **kwargs)
+    return older_note(args[0] if args else kwargs["sources"], root) + table if compares else table
+
+
+def older_note(sources: dict[str, str], root: Path = ROOT) -> str:
+    """The line over a table marked `older_version=True`: which of its rows are an older
+    version's, and today's version (nothing where no file is on an older version)."""
+    ids: dict[str, str] = {}
+    for path in (path for pattern in sources for path in results.files_of(pattern, root)):
+        ids.update(results.env_ids(path))
+
+    def versions(found) -> str:
+        return " and ".join(f"`-v{v}`" for v in sorted({i.rsplit("-v", 1)[1] for i in found}))
+
+    older = [env_id for env_id, newest in ids.items() if env_id != newest]
+    if not older:
+        return ""
+    today = versions({ids[env_id] for env_id in older})
+    return (
+        f"*A comparison with an older version: the rows whose env id ends in {versions(older)} "
+        f"were measured on that version, not on today's {today}.*\n\n"
+    )
 
 
 def render(markdown: str, root: Path = ROOT) -> str:

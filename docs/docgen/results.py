@@ -62,6 +62,14 @@ def _card(path: Path) -> dict[str, Any]:
     }
 
 
+def env_ids(path: Path) -> dict[str, str]:
+    """The env ids a results file (or card) was measured on, each -> the id of its env's
+    newest version (`results_file.env_ids`)."""
+    if path.suffix == ".md":
+        return results_file.env_ids(read_results(path)["env_id"])
+    return results_file.env_ids(read_file(path))
+
+
 def files_of(pattern: str, root: Path) -> list[Path]:
     """The files a glob relative to `root` names, sorted; ValueError if there are none."""
     paths = sorted(Path(p) for p in glob.glob(str(root / pattern)))

@@ -47,8 +47,8 @@ def sources_line(sources: dict[str, str], style: str = "page") -> str:
 
 def fold_command(command: str, width: int = 88) -> str:
     """A long shell command folded before its options (` \\` continuations, shell-valid), so it
-    reads without scrolling; quoted arguments are never split, nor `python -m MODULE`. A short
-    one as it is."""
+    reads without scrolling; quoted arguments are never split, nor `python -m MODULE`, nor a
+    comment (`# ...`: a continuation would end there). A short one as it is."""
     if len(command) <= width:
         return command
     words, word, quote = [], "", ""
@@ -65,8 +65,11 @@ def fold_command(command: str, width: int = 88) -> str:
     words.append(word)
     first = 3 if words[1:2] == ["-m"] else 1  # `python -m MODULE` stays whole
     lines = [" ".join(words[:first])]
+    comment = False
     for word in words[first:]:
-        if word.startswith("-") or len(lines[-1]) + len(word) + 1 > width:
+        comment = comment or word.startswith("#")
+        long = len(lines[-1]) + len(word) + 1 > width
+        if word and not comment and (word.startswith("-") or long):
             lines.append("  " + word)
         else:
             lines[-1] += " " + word

@@ -618,3 +618,11 @@ def test_a_long_command_folds_before_its_options_and_unfolds_to_itself():
     assert all(len(line) <= 90 for line in folded.splitlines())
     assert " ".join(folded.replace("\\\n", " ").split()) == command
     assert tables.fold_command("tether-train --seed 3") == "tether-train --seed 3"
+    card = (
+        "tether-train --rho 5 100 --seed 3   # = trial seed 3 of: tether-sweep "
+        "sweeps/low_stiffness.yml --out runs/sweep-low-stiffness"
+    )  # a model card's
+    folded = tables.fold_command(card)  # folded before the comment, never inside it
+    assert folded.splitlines()[-1] == "  --seed 3   # = trial seed 3 of: tether-sweep " + (
+        "sweeps/low_stiffness.yml --out runs/sweep-low-stiffness"
+    )

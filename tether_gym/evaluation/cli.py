@@ -23,6 +23,7 @@ import dataclasses
 import json
 import shlex
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -319,6 +320,7 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> None:
     """The console script `tether-evaluate`."""
+    started = time.perf_counter()
     parser = build_parser(chosen_env(argv))
     args = parser.parse_args(argv)
     outputs = [p for p in (args.csv, args.json, args.plot) if p is not None]
@@ -370,7 +372,8 @@ def main(argv: list[str] | None = None) -> None:
         command = shlex.join(["tether-evaluate", *(sys.argv[1:] if argv is None else argv)])
         setup = {"env_id": env_id, "env_kwargs": env_kwargs, "seed": episodes.seed}
         rows = [r.summary() for r in results]
-        results_file.write(args.json, results_file.record(command, rows, setup))
+        seconds = round(time.perf_counter() - started, 1)
+        results_file.write(args.json, results_file.record(command, rows, setup, seconds=seconds))
     if args.plot is not None:
         plot(results, args.plot, args.plot_against)
 

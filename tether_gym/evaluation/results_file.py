@@ -5,7 +5,7 @@ is written by `write` and has the same top-level keys, `KEYS`:
 |---|---|
 | `command` | the command that wrote the file, runnable from the repository's root |
 | `commit` | the git commit of the code that ran (None where it was not recorded) |
-| `dirty` | whether that tree had uncommitted changes (None where not recorded) |
+| `dirty` | whether that tree had uncommitted changes outside `results/` (None: not recorded) |
 | `environment` | the versions that ran it: python, numpy, numba, gymnasium, and torch, |
 | | stable_baselines3, pymunk, jax, jaxlib where they were loaded |
 | `seconds` | the run's wall time (None where not recorded) |
@@ -14,14 +14,17 @@ is written by `write` and has the same top-level keys, `KEYS`:
 | | per fuzzed combination, per entry point, per population |
 | `details` | what else the run measured (curves, counts by group, definitions) |
 
-The docs' tables (`docs/macros/`) read this schema only; `read` checks it. The package writes
-through it (`tether-evaluate --json`) and so do the scripts of `benchmarks/`.
+The docs' tables (`docs/docgen/`) read this schema only; `read` checks it. The package writes
+through it (`tether-evaluate --json`) and so do the scripts of `benchmarks/`. `env_ids` names
+the env versions a file was measured on (`results/manifest.yaml` and its tests read them).
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import platform
+import re
 import shlex
 import subprocess
 import sys
@@ -53,7 +56,9 @@ def environment() -> dict[str, str]:
 
 
 def git_state(root: Path = ROOT) -> tuple[str | None, bool | None]:
-    """The commit of `root`'s checkout and whether it has changes; (None, None) outside git."""
+    """The commit of `root`'s checkout and whether it has changes, its `results/` aside (the
+    files a run writes, or replaces, do not make the code it ran dirty); (None, None) outside
+    git."""
 
     def git(*args: str) -> str | None:
         try:
@@ -66,7 +71,7 @@ def git_state(root: Path = ROOT) -> tuple[str | None, bool | None]:
     commit = git("rev-parse", "HEAD")
     if not commit:
         return None, None
-    return commit, bool(git("status", "--porcelain"))
+    return commit, bool(git("status", "--porcelain", "--", ".", ":(exclude)results"))
 
 
 def script_command(script: str, argv: Sequence[str] | None = None) -> str:
@@ -142,3 +147,39 @@ def read(path: Path) -> dict[str, Any]:
     data = json.loads(Path(path).read_text())
     check(data, str(path))
     return data
+
+
+def env_ids(data: Any) -> dict[str, str]:
+    """Every registered env's id that `data` names, each mapped to the id of that env's newest
+    registered version (itself where it is the newest): for a results file, the ids of its
+    `setup`, `rows` and `details` (those it was measured on); for a string (a path), the ids in
+    it. An id is a registered env's name (its namespace too) followed by `-vN`, wherever it
+    stands: `TetherNavigate_OpenReach-v2` in `results/ladder/TetherNavigate_OpenReach-v2_aim.json`
+    or in a row's `"TetherNavigate_PostsReach-v2 step"`. An older version's id is registered by
+    no one, but its name is."""
+    if isinstance(data, dict) and tuple(data) == KEYS:
+        text = json.dumps([data["setup"], data["rows"], data["details"]])
+    else:
+        text = data if isinstance(data, str) else json.dumps(data)
+    pattern, newest = _registered()
+    found = {}
+    for match in pattern.finditer(text):
+        name, version = match["name"], int(match["version"])
+        found[match[0]] = f"{name}-v{max(version, newest[name])}"
+    return found
+
+
+@functools.cache
+def _registered() -> tuple[re.Pattern[str], dict[str, int]]:
+    """A pattern of the registered envs' versioned ids, and each name's newest version."""
+    import gymnasium as gym
+
+    import tether_gym  # noqa: F401  (registers the package's envs)
+
+    newest: dict[str, int] = {}
+    for spec in gym.registry.values():
+        if spec.version is not None:
+            name = spec.id.rsplit("-v", 1)[0]
+            newest[name] = max(spec.version, newest.get(name, -1))
+    names = "|".join(re.escape(name) for name in sorted(newest, key=len, reverse=True))
+    return re.compile(rf"(?<![A-Za-z0-9])(?P<name>{names})-v(?P<version>\d+)(?!\d)"), newest
