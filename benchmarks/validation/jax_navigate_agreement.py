@@ -126,6 +126,7 @@ def jax_side(config: NavigateConfig, states, actions):
     return np.asarray(obs, np.float64), np.asarray(out, np.float64)
 
 
+@np.errstate(invalid="ignore")  # two equal infinities subtract to NaN, then count as equal
 def differences(fields, got, want) -> dict[str, np.ndarray]:
     """Per field: each case's largest difference over its columns (module docstring)."""
     out = {}
@@ -138,7 +139,7 @@ def differences(fields, got, want) -> dict[str, np.ndarray]:
             d = np.abs(np.pi - np.mod(np.pi - (a - b), 2.0 * np.pi))
         else:
             d = np.abs(a - b) / np.maximum(1.0, np.abs(b))
-        d = np.where((a == b) | (np.isnan(a) & np.isnan(b)), 0.0, d)  # equal infinities too
+        d = np.where((a == b) | (np.isnan(a) & np.isnan(b)), 0.0, d)
         d = np.where(np.isnan(a) != np.isnan(b), np.inf, d)
         out[field.name] = d.max(axis=1)
     return out
@@ -218,9 +219,10 @@ def compare(config: NavigateConfig, states, actions, diverged_at: float = DIVERG
     error = OUTCOME.index["command_error"]
     if aimed:
         scale = SAME_SCORE * np.maximum(1.0, np.abs(want[1][:, error]))
-        tie = (got[1][:, error] == want[1][:, error]) | (
-            np.abs(got[1][:, error] - want[1][:, error]) <= scale
-        )
+        with np.errstate(invalid="ignore"):
+            tie = (got[1][:, error] == want[1][:, error]) | (
+                np.abs(got[1][:, error] - want[1][:, error]) <= scale
+            )
     else:
         tie = bearing_tie(states, actions)
     for i in np.flatnonzero(other_peg):
@@ -351,7 +353,10 @@ def main() -> None:
         details["commands"] = [c for c in previous if c and c != command] + [command]
     setup = {"warmup": WARMUP, "diverged": DIVERGED, "same_score": SAME_SCORE,
              "controls": list(CONTROLS)}  # fmt: skip
-    data = results_file.record(command, rows, setup, details, time.perf_counter() - began)
+    seconds = time.perf_counter() - began
+    if args.merge and args.out.exists():  # the file's cost: every run it merges
+        seconds += json.loads(args.out.read_text()).get("seconds") or 0.0
+    data = results_file.record(command, rows, setup, details, seconds)
     results_file.write(args.out, data)
     print(f"wrote {args.out}")
 
