@@ -4,7 +4,8 @@ one jitted step, same-step autoreset), every transition checked by `fuzz_navigat
 `audit_vector_step` (off the table, inside a post, through a post, observation out of its space,
 non-finite, the post report, the freeze), the actions drawn by its `random_actions`.
 
-    python -m benchmarks.validation.jax_fuzz [--maneuvers 100000] [--num-envs 256] [--ids ID ...]
+    python -m benchmarks.validation.jax_fuzz [--maneuvers 100000] [--hybrid-maneuvers N]
+        [--num-envs 256] [--ids ID ...]
         [--dynamics impulse hybrid] [--controls setup velocity aim velocity+coast aim+coast]
 
 Counts per dynamics x control (over the ids, in turn) into `results/jax/fuzz.json`; every
@@ -22,6 +23,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from benchmarks.common import refuse_existing
 from benchmarks.validation.fuzz_navigate import HOLES, NOTES, audit_vector_step, random_actions
 from benchmarks.validation.jax_navigate_agreement import CONTROLS, configuration
 from tether_gym.evaluation import results_file
@@ -79,6 +81,8 @@ def configuration_kwargs(env_id: str) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--maneuvers", type=int, default=100_000, help="per dynamics x control")
+    parser.add_argument("--hybrid-maneuvers", type=int, default=None,
+                        help="per hybrid dynamics x control (default: --maneuvers)")  # fmt: skip
     parser.add_argument("--num-envs", type=int, default=256)
     parser.add_argument("--ids", nargs="+", default=["TetherNavigate_OpenReach-v3",
                         "TetherNavigate_PostsStop-v3", "TetherNavigate_WallReach-v3"])  # fmt: skip
@@ -86,14 +90,18 @@ def main() -> None:
     parser.add_argument("--controls", nargs="+", default=list(CONTROLS), choices=CONTROLS)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=RESULTS)
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     args = parser.parse_args()
+    refuse_existing(parser, args.out, args.overwrite)
     jax.config.update("jax_enable_x64", True)
     began = time.perf_counter()
     rows = []
     for dynamics in args.dynamics:
         for control in args.controls:
             start = time.perf_counter()
-            total = cell(args.ids, dynamics, control, args.maneuvers, args.num_envs, args.seed)
+            hybrid = dynamics == "hybrid" and args.hybrid_maneuvers is not None
+            maneuvers = args.hybrid_maneuvers if hybrid else args.maneuvers
+            total = cell(args.ids, dynamics, control, maneuvers, args.num_envs, args.seed)
             row = {"dynamics": dynamics, "control": control, "ids": list(args.ids),
                    "maneuvers": total["maneuvers"],
                    "findings": {name: total[name] for name in RUN},
@@ -102,7 +110,8 @@ def main() -> None:
             rows.append(row)
             print(row, flush=True)
     details = {"jax": jax.__version__, "device": str(jax.devices()[0]), "classes": list(RUN)}
-    setup = {"maneuvers": args.maneuvers, "num_envs": args.num_envs, "seed": args.seed}
+    setup = {"maneuvers": args.maneuvers, "hybrid_maneuvers": args.hybrid_maneuvers,
+             "num_envs": args.num_envs, "seed": args.seed}  # fmt: skip
     data = results_file.record(
         results_file.script_command(__file__), rows, setup, details, time.perf_counter() - began
     )
