@@ -361,10 +361,12 @@ searches end (`physics._cascade`): a search of hundreds of steps (a slow puck fa
 tether's circle) does not cost every lane of the batch its length."""
 
 
-def time_to_taut(p: Puck, anchor_x, anchor_y, length, arm, horizon, active=True):
+def time_to_taut(p: Puck, anchor_x, anchor_y, length, arm, horizon, active=True,
+                 narrow: bool = True):  # fmt: skip
     """(t, capped): `events.time_to_taut_row` (inf if the tether does not go taut within
     `horizon`), capped where the search ran `TAUT_STEPS` steps without an answer; (inf, False)
-    where not `active` (no search)."""
+    where not `active` (no search). `narrow`: under `narrowing_loop` (else a plain loop, for
+    searches that are short in every lane: one more loop to compile at each width)."""
     x, y = p.x - anchor_x, p.y - anchor_y
     vx, vy, angle, spin = p.vx, p.vy, p.angle, p.spin
     speed = jnp.hypot(vx, vy)
@@ -390,7 +392,10 @@ def time_to_taut(p: Puck, anchor_x, anchor_y, length, arm, horizon, active=True)
         zero, gap0, rate0, distance0, count, jnp.inf + zero, stopped, jnp.asarray(False),
         jnp.asarray(False), zero, zero, zero, zero, zero, zero, zero, count, count, stopped,
     )  # fmt: skip
-    c = _taut_loop(q, start)
+    if narrow:
+        c = _taut_loop(q, start)
+    else:
+        c = lax.while_loop(lambda c: ~c.done, lambda c: _taut_advance(q, c), start)
     return jnp.where(c.stopped, c.result, jnp.inf), ~c.stopped
 
 
@@ -545,12 +550,14 @@ def fly(s, dynamics: int, reaction_wheel, wheel_rate, wall_restitution, stiffnes
     start = Puck(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
     zero = jnp.zeros_like(s.x)
     posts, n_posts = s.posts, s.n_posts
-    at_once, capped0 = time_to_taut(start, ax, ay, length, ARM, AT_ONCE + zero)
+    at_once, capped0 = time_to_taut(start, ax, ay, length, ARM, AT_ONCE + zero, narrow=False)
     clearance = contact_clearance(s, dynamics, stiffness)
     plan = wheel_plan(start, posts, n_posts, ax, ay, length, alpha, clearance, wheel_rate,
                       wall_restitution)  # fmt: skip
     turning = start._replace(spin=s.spin + plan[3])
-    at_once_turning, capped1 = time_to_taut(turning, ax, ay, length, ARM, AT_ONCE + zero)
+    at_once_turning, capped1 = time_to_taut(
+        turning, ax, ay, length, ARM, AT_ONCE + zero, narrow=False
+    )
     none = (jnp.int32(-1), inf + zero, zero, zero, alpha + zero)
     use = reaction_wheel & (at_once == inf) & ~(at_once_turning < inf)
     target_hits, target_t, target_time, rate, target = select(use, plan, none)
