@@ -12,7 +12,9 @@ more) and the same budgets. Formulas term by term as numba's; constants imported
 The loops, all `lax.while_loop`s:
 
 - the contact: one RK4 step per iteration, at most the numba budget (`contact_budget` in steps
-  of h, at most `MAX_STEPS`); a lane whose contact has ended idles;
+  of h, at most `MAX_STEPS`), under `physics.narrowing_loop` (under `jax.vmap` the batch
+  narrows as its contacts end); a lane whose contact has ended idles, with no slack instant
+  and no touch search;
 - the slack instant: at most 60 Illinois iterations (the numba literal, `SLACK_ITERATIONS`);
 - the touch search: the numba stack of `MAX_HALVINGS` intervals, at most `TOUCH_POPS` intervals
   popped (the numba loop has no cap but the stack's depth and `RESOLUTION`: a search that
@@ -245,15 +247,15 @@ def contact(puck: Puck, s, params, ax, ay, length, e, path, n):
         jnp.asarray(True), jnp.asarray(False), path,
     )  # fmt: skip
 
-    def cond(q: _Carry):
-        return ~q.done
-
-    def body(q: _Carry) -> _Carry:
+    def advance(problem, q: _Carry) -> _Carry:
+        o, p, h, steps, n, ax, ay, bound = problem
+        zero = 0.0 * h
         y, angle, a, tension = q.y, q.angle, q.a, q.tension
         out_of_budget = ~(q.steps < steps)
         new, turn = physics.rk4(y, a, h, p)
         new_a, new_tension = physics._accel(new, p)
-        slack = ~(new_tension > 0.0)
+        # a lane that is done idles beside the others: no slack instant, no touch search
+        slack = ~q.done & ~(new_tension > 0.0)
 
         def illinois_cond(c):
             return slack & ~c[-1] & (c[-2] < SLACK_ITERATIONS)
@@ -286,7 +288,7 @@ def contact(puck: Puck, s, params, ax, ay, length, e, path, n):
         new = select(slack, found[6], new)
         turn = jnp.where(slack, found[7], turn)
         span = jnp.where(slack, tau, h)
-        look = q.t + span > q.safe
+        look = ~q.done & (q.t + span > q.safe)
         gap0 = entering_clearance(o, y[0], y[1], y[2], y[3])[0]
         gap1 = entering_clearance(o, new[0], new[1], new[2], new[3])[0]
         touch, touched, touch_turn, which = first_touch(y, a, span, gap0, gap1, bound, p, o, look)
@@ -371,9 +373,9 @@ def contact(puck: Puck, s, params, ax, ay, length, e, path, n):
             jnp.where(ends, is_post, q.hit_post), path,
         )  # fmt: skip
         given_up = q._replace(done=jnp.asarray(True), end=budget_end, completed=jnp.asarray(False))
-        return select(out_of_budget, given_up, advanced)
+        return select(q.done, q, select(out_of_budget, given_up, advanced))
 
-    q = lax.while_loop(cond, body, start)
+    q = physics.narrowing_loop(advance)((o, p, h, steps, n, ax, ay, bound), start)
     after = Puck(q.end.x + ax, q.end.y + ay, q.end.vx, q.end.vy, q.end.angle, q.end.spin)
     after = select(bounced, after, puck)
     return (

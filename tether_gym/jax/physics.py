@@ -381,38 +381,46 @@ def _advance(problem: _Problem, s: _Contact) -> _Contact:
     )
 
 
-@custom_batching.custom_vmap
-def _integrate(problem: _Problem, carry: _Contact) -> _Contact:
-    """Run the loop until the contact is done."""
-    return lax.while_loop(lambda s: ~s.done, lambda s: _advance(problem, s), carry)
+def narrowing_loop(advance):
+    """A `lax.while_loop` of `advance(problem, carry)` until `carry.done`, as a function of
+    (problem, carry) whose batching rule is `_cascade`: under `jax.vmap` the batch narrows as
+    its lanes end. `advance` must leave a lane that is done as it is (a batch runs lanes that
+    have ended beside those that have not), and `problem` is what the loop reads and never
+    changes (pytrees of arrays, both)."""
+
+    @custom_batching.custom_vmap
+    def loop(problem, carry):
+        return lax.while_loop(lambda s: ~s.done, lambda s: advance(problem, s), carry)
+
+    @loop.def_vmap
+    def loop_batch(axis_size: int, in_batched, problem, carry):
+        """`loop` over a batch by `_cascade` (every input broadcast to the batch)."""
+        problem, carry = jax.tree.map(
+            lambda x, batched: x if batched else jnp.broadcast_to(x, (axis_size, *jnp.shape(x))),
+            (problem, carry),
+            tuple(in_batched),
+        )
+        return _cascade(advance, problem, carry), jax.tree.map(lambda _: True, carry)
+
+    return loop
 
 
-@_integrate.def_vmap
-def _integrate_batch(axis_size: int, in_batched, problem: _Problem, carry: _Contact):
-    """`_integrate` over a batch by `_cascade` (every input broadcast to the batch)."""
-    problem, carry = jax.tree.map(
-        lambda x, batched: x if batched else jnp.broadcast_to(x, (axis_size, *jnp.shape(x))),
-        (problem, carry),
-        tuple(in_batched),
-    )
-    return _cascade(problem, carry), jax.tree.map(lambda _: True, carry)
-
-
-def _cascade(problem: _Problem, carry: _Contact) -> _Contact:
-    """Run a batch's loops, narrowing the batch as its contacts end.
+def _cascade(advance, problem, carry):
+    """Run a batch's loops of `advance` (`narrowing_loop`), narrowing the batch as they end.
 
     A vmapped loop runs until its last lane is done, every lane paying one step per iteration:
-    one long contact (a grazing tether that carries the puck round the anchor until the budget
-    runs out) would make the whole batch pay its tens of thousands of steps. Here the batch
+    one long loop (a grazing tether that carries the puck round the anchor until the budget
+    runs out, a tautening search of hundreds of steps) would make the whole batch pay its
+    length. Here the batch
     runs at full width while more than 1/`CASCADE` of it is active, then its active lanes are
     gathered into a batch `CASCADE` times narrower, and so on down to one lane, which runs
     until done; the lanes' results are scattered back. A lane's steps are those of its own
     loop: only the batch it shares each iteration with changes. The batch pays at most about
-    `CASCADE` steps per active lane's step at every width, and the longest contact's steps at
-    the narrowest."""
+    `CASCADE` steps per active lane's step at every width, and the longest loop's steps at the
+    narrowest."""
 
-    def advance(pair):
-        return pair[0], jax.vmap(_advance)(*pair)
+    def step(pair):
+        return pair[0], jax.vmap(advance)(*pair)
 
     n = carry.done.shape[0]
     full = carry
@@ -421,7 +429,7 @@ def _cascade(problem: _Problem, carry: _Contact) -> _Contact:
     while width > 1:
         narrower = max(1, width // CASCADE)
         problem, carry = lax.while_loop(
-            lambda pair, w=narrower: jnp.sum(~pair[1].done) > w, advance, (problem, carry)
+            lambda pair, w=narrower: jnp.sum(~pair[1].done) > w, step, (problem, carry)
         )
         full = _scatter(full, index, carry)
         slots = jnp.nonzero(~carry.done, size=narrower, fill_value=width)[0]
@@ -431,13 +439,17 @@ def _cascade(problem: _Problem, carry: _Contact) -> _Contact:
         carry = carry._replace(done=carry.done | ~valid)
         index = jnp.where(valid, index[slots], n)
         width = narrower
-    problem, carry = lax.while_loop(lambda pair: jnp.any(~pair[1].done), advance, (problem, carry))
+    problem, carry = lax.while_loop(lambda pair: jnp.any(~pair[1].done), step, (problem, carry))
     return _scatter(full, index, carry)
 
 
-def _scatter(full: _Contact, index: jax.Array, part: _Contact) -> _Contact:
+def _scatter(full, index: jax.Array, part):
     """`full` with its lanes `index` set to `part`'s (an index past the end: none)."""
     return jax.tree.map(lambda f, x: f.at[index].set(x, mode="drop"), full, part)
+
+
+_integrate = narrowing_loop(_advance)
+"""Run a contact's loop (`_advance`) until the contact is done; under `vmap` by `_cascade`."""
 
 
 def _contact(y, c, offset, kappa, speed, radius, mass, rest_length, k, active):
