@@ -161,11 +161,9 @@ def canonical(obs: np.ndarray) -> np.ndarray:
     return obs
 
 
-def bearing_tie(states, actions, tolerance: float = 1e-9) -> np.ndarray:
-    """The cases whose `setup` action's bearing is as near (to `tolerance` rad) to two pegs
-    (`controls.setup.hook`): pegs in line with the puck, as a layout's pegs and start cells at
-    cell centres put them, whose bearings are equal in exact arithmetic and which the rounding
-    of atan2 (libm's or XLA's) picks between."""
+def bearing_margin(states, actions) -> np.ndarray:
+    """rad: how much nearer the `setup` action's bearing is to the peg it hooks than to the
+    next (`controls.setup.hook`; inf with one peg): 0 where two pegs lie at one bearing."""
     from tether_gym.envs.tether_navigate.controls.setup import ACTION
 
     a = np.clip(actions[:, 0], -1.0, 1.0)
@@ -178,7 +176,15 @@ def bearing_tie(states, actions, tolerance: float = 1e-9) -> np.ndarray:
     gap = np.abs(np.pi - np.mod(np.pi - b, 2.0 * np.pi))
     gap = np.where(np.arange(gap.shape[1]) < states["n_anchors"][:, None], gap, np.inf)
     two = np.sort(gap, axis=1)[:, :2]
-    return two[:, 1] - two[:, 0] <= tolerance
+    return two[:, 1] - two[:, 0]
+
+
+def bearing_tie(states, actions, tolerance: float = 1e-9) -> np.ndarray:
+    """The cases whose `setup` action's bearing is as near (to `tolerance` rad) to two pegs
+    (`bearing_margin`): pegs in line with the puck, as a layout's pegs and start cells at
+    cell centres put them, whose bearings are equal in exact arithmetic and which the rounding
+    of atan2 (libm's or XLA's) picks between."""
+    return bearing_margin(states, actions) <= tolerance
 
 
 SETUP_FIELDS = ("tether_length", "restitution", "wheel_target")
@@ -203,7 +209,7 @@ def compare(config: NavigateConfig, states, actions, diverged_at: float = DIVERG
     `SAME_SCORE`), under the aimed modes a set-up found otherwise on the same peg ("set-up
     (search tie)" likewise) or the same set-up flown otherwise ("flight (offset at +-pi/2)"
     where the wheel's target is a grid end, a tautening at a right angle), and the flags and
-    counts that differ."""
+    counts that differ; `case_classes` each case's ("" where it agrees)."""
     want = numba_side(config, states, actions)
     got = jax_side(config, states, actions)
     result = {
@@ -252,6 +258,7 @@ def compare(config: NavigateConfig, states, actions, diverged_at: float = DIVERG
             key = "+".join(names)
             classes[key] = classes.get(key, 0) + 1
     result["changed"], result["classes"] = changed, classes
+    result["case_classes"] = ["+".join(names) for names in per_case]
     result["given_up"] = want[1][:, OUTCOME.index["completed"]] == 0.0
     return result
 
