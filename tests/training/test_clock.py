@@ -59,12 +59,12 @@ RUNS = {
     "SAC + HER": ["--algo", "sac", "--env", "TetherNavigateSparse-v3", *SAC_RUN, TINY_NAVIGATE_NET],
     "residual, pretrain": ["--env", "TetherNavigate-v3", *PPO_RUN, TINY_NAVIGATE_NET,
                            "residual:greedy", PRETRAIN],
-    "proposals": ["--env", "TetherNavigate-v3", *PPO_RUN, TINY_NAVIGATE_NET, "proposals:greedy"],
     "TetherBounce": ["--env", "TetherBounce-v0", *PPO_RUN],
 }  # fmt: skip
 """Tiny runs that play every kind of kernel: the env in the policy's control mode and in the
-planners', the planners, hindsight relabeling's reward, a planner inside the training env and
-before learning, TetherBounce's oracles."""
+planners', the planners, hindsight relabeling's reward, a planner inside the training env
+(residual; proposals plays the same planner kernels) and before learning, TetherBounce's
+oracles."""
 
 
 def built_on_the_clock(tmp_path, argv: list[str], compile_step: bool = True) -> list[str]:
