@@ -54,6 +54,7 @@ import numpy as np
 import tether_gym  # noqa: F401  (registers the ids)
 from benchmarks.common import ROOT, median_seconds
 from tether_gym.evaluation import results_file
+from tether_gym.jax.base import float_dtype
 
 BATCHES = (1, 64, 1024, 16384, 65536)
 DYNAMICS = ("impulse", "hybrid")
@@ -105,15 +106,8 @@ def scan_program(env_id: str, kwargs: dict, n: int):
 
         return jax.lax.fori_loop(0, steps, step, carry)
 
-    carry = (state, key, jnp.zeros((), state_dtype(state)))
+    carry = (state, key, jnp.zeros((), float_dtype()))
     return jax.jit(run).lower(carry, jnp.int32(1)).compile(), carry
-
-
-def state_dtype(state) -> np.dtype:
-    """The float type of a state pytree (float64 under x64)."""
-    return next(
-        leaf.dtype for leaf in jax.tree.leaves(state) if jnp.issubdtype(leaf.dtype, jnp.floating)
-    )
 
 
 def compile_programs(jobs: list[tuple[str, dict, int]]) -> dict[tuple, tuple]:
