@@ -4,7 +4,8 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 TRAIN_STAMP := $(VENV)/.installed-train
-PIP_INSTALL := $(BIN)/python -m pip install --quiet -c constraints.txt
+# --no-compile: Python compiles the modules a run imports, not all of torch, Ray and jax up front.
+PIP_INSTALL := $(BIN)/python -m pip install --quiet --no-compile -c constraints.txt
 
 .PHONY: test test-fast test-jax-train train lint format docs docs-check figures bench results clean clean-cache
 
@@ -25,9 +26,9 @@ $(TRAIN_STAMP): pyproject.toml constraints.txt
 	$(call install,train)
 	touch $(TRAIN_STAMP)
 
+# The docs' site is built with --strict by tests/contracts/test_docs.py, not twice.
 test: $(STAMP)
 	$(BIN)/ruff check .
-	$(MAKE) --no-print-directory docs
 	$(BIN)/python -m pytest -q -n auto --dist worksteal -m "not jax_train" --durations=15
 
 # The JAX PPO's tests, apart and under a time limit: XLA's CPU runtime has been seen to stall
