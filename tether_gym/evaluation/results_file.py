@@ -154,7 +154,7 @@ def env_ids(data: Any) -> dict[str, str]:
     registered version (itself where it is the newest): for a results file, the ids of its
     `setup`, `rows` and `details` (those it was measured on); for a string (a path), the ids in
     it. An id is a registered env's name (its namespace too) followed by `-vN`, wherever it
-    stands: `TetherNavigate_OpenReach-v2` in `results/ladder/TetherNavigate_OpenReach-v2_aim.json`
+    stands: `TetherNavigate_OpenReach-v3` in `results/ladder/TetherNavigate_OpenReach-v3_aim.json`
     or in a row's `"TetherNavigate_PostsReach-v2 step"`. An older version's id is registered by
     no one, but its name is."""
     if isinstance(data, dict) and tuple(data) == KEYS:
