@@ -11,7 +11,7 @@ pytest.importorskip("stable_baselines3")
 import torch
 from stable_baselines3 import PPO
 
-from tests.helpers.training import TINY_NET, TINY_PPO
+from tests.helpers.training import TINY_NET, TINY_PPO, jax_run_folder
 from tether_gym.agents import pretrained
 from tether_gym.agents.planned import ProposalAgent
 from tether_gym.agents.registry import make_agent
@@ -123,3 +123,40 @@ def test_export_writes_a_policy_that_acts_as_the_trained_model(tmp_path):
     facts = pretrained.card("pretrained", folder)
     assert facts["seed"] == 0 and facts["trained_timesteps"] == 1024
     assert facts["held_out"]["episodes"] == 100
+
+
+def test_a_jax_run_s_seed_exports_as_a_pretrained_agent(tmp_path):
+    """A `--backend jax` run of two seeds: the seed asked for is copied in the JAX policy's
+    format and loads from the card alone (`backend: jax`), acting as that seed's policy; the card
+    says which seed of how many, trained how; a seed not given or not in the run is refused."""
+    pytest.importorskip("flax")
+    from tether_gym.agents.jax_policy import load_policy as load_jax_policy
+
+    run, folder = tmp_path / "ppo_jax_seeds0-1", tmp_path / "exported"
+    policies = jax_run_folder(run, [0, 1])
+    folder.mkdir()
+    for seed, message in (
+        (None, r"seed: the run trained seeds \[0, 1\]; say which \(--seed K\)"),
+        (2, r"seed must be one of the run's seeds \[0, 1\], got 2"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            exporter.export(run, "pretrained", "tether-train ...", folder=folder, seed=seed)
+    policy_file, card_file = exporter.export(run, "pretrained", "tether-train --backend jax ...",
+                                             folder=folder, episodes=20, seed=1)  # fmt: skip
+    assert policy_file == folder / "default.msgpack" and (folder / "default.json").is_file()
+    agent = pretrained.load("pretrained", folder)
+    obs = np.random.default_rng(0).uniform(-1, 1, (64, 10)).astype(np.float32)
+    np.testing.assert_array_equal(agent.predict(obs)[0],
+                                  load_jax_policy(policies[1]).predict(obs)[0])  # fmt: skip
+    assert not np.array_equal(agent.predict(obs)[0], load_jax_policy(policies[0]).predict(obs)[0])
+    facts = pretrained.card("pretrained", folder)
+    assert (facts["backend"], facts["seed"], facts["seeds_trained_together"]) == ("jax", 1, 2)
+    held = facts["held_out"]
+    assert held["episodes"] == 20 and set(held) >= {"policy", "impulse oracle"}
+    assert "one of 2 seeds trained together in 12 s on cpu: cpu" in card_file.read_text()
+
+
+def test_a_one_seed_run_refuses_a_seed(tmp_path):
+    (tmp_path / "best").mkdir()
+    with pytest.raises(ValueError, match="seed: only a --backend jax run trains several seeds"):
+        exporter.export(tmp_path, "pretrained", "none", folder=tmp_path, seed=3)

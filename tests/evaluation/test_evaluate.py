@@ -17,6 +17,7 @@ import yaml
 import tether_gym  # noqa: F401
 from tests.helpers import ROOT
 from tests.helpers.envs import vector_env
+from tests.helpers.training import jax_run_folder
 from tether_gym.agents.aim_search import AimSearch
 from tether_gym.agents.direct import DirectShot
 from tether_gym.agents.oracle import ImpulseOracle
@@ -443,25 +444,8 @@ def test_a_saved_jax_policy_plays_its_run_s_final_table_episodes(tmp_path, capsy
     """A `--backend jax` run's `seed<k>.msgpack`: its run folder's config.yaml gives the final
     table's episodes."""
     pytest.importorskip("flax")
-    import jax
-
-    from tether_gym.agents.jax_policy import ActorCritic, PolicyConfig, save_policy
-
-    env = gym.make("TetherBounce-v0")
-    obs, act = env.observation_space, env.action_space
-    policy = PolicyConfig(
-        env_id="TetherBounce-v0", env_kwargs={"dynamics": "impulse"}, pi_arch=(8,),
-        vf_arch=(8,), activation="relu", log_std_init=0.0, obs_shape=obs.shape,
-        obs_low=obs.low.tolist(), obs_high=obs.high.tolist(), action_shape=act.shape,
-        action_low=act.low.tolist(), action_high=act.high.tolist(), recipe={},
-    )  # fmt: skip
-    network = ActorCritic(action_dim=act.shape[0], pi_arch=(8,), vf_arch=(8,))
-    params = network.init(jax.random.PRNGKey(0), np.zeros((1, *obs.shape), np.float32))
     run = tmp_path / "ppo_jax_seeds0-1"
-    path = save_policy(run / "seed0", params, policy)
-    config = {"backend": "jax", "algo": "ppo", "env_id": "TetherBounce-v0", "seeds": [0, 1],
-              "env_kwargs": {"dynamics": "impulse"}, "eval_episodes": 5}  # fmt: skip
-    (run / "config.yaml").write_text(yaml.safe_dump(config))
+    path = jax_run_folder(run, [0, 1], eval_episodes=5)[0]
     payload = json.loads(evaluate_saved(path, tmp_path=tmp_path))
     assert payload["setup"]["seed"] == TEST_SEED and payload["rows"][0]["episodes"] == 5
     first, playing = capsys.readouterr().out.splitlines()[:2]

@@ -1,9 +1,10 @@
 """Tiny training settings: runs of a few hundred timesteps that go through every phase of a
 run (8 envs x 64 steps: 512 PPO timesteps per rollout, one small epoch; SAC learning from its
-128th step), and reading a checkpoint's timesteps."""
+128th step), reading a checkpoint's timesteps, and a JAX run's folder without training."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import yaml
@@ -17,3 +18,38 @@ TINY_NAVIGATE_NET = "policy_kwargs:dict(features_extractor_class=NavigateExtract
 def saved_timesteps(folder: Path) -> int:
     """The timesteps of the checkpoint in `folder` (a run's `best/` or `last/`)."""
     return yaml.safe_load((folder / "config.yaml").read_text())["num_timesteps"]
+
+
+def jax_run_folder(run: Path, seeds: list[int], eval_episodes: int = 5) -> dict[int, Path]:
+    """A `tether-train --backend jax` run folder on impulse TetherBounce without training: each
+    seed's untrained 8-unit policy (`seed<k>.msgpack`, its network initialized from the seed),
+    the run's config.yaml and results.json; returns each seed's policy file."""
+    import gymnasium as gym
+    import jax
+    import numpy as np
+
+    from tether_gym.agents.jax_policy import ActorCritic, PolicyConfig, save_policy
+
+    env = gym.make("TetherBounce-v0")
+    obs, act = env.observation_space, env.action_space
+    env_kwargs = {"dynamics": "impulse"}
+    policy = PolicyConfig(
+        env_id="TetherBounce-v0", env_kwargs=env_kwargs, pi_arch=(8,), vf_arch=(8,),
+        activation="relu", log_std_init=0.0, obs_shape=obs.shape, obs_low=obs.low.tolist(),
+        obs_high=obs.high.tolist(), action_shape=act.shape, action_low=act.low.tolist(),
+        action_high=act.high.tolist(), recipe={},
+    )  # fmt: skip
+    network = ActorCritic(action_dim=act.shape[0], pi_arch=(8,), vf_arch=(8,), activation="relu")
+    first_obs = np.zeros((1, *obs.shape), np.float32)
+    paths = {
+        seed: save_policy(run / f"seed{seed}", network.init(jax.random.PRNGKey(seed), first_obs),
+                          policy)
+        for seed in seeds
+    }  # fmt: skip
+    config = {"backend": "jax", "algo": "ppo", "env_id": "TetherBounce-v0", "seeds": seeds,
+              "env_kwargs": env_kwargs, "eval_episodes": eval_episodes,
+              "hyperparams": {"n_envs": 8, "n_steps": 4}}  # fmt: skip
+    (run / "config.yaml").write_text(yaml.safe_dump(config))
+    summary = {"timesteps": 4096, "train_seconds": 12.5, "device": "cpu: cpu"}
+    (run / "results.json").write_text(json.dumps(summary))
+    return paths

@@ -1,6 +1,7 @@
 """Export a training run's best policy as a pretrained agent: its policy file and model card.
 
     tether export RUN_DIR NAME --command "..."
+    tether export RUN_DIR NAME --seed K --command "..."   # a `--backend jax` run's seed K
 
 The card's success and its baselines' are measured here, on the held-out episodes
 (`HELD_OUT_SEED`) of the run's env, by `tether_gym.evaluation.runner`; the catalog
@@ -10,6 +11,8 @@ without importing itself. For maintainers.
 
 from __future__ import annotations
 
+import json
+import shutil
 import sys
 from pathlib import Path
 from typing import Any
@@ -44,9 +47,12 @@ def export(
     note: str = "",
     folder: Path | None = None,
     episodes: int | None = None,
+    seed: int | None = None,
 ) -> tuple[Path, Path]:
-    """Write the policy of `run_dir/best/` and its card as the pretrained agent `name` (into
-    `folder`, default the catalog's).
+    """Write the policy of `run_dir` and its card as the pretrained agent `name` (into
+    `folder`, default the catalog's): an SB3 run's `best/` model, or seed `seed`'s policy of a
+    `--backend jax` run (its `seed<k>.msgpack`, the policy at the end of training; `seed` may
+    be left out where the run trained one).
 
     The card's facts come from the run's saved config; its success is measured here on
     `episodes` held-out episodes (default the env family's `card_episodes`) and on the first
@@ -54,9 +60,16 @@ def export(
     is appended to the card's text.
 
     Raises:
-        ValueError: for an unknown name, a run without `best/`, or a model that normalizes its
-            observations (a policy file cannot carry VecNormalize statistics).
+        ValueError: for an unknown name, a run without `best/` (SB3) or without the seed's
+            policy (JAX), or a model that normalizes its observations (a policy file cannot
+            carry VecNormalize statistics).
     """
+    top = run_dir / "config.yaml"
+    if top.is_file() and read_config(top).get("backend") == "jax":
+        return _export_jax(run_dir, name, command, note, folder, episodes, seed)
+    if seed is not None:
+        raise ValueError(f"seed: only a --backend jax run trains several seeds; {str(run_dir)!r}"
+                         " is a run of one seed")  # fmt: skip
     import stable_baselines3
 
     policy_file, card_file = agent_file(name, ".pt", folder), agent_file(name, ".md", folder)
@@ -73,44 +86,125 @@ def export(
     model = algorithm.load(best / "model.zip", device="cpu")
     model.policy.save(str(policy_file))
     policy = load_policy(policy_file, config["algo"], config["hyperparams"]["policy"])
-    env_id, env_kwargs = config["env_id"], config["env_kwargs"]
-    env_family = family(env_id)
-    if episodes is None:
-        episodes = env_family.card_episodes
-    first_episodes = env_family.card_test_episodes
-    agents = {"policy": with_planner(SB3Agent(policy), config)}
-    for label, spec in env_family.baselines.items():
-        agents[label] = make_agent(spec, env_kwargs, env_id=env_id)
-    results = {}
-    for label, agent in agents.items():
-        full = held_out(agent, env_kwargs, episodes, env_id)
-        results[label] = {
-            "successes": int(full.success.sum()),
-            "success_rate": round(float(full.success_rate), 4),
-            "success_ci": [round(float(x), 4) for x in full.success_ci],
-            f"successes_first_{first_episodes}": int(full.success[:first_episodes].sum()),
-        }
-    held = {"seed": HELD_OUT_SEED, "episodes": episodes}
-    if first_episodes != TEST_EPISODES:  # a card without it replays TEST_EPISODES
-        held["test_episodes"] = first_episodes
-    held.update(results)
+    agent = with_planner(SB3Agent(policy), config)
     facts = {
         "name": name,
         "algo": config["algo"],
         "policy": config["hyperparams"]["policy"],
-        "env_id": env_id,
-        "env_kwargs": env_kwargs,
+        "env_id": config["env_id"],
+        "env_kwargs": config["env_kwargs"],
         "seed": config["seed"],
         "timesteps": int(config["num_timesteps"]),
         "trained_timesteps": int(last["num_timesteps"]),
         "train_seconds": last.get("train_seconds"),
         "torch_threads": last.get("torch_threads", 1),
         "command": command,
-        "held_out": held,
+        "held_out": _held_out_results(agent, config["env_id"], config["env_kwargs"], episodes),
         "hyperparams": config["hyperparams"],
     }
     card_file.write_text(_card_text(facts, note))
     return policy_file, card_file
+
+
+def _export_jax(
+    run_dir: Path,
+    name: str,
+    command: str,
+    note: str,
+    folder: Path | None,
+    episodes: int | None,
+    seed: int | None,
+) -> tuple[Path, Path]:
+    """`export` of a `--backend jax` run: seed `seed`'s `.msgpack` and `.json` copied as the
+    agent's (`agents.jax_policy`'s format), its card from the run's config and results.json."""
+    from tether_gym.agents.jax_policy import load_policy as load_jax_policy
+
+    config = read_config(run_dir / "config.yaml")
+    seeds = config.get("seeds") or []
+    if seed is None and len(seeds) == 1:
+        seed = seeds[0]
+    if seed is None:
+        raise ValueError(f"seed: the run trained seeds {seeds}; say which (--seed K)")
+    if seed not in seeds:
+        raise ValueError(f"seed must be one of the run's seeds {seeds}, got {seed}")
+    source = run_dir / f"seed{seed}.msgpack"
+    if not source.is_file():
+        raise ValueError(f"run_dir {str(run_dir)!r} has no {source.name}")
+    summary_file = run_dir / "results.json"
+    if not summary_file.is_file():
+        raise ValueError(f"run_dir {str(run_dir)!r} has no results.json: did its training end?")
+    summary = json.loads(summary_file.read_text())
+    policy_file, card_file = agent_file(name, ".msgpack", folder), agent_file(name, ".md", folder)
+    shutil.copyfile(source, policy_file)
+    shutil.copyfile(source.with_suffix(".json"), policy_file.with_suffix(".json"))
+    agent = load_jax_policy(policy_file)
+    facts = {
+        "name": name,
+        "backend": "jax",
+        "algo": config["algo"],
+        "policy": "ActorCritic",
+        "env_id": config["env_id"],
+        "env_kwargs": config["env_kwargs"],
+        "seed": seed,
+        "seeds_trained_together": len(seeds),
+        "timesteps": int(summary["timesteps"]),
+        "trained_timesteps": int(summary["timesteps"]),
+        "train_seconds": summary["train_seconds"],
+        "device": summary.get("device"),
+        "command": command,
+        "held_out": _held_out_results(agent, config["env_id"], config["env_kwargs"], episodes),
+        "hyperparams": config["hyperparams"],
+    }
+    card_file.write_text(_card_text(facts, note))
+    return policy_file, card_file
+
+
+def _held_out_results(
+    agent: object, env_id: str, env_kwargs: dict, episodes: int | None
+) -> dict[str, Any]:
+    """A card's `held_out`: the agent's and its family's baselines' successes on `episodes`
+    held-out episodes (default the family's `card_episodes`) and on the first
+    `card_test_episodes` of them."""
+    env_family = family(env_id)
+    if episodes is None:
+        episodes = env_family.card_episodes
+    first_episodes = env_family.card_test_episodes
+    agents = {"policy": agent}
+    for label, spec in env_family.baselines.items():
+        agents[label] = make_agent(spec, env_kwargs, env_id=env_id)
+    held: dict[str, Any] = {"seed": HELD_OUT_SEED, "episodes": episodes}
+    if first_episodes != TEST_EPISODES:  # a card without it replays TEST_EPISODES
+        held["test_episodes"] = first_episodes
+    for label, agent in agents.items():
+        full = held_out(agent, env_kwargs, episodes, env_id)
+        held[label] = {
+            "successes": int(full.success.sum()),
+            "success_rate": round(float(full.success_rate), 4),
+            "success_ci": [round(float(x), 4) for x in full.success_ci],
+            f"successes_first_{first_episodes}": int(full.success[:first_episodes].sum()),
+        }
+    return held
+
+
+def _provenance(facts: dict[str, Any], env: object) -> str:
+    """The card's first sentence: what was trained, how long, which model was kept and what its
+    policy file holds."""
+    trained = f"{facts['algo'].upper()} ({facts['policy']}) on {facts['env_id']} ({env}), seed "
+    if facts.get("backend") == "jax":
+        return (
+            f"{trained}{facts['seed']}, trained by the JAX PPO (`tether-train --backend jax`): "
+            f"the policy at the end of its {facts['trained_timesteps']:,} timesteps, one of "
+            f"{facts['seeds_trained_together']} seeds trained together in "
+            f"{facts['train_seconds']:.0f} s on {facts['device']}. The policy file holds the "
+            "flax parameters (`.msgpack`) and, beside it, the network and spaces (`.json`): no "
+            "optimizer state."
+        )
+    return (
+        f"{trained}{facts['seed']}: the model kept at {facts['timesteps']:,} timesteps (the best "
+        f"periodic evaluation) of a {facts['trained_timesteps']:,}-timestep run that trained for "
+        f"{facts['train_seconds']:.0f} s on {_threads(facts.get('torch_threads', 1))}. The "
+        "policy file holds the weights and constructor arguments only (no optimizer state)."
+    )
 
 
 def _threads(threads: int) -> str:
@@ -133,11 +227,7 @@ def _card_text(facts: dict[str, Any], note: str) -> str:
         "---",
         f"# Pretrained agent `{facts['name']}`",
         "",
-        f"{facts['algo'].upper()} ({facts['policy']}) on {facts['env_id']} ({env}), seed "
-        f"{facts['seed']}: the model kept at {facts['timesteps']:,} timesteps (the best periodic "
-        f"evaluation) of a {facts['trained_timesteps']:,}-timestep run that trained for "
-        f"{facts['train_seconds']:.0f} s on {_threads(facts.get('torch_threads', 1))}. The "
-        "policy file holds the weights and constructor arguments only (no optimizer state).",
+        _provenance(facts, env),
     ]
     if planned is not None:
         lines += [
@@ -189,9 +279,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("name", choices=sorted(AGENTS), help="the pretrained agent to replace")
     parser.add_argument("--command", required=True, help="the command that trained the run")
     parser.add_argument("--note", default="", help="text appended to the card")
+    parser.add_argument(
+        "--seed", type=int, default=None, help="a --backend jax run's seed to export"
+    )
     args = parser.parse_args(argv)
     try:
-        paths = export(args.run_dir, args.name, args.command, args.note)
+        paths = export(args.run_dir, args.name, args.command, args.note, seed=args.seed)
     except ValueError as error:
         parser.error(str(error))
     print("wrote", *paths)

@@ -4,19 +4,21 @@
     tether-evaluate --agents pretrained-low-stiffness shooting --rho 5 100
     tether-evaluate --env TetherNavigate_PostsReach-v3 --agents pretrained greedy lookahead
 
-Each agent is two package files here: `<name>.pt`, the policy alone as stable-baselines3's
+Each agent is its policy file here, `<name>.pt`, the policy alone as stable-baselines3's
 `BasePolicy.save` writes it (weights and constructor arguments: no optimizer state, no replay
-buffer, no value of training), and `<name>.md`, its model card: YAML front matter (the
-machine-readable facts, read by `card`) and the text. `AGENTS` maps the names that
-`tether-evaluate --agents` takes to the files; on TetherNavigate, "pretrained" is the agent of
-the env's task (`for_env`). A navigation agent picks among the greedy planner's proposals: its
-planner is part of it, rebuilt from the card's settings when it loads, and its card says so.
+buffer, no value of training), or for a policy of the JAX PPO (its card's `backend: jax`)
+`<name>.msgpack` and `<name>.json` (`agents.jax_policy`'s format), and `<name>.md`, its model
+card: YAML front matter (the machine-readable facts, read by `card`) and the text. `AGENTS`
+maps the names that `tether-evaluate --agents` takes to the files; on TetherNavigate,
+"pretrained" is the agent of the env's task (`for_env`). A navigation agent picks among the
+greedy planner's proposals: its planner is part of it, rebuilt from the card's settings when
+it loads, and its card says so.
 
 The card's success is measured on held-out episodes (`tether_gym.seeds.HELD_OUT_SEED`), apart
 from the episodes that picked the best model of a run (`EVAL_SEED`) and from those that picked
 the best seed of a sweep (`TEST_SEED`). `tether export RUN_DIR NAME --command ...` turns a
-run's `best/` model into these two files (for maintainers: `tether_gym.evaluation.export`,
-which plays the agents; this catalog only loads them).
+run's `best/` model (or `--seed K`'s policy of a JAX run) into these files (for maintainers:
+`tether_gym.evaluation.export`, which plays the agents; this catalog only loads them).
 """
 
 from __future__ import annotations
@@ -101,5 +103,10 @@ def load(name: str, folder: Path | None = None):
     """The pretrained agent `name` (a key of `AGENTS`): its policy, deterministic by default,
     with its planner if it has one (`planned.with_planner`, from the card's settings)."""
     facts = card(name, folder)
+    if facts.get("backend") == "jax":
+        require_extra(f"the pretrained policy {name!r}", ("jax", "flax"), "jax")
+        from tether_gym.agents.jax_policy import load_policy as load_jax_policy
+
+        return load_jax_policy(agent_file(name, ".msgpack", folder))
     policy = load_policy(agent_file(name, ".pt", folder), facts["algo"], facts["policy"])
     return with_planner(SB3Agent(policy), facts)
