@@ -126,9 +126,10 @@ def test_export_writes_a_policy_that_acts_as_the_trained_model(tmp_path):
 
 
 def test_a_jax_run_s_seed_exports_as_a_pretrained_agent(tmp_path):
-    """A `--backend jax` run of two seeds: the seed asked for is copied in the JAX policy's
-    format and loads from the card alone (`backend: jax`), acting as that seed's policy; the card
-    says which seed of how many, trained how; a seed not given or not in the run is refused."""
+    """A `--backend jax` run of two seeds: the best policy of the seed asked for is copied in
+    the JAX policy's format and loads from the card alone (`backend: jax`), acting as that
+    policy; the card says which seed of how many, kept when, trained how; a seed not given or
+    not in the run is refused."""
     pytest.importorskip("flax")
     from tether_gym.agents.jax_policy import load_policy as load_jax_policy
 
@@ -153,7 +154,10 @@ def test_a_jax_run_s_seed_exports_as_a_pretrained_agent(tmp_path):
     assert (facts["backend"], facts["seed"], facts["seeds_trained_together"]) == ("jax", 1, 2)
     held = facts["held_out"]
     assert held["episodes"] == 20 and set(held) >= {"policy", "impulse oracle"}
-    assert "one of 2 seeds trained together in 12 s on cpu: cpu" in card_file.read_text()
+    assert (facts["timesteps"], facts["trained_timesteps"]) == (2048, 4096)
+    text = card_file.read_text()
+    assert "kept at 2,048 timesteps (the best periodic evaluation) of a 4,096-timestep run" in text
+    assert "one of 2 seeds trained together in 12 s on cpu: cpu" in text
 
 
 def test_a_one_seed_run_refuses_a_seed(tmp_path):

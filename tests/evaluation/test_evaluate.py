@@ -445,7 +445,8 @@ def test_a_saved_jax_policy_plays_its_run_s_final_table_episodes(tmp_path, capsy
     table's episodes."""
     pytest.importorskip("flax")
     run = tmp_path / "ppo_jax_seeds0-1"
-    path = jax_run_folder(run, [0, 1], eval_episodes=5)[0]
+    jax_run_folder(run, [0, 1], eval_episodes=5)
+    path = run / "seed0.msgpack"
     payload = json.loads(evaluate_saved(path, tmp_path=tmp_path))
     assert payload["setup"]["seed"] == TEST_SEED and payload["rows"][0]["episodes"] == 5
     first, playing = capsys.readouterr().out.splitlines()[:2]

@@ -22,8 +22,9 @@ def saved_timesteps(folder: Path) -> int:
 
 def jax_run_folder(run: Path, seeds: list[int], eval_episodes: int = 5) -> dict[int, Path]:
     """A `tether-train --backend jax` run folder on impulse TetherBounce without training: each
-    seed's untrained 8-unit policy (`seed<k>.msgpack`, its network initialized from the seed),
-    the run's config.yaml and results.json; returns each seed's policy file."""
+    seed's untrained 8-unit policies, its last (`seed<k>.msgpack`, initialized from the seed)
+    and its best at 2,048 of 4,096 timesteps (`seed<k>_best.msgpack`, from seed + 100), the
+    run's config.yaml and results.json; returns each seed's best policy file."""
     import gymnasium as gym
     import jax
     import numpy as np
@@ -41,15 +42,16 @@ def jax_run_folder(run: Path, seeds: list[int], eval_episodes: int = 5) -> dict[
     )  # fmt: skip
     network = ActorCritic(action_dim=act.shape[0], pi_arch=(8,), vf_arch=(8,), activation="relu")
     first_obs = np.zeros((1, *obs.shape), np.float32)
-    paths = {
-        seed: save_policy(run / f"seed{seed}", network.init(jax.random.PRNGKey(seed), first_obs),
-                          policy)
-        for seed in seeds
-    }  # fmt: skip
+    paths = {}
+    for seed in seeds:
+        save_policy(run / f"seed{seed}", network.init(jax.random.PRNGKey(seed), first_obs), policy)
+        best = network.init(jax.random.PRNGKey(seed + 100), first_obs)
+        paths[seed] = save_policy(run / f"seed{seed}_best", best, policy)
     config = {"backend": "jax", "algo": "ppo", "env_id": "TetherBounce-v0", "seeds": seeds,
               "env_kwargs": env_kwargs, "eval_episodes": eval_episodes,
               "hyperparams": {"n_envs": 8, "n_steps": 4}}  # fmt: skip
     (run / "config.yaml").write_text(yaml.safe_dump(config))
-    summary = {"timesteps": 4096, "train_seconds": 12.5, "device": "cpu: cpu"}
+    summary = {"timesteps": 4096, "train_seconds": 12.5, "device": "cpu: cpu",
+               "best_timesteps": {str(seed): 2048 for seed in seeds}}  # fmt: skip
     (run / "results.json").write_text(json.dumps(summary))
     return paths

@@ -52,6 +52,7 @@ def test_a_tiny_run_writes_the_run_folder_and_the_final_table(jax_run):
     names = {path.name for path in run_dir.iterdir()}
     assert {"config.yaml", "evaluations.csv", "results.md", "results.json"} <= names
     assert {"seed0.msgpack", "seed0.json", "seed1.msgpack", "seed1.json"} <= names
+    assert {"seed0_best.msgpack", "seed0_best.json", "seed1_best.msgpack"} <= names
     config = yaml.safe_load((run_dir / "config.yaml").read_text())
     assert (config["backend"], config["seeds"], config["algo"]) == ("jax", [0, 1], "ppo")
     assert config["env_kwargs"] == {"dynamics": "impulse"} and config["timesteps"] == 4096
@@ -65,18 +66,23 @@ def test_a_tiny_run_writes_the_run_folder_and_the_final_table(jax_run):
     assert [row.split(",")[:2] for row in evaluations[1:]] == [["4096", "0"], ["4096", "1"]]
     summary = json.loads((run_dir / "results.json").read_text())
     rows = [r["name"] for r in summary["results"]]
-    assert rows == ["PPO jax seed0", "PPO jax seed1", "impulse oracle", "shooting oracle",
-                    "random"]  # fmt: skip
+    policies = [f"PPO jax seed{s} ({kind})" for kind in ("best", "last") for s in (0, 1)]
+    assert rows == [*policies, "impulse oracle", "shooting oracle", "random"]
     assert all(r["episodes"] == 20 for r in summary["results"])
     assert (summary["backend"], summary["seeds"], summary["timesteps"]) == ("jax", [0, 1], 4096)
-    mean = summary["mean_over_seeds"]
-    assert (
-        mean["seeds"] == 2 and len(mean["per_seed"]) == 2 and mean["worst"] <= mean["success_mean"]
-    )
+    # one evaluation, at the end: each seed's best is its last policy
+    assert summary["best_timesteps"] == {"0": 4096, "1": 4096}
+    by_name = {r["name"]: r["success_rate"] for r in summary["results"]}
+    assert all(by_name[f"PPO jax seed{s} (best)"] == by_name[f"PPO jax seed{s} (last)"]
+               for s in (0, 1))  # fmt: skip
+    for kind in ("best", "last"):
+        mean = summary["mean_over_seeds"][kind]
+        assert mean["seeds"] == 2 and mean["worst"] <= mean["success_mean"]
     assert summary["steps_per_second"] > 0 and summary["compile_seconds"] > 0
     table = (run_dir / "results.md").read_text()
-    assert "| PPO jax seed1 | 20 |" in table and "| impulse oracle | 20 |" in table
-    assert "PPO jax, mean of 2 seeds (t interval over seeds) | 2 x 20 |" in table
+    assert "| PPO jax seed1 (best) | 20 |" in table and "| impulse oracle | 20 |" in table
+    assert "PPO jax (best), mean of 2 seeds (t interval over seeds) | 2 x 20 |" in table
+    assert "PPO jax (last), mean of 2 seeds (t interval over seeds) | 2 x 20 |" in table
     assert table.strip() in output
 
 
@@ -90,7 +96,7 @@ def test_the_yardsticks_play_the_sb3_final_tables_episodes(jax_run):
     config = RunConfig.from_dict({k: v for k, v in config.items() if k not in ("backend", "seeds")})
     again = {r.name: r.success_rate for r in final_table(config, {})}
     summary = json.loads((run_dir / "results.json").read_text())
-    assert {r["name"]: r["success_rate"] for r in summary["results"][2:]} == again
+    assert {r["name"]: r["success_rate"] for r in summary["results"][4:]} == again
 
 
 def test_tether_evaluate_plays_a_saved_seed_without_env_flags(jax_run, tmp_path, capsys):
@@ -108,7 +114,7 @@ def test_tether_evaluate_plays_a_saved_seed_without_env_flags(jax_run, tmp_path,
     # by default on the final table's episodes: it plays as the final table said
     (row,) = [r for r in evaluated["rows"] if r["name"] == "seed0"]
     (final,) = [r for r in json.loads((run_dir / "results.json").read_text())["results"]
-                if r["name"] == "PPO jax seed0"]  # fmt: skip
+                if r["name"] == "PPO jax seed0 (last)"]  # fmt: skip
     for key in ("success_rate", "reward_mean", "heading_error_mean_deg"):
         assert row[key] == pytest.approx(final[key]), key
 

@@ -50,9 +50,9 @@ def export(
     seed: int | None = None,
 ) -> tuple[Path, Path]:
     """Write the policy of `run_dir` and its card as the pretrained agent `name` (into
-    `folder`, default the catalog's): an SB3 run's `best/` model, or seed `seed`'s policy of a
-    `--backend jax` run (its `seed<k>.msgpack`, the policy at the end of training; `seed` may
-    be left out where the run trained one).
+    `folder`, default the catalog's): an SB3 run's `best/` model, or seed `seed`'s best policy
+    of a `--backend jax` run (`seed<k>_best.msgpack`; its last, `seed<k>.msgpack`, where the run
+    evaluated none; `seed` may be left out where the run trained one).
 
     The card's facts come from the run's saved config; its success is measured here on
     `episodes` held-out episodes (default the env family's `card_episodes`) and on the first
@@ -115,8 +115,9 @@ def _export_jax(
     episodes: int | None,
     seed: int | None,
 ) -> tuple[Path, Path]:
-    """`export` of a `--backend jax` run: seed `seed`'s `.msgpack` and `.json` copied as the
-    agent's (`agents.jax_policy`'s format), its card from the run's config and results.json."""
+    """`export` of a `--backend jax` run: seed `seed`'s best (else last) `.msgpack` and `.json`
+    copied as the agent's (`agents.jax_policy`'s format), its card from the run's config and
+    results.json."""
     from tether_gym.agents.jax_policy import load_policy as load_jax_policy
 
     config = read_config(run_dir / "config.yaml")
@@ -127,13 +128,14 @@ def _export_jax(
         raise ValueError(f"seed: the run trained seeds {seeds}; say which (--seed K)")
     if seed not in seeds:
         raise ValueError(f"seed must be one of the run's seeds {seeds}, got {seed}")
-    source = run_dir / f"seed{seed}.msgpack"
-    if not source.is_file():
-        raise ValueError(f"run_dir {str(run_dir)!r} has no {source.name}")
     summary_file = run_dir / "results.json"
     if not summary_file.is_file():
         raise ValueError(f"run_dir {str(run_dir)!r} has no results.json: did its training end?")
     summary = json.loads(summary_file.read_text())
+    kept = summary.get("best_timesteps", {}).get(str(seed))
+    source = run_dir / (f"seed{seed}.msgpack" if kept is None else f"seed{seed}_best.msgpack")
+    if not source.is_file():
+        raise ValueError(f"run_dir {str(run_dir)!r} has no {source.name}")
     policy_file, card_file = agent_file(name, ".msgpack", folder), agent_file(name, ".md", folder)
     shutil.copyfile(source, policy_file)
     shutil.copyfile(source.with_suffix(".json"), policy_file.with_suffix(".json"))
@@ -147,7 +149,7 @@ def _export_jax(
         "env_kwargs": config["env_kwargs"],
         "seed": seed,
         "seeds_trained_together": len(seeds),
-        "timesteps": int(summary["timesteps"]),
+        "timesteps": int(summary["timesteps"] if kept is None else kept),
         "trained_timesteps": int(summary["timesteps"]),
         "train_seconds": summary["train_seconds"],
         "device": summary.get("device"),
@@ -193,7 +195,7 @@ def _provenance(facts: dict[str, Any], env: object) -> str:
     if facts.get("backend") == "jax":
         return (
             f"{trained}{facts['seed']}, trained by the JAX PPO (`tether-train --backend jax`): "
-            f"the policy at the end of its {facts['trained_timesteps']:,} timesteps, one of "
+            f"{_kept(facts)} of a {facts['trained_timesteps']:,}-timestep run, one of "
             f"{facts['seeds_trained_together']} seeds trained together in "
             f"{facts['train_seconds']:.0f} s on {facts['device']}. The policy file holds the "
             "flax parameters (`.msgpack`) and, beside it, the network and spaces (`.json`): no "
@@ -205,6 +207,13 @@ def _provenance(facts: dict[str, Any], env: object) -> str:
         f"{facts['train_seconds']:.0f} s on {_threads(facts.get('torch_threads', 1))}. The "
         "policy file holds the weights and constructor arguments only (no optimizer state)."
     )
+
+
+def _kept(facts: dict[str, Any]) -> str:
+    """Which of a JAX run's policies a card holds: its best periodic evaluation's, or its last."""
+    if facts["timesteps"] == facts["trained_timesteps"]:
+        return "the policy at the end"
+    return f"the policy kept at {facts['timesteps']:,} timesteps (the best periodic evaluation)"
 
 
 def _threads(threads: int) -> str:

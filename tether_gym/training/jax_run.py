@@ -13,13 +13,16 @@ Refused up front (ValueError naming the option): an env without a JAX backend
 and the aim policy, `--resume` (not supported yet), and whatever the JAX trainer cannot honour.
 
 The run folder holds `config.yaml` (the `RunConfig` with `backend: jax` and `seeds`),
-`seed<k>.msgpack` + `seed<k>.json` per seed (`save_trained`; `tether-evaluate --agents
-RUN/seed0.msgpack` plays one on its env), `evaluations.csv` (every `eval_freq` timesteps, a row
-per seed: its deterministic policy on the periodic evaluation's episodes beside the yardstick)
-and the final table, `results.md` and `results.json`: each seed's policy and the env's
-baselines on the same test episodes (`TEST_SEED`) as an SB3 run's final table
-(`experiment.final_table`), and the mean over seeds with its 95% t interval. The compile step
-is announced and timed apart; the training clock starts after it.
+`seed<k>.msgpack` + `seed<k>.json` per seed, its policy at the end (`save_trained`;
+`tether-evaluate --agents RUN/seed0.msgpack` plays one on its env), `seed<k>_best.msgpack` +
+`.json`, the policy of its best periodic evaluation (as an SB3 run's `best/`: kept when its
+success beats the seed's best so far), `evaluations.csv` (every `eval_freq` timesteps, a row per
+seed: its deterministic policy on the periodic evaluation's episodes beside the yardstick) and
+the final table, `results.md` and `results.json`: each seed's best and last policies and the
+env's baselines on the same test episodes (`TEST_SEED`) as an SB3 run's final table
+(`experiment.final_table`), and the mean over seeds of the best and of the last policies with
+its 95% t interval. The compile step is announced and timed apart; the training clock starts
+after it.
 
 Imports jax only for an env with a JAX backend, after `require_extra` (which names the `jax`
 extra).
@@ -168,10 +171,17 @@ def chunk_updates(run: JaxRun) -> int:
     return max(1, math.ceil(ppo.n_updates / PROGRESS_LINES))
 
 
+def best_stem(run_dir: Path, seed: int) -> Path:
+    """Where a seed's best policy is kept: `seed<k>_best` (.msgpack and .json)."""
+    return run_dir / f"seed{seed}_best"
+
+
 class PeriodicEval:
     """After each chunk of updates (if `eval_freq`): each seed's deterministic policy on the
     periodic evaluation's episodes (`EVAL_SEED`) beside the family's yardstick, a row per seed
-    appended to `evaluations.csv` (the SB3 run's columns, and `seed`) and a line printed."""
+    appended to `evaluations.csv` (the SB3 run's columns, and `seed`) and a line printed; a
+    seed's policy saved as its best (`best_stem`) when its success beats the seed's best so far
+    (the first evaluation's always), as SB3's evaluation keeps `best/`."""
 
     def __init__(self, run: JaxRun):
         from tether_gym.training.yardsticks import yardstick
@@ -181,6 +191,8 @@ class PeriodicEval:
         self.yardstick_rate: float | None = None
         self.family = family(run.config.env_id)
         self.agents: dict[str, Any] = {}
+        self.best: dict[int, tuple[float, int]] = {}
+        """Each seed's best success so far and the timesteps it was reached at."""
 
     def _evaluate(self, agents: dict[str, Any]) -> list[Result]:
         from tether_gym.evaluation.runner import evaluate
@@ -191,7 +203,7 @@ class PeriodicEval:
 
     def __call__(self, updates: int, params: Any) -> None:
         from tether_gym.agents.jax_policy import JaxPolicyAgent
-        from tether_gym.training.jax_ppo import policy_config, unstack
+        from tether_gym.training.jax_ppo import policy_config, save_trained, unstack
 
         if self.yardstick_rate is None:
             (result,) = self._evaluate({self.yardstick: self.baseline})
@@ -203,7 +215,10 @@ class PeriodicEval:
             agent.params = unstack(params, i)
         timesteps = min(updates, self.run.ppo.n_updates) * self.run.ppo.rollout_size
         results = self._evaluate(self.agents)
-        for seed, result in zip(self.run.seeds, results, strict=True):
+        for i, (seed, result) in enumerate(zip(self.run.seeds, results, strict=True)):
+            if seed not in self.best or result.success_rate > self.best[seed][0]:
+                self.best[seed] = (result.success_rate, timesteps)
+                save_trained(best_stem(self.run.run_dir, seed), unstack(params, i), self.run.ppo)
             numbers = {"timesteps": timesteps, "seed": seed, "success_rate": result.success_rate,
                        self.family.yardstick_column: self.yardstick_rate}  # fmt: skip
             numbers.update({name: getattr(result, name) for name in self.family.metrics})
@@ -241,6 +256,7 @@ def seeds_row(results: list[Result], label: str) -> tuple[str, dict[str, Any]]:
 def train(run: JaxRun, progress: bool = True) -> dict[str, Any]:
     """Train the seeds of `run`, save their policies, play the final table; returns the
     summary written to results.json, with `table` (Markdown) added."""
+    from tether_gym.agents.jax_policy import load_policy
     from tether_gym.evaluation.reports import format_table
     from tether_gym.training.experiment import final_table
     from tether_gym.training.jax_ppo import save_trained, train_seeds, unstack
@@ -264,15 +280,24 @@ def train(run: JaxRun, progress: bool = True) -> dict[str, Any]:
     out = train_seeds(ppo, seeds, chunk_updates(run), log=log, after_chunk=hook)
     for i, seed in enumerate(seeds):
         save_trained(run_dir / f"seed{seed}", unstack(out.params, i), ppo)
+    best = hook.best if hook is not None else {}
+    kept = " (the best as seed<k>_best.msgpack)" if best else ""
     print(f"trained {len(seeds)} seeds x {out.timesteps:,} timesteps in {out.train_seconds:.1f} s "
           f"({out.steps_per_second:,.0f} steps/s) after {out.compile_seconds:.1f} s compiling; "
-          f"policies saved as {run_dir}/seed<k>.msgpack", flush=True)  # fmt: skip
+          f"policies saved as {run_dir}/seed<k>.msgpack{kept}", flush=True)  # fmt: skip
     clock = time.perf_counter()
-    named = {f"{run.label()} seed{seed}": out.agent(i) for i, seed in enumerate(seeds)}
+    label = run.label()
+    named = {f"{label} seed{seed} (best)": load_policy(best_stem(run_dir, seed).with_suffix(
+        ".msgpack")) for seed in seeds if seed in best}  # fmt: skip
+    named.update({f"{label} seed{seed} (last)": out.agent(i) for i, seed in enumerate(seeds)})
     results = final_table(config, named)
     eval_seconds = time.perf_counter() - clock
-    row, figures = seeds_row(results[: len(seeds)], run.label())
-    table = format_table(results) + "\n" + row
+    played = {"best": results[: len(best)], "last": results[len(best) : len(named)]}
+    rows, figures = {}, {}
+    for kind, kind_results in played.items():
+        if kind_results:
+            rows[kind], figures[kind] = seeds_row(kind_results, f"{label} ({kind})")
+    table = format_table(results) + "\n" + "\n".join(rows.values())
     (run_dir / "results.md").write_text(table + "\n")
     summary = {
         "run_dir": str(run_dir),
@@ -288,6 +313,7 @@ def train(run: JaxRun, progress: bool = True) -> dict[str, Any]:
         "wall_seconds": time.perf_counter() - wall,
         "device": _device(),
         "mean_over_seeds": figures,
+        "best_timesteps": {str(seed): timesteps for seed, (_, timesteps) in best.items()},
         "results": [result.summary() for result in results],
     }
     (run_dir / RESULTS).write_text(json.dumps(summary, indent=1) + "\n")
@@ -314,8 +340,8 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except KeyboardInterrupt:
         kept = {entry.name for entry in run.run_dir.iterdir()} - {"config.yaml"}
         again = "pass --overwrite to start it again" if kept else "the same command starts it again"
-        print(f"\ninterrupted: a --backend jax run keeps its policies only at the end; {again}",
-              file=sys.stderr)  # fmt: skip
+        print(f"\ninterrupted: a --backend jax run keeps its last policies only at the end "
+              f"(its best so far as seed<k>_best.msgpack); {again}", file=sys.stderr)  # fmt: skip
         return 130
     env = run.config.env_kwargs or "default env"
     print(f"\nTest episodes (seed {TEST_SEED}), {run.config.env_id} {env}:\n{summary['table']}")
