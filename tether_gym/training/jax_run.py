@@ -287,8 +287,8 @@ def train(run: JaxRun, progress: bool = True) -> dict[str, Any]:
           f"policies saved as {run_dir}/seed<k>.msgpack{kept}", flush=True)  # fmt: skip
     clock = time.perf_counter()
     label = run.label()
-    named = {f"{label} seed{seed} (best)": load_policy(best_stem(run_dir, seed).with_suffix(
-        ".msgpack")) for seed in seeds if seed in best}  # fmt: skip
+    named = {f"{label} seed{seed} (best)": load_policy(best_stem(run_dir, seed))
+             for seed in seeds if seed in best}  # fmt: skip
     named.update({f"{label} seed{seed} (last)": out.agent(i) for i, seed in enumerate(seeds)})
     results = final_table(config, named)
     eval_seconds = time.perf_counter() - clock
