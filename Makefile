@@ -4,8 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 TRAIN_STAMP := $(VENV)/.installed-train
-# --no-compile: Python compiles the modules a run imports, not all of torch, Ray and jax up front.
-PIP_INSTALL := $(BIN)/python -m pip install --quiet --no-compile -c constraints.txt
+PIP_INSTALL := $(BIN)/python -m pip install --quiet -c constraints.txt
 
 .PHONY: test test-fast test-jax-train train lint format docs docs-check figures bench results clean clean-cache
 
