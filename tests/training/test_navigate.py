@@ -89,7 +89,7 @@ def test_sac_with_her_trains_on_the_sparse_env_and_resumes(tmp_path):
     assert (folder / "last" / "replay_buffer.pkl").is_file()
     for name in ("SAC (best)", "SAC (last)", *BASELINES):
         assert f"| {name} |" in (folder / "results.md").read_text()
-    summary = train.train({**config, "timesteps": 768}, folder, resume=True)
+    summary = experiment.train({**config, "timesteps": 768}, folder, resume=True)
     assert summary["timesteps"] == saved_timesteps(folder / "last") == 768
     curve = (folder / folders.EVALUATIONS).read_text().splitlines()  # the resumed run appends
     assert curve[0].startswith("timesteps,success_rate,planner_success_rate")

@@ -20,6 +20,7 @@ pytest.importorskip("stable_baselines3")
 from tests.helpers import ROOT
 from tests.helpers.training import TINY_NET, TINY_PPO, TINY_SAC, saved_timesteps
 from tether_gym.training import callbacks, experiment, recipe, train, zoo
+from tether_gym.training.config import make_config
 
 FAST_PARAMS = [*TINY_PPO, "policy_kwargs:dict(net_arch=[16], log_std_init=-1.0)"]
 FAST = [
@@ -119,13 +120,13 @@ def test_train_runs_a_config_as_the_cli_does(tmp_path, monkeypatch):
         experiment, "env_kernels", lambda *build: built.append(build) or env_kernels(*build)
     )
     params = zoo.load_hyperparams(zoo.DEFAULT_CONF, zoo.parse_overrides(FAST_PARAMS))
-    config = train.make_config(
+    config = make_config(
         "TetherBounce-v0", {"rho": [20.0, 200.0]}, params,
         n_envs=8, timesteps=1024, eval_episodes=40, eval_freq=512,
     )  # fmt: skip
     folder = tmp_path / "trial"
     reports: list[dict] = []
-    summary = train.train(config, folder, report=reports.append)
+    summary = experiment.train(config, folder, report=reports.append)
     assert [build[:3] for build in built] == [
         ("TetherBounce-v0", {"rho": [20.0, 200.0]}, (copies,)) for copies in (8, 40, 40, 40, 40)
     ]
@@ -137,10 +138,10 @@ def test_train_runs_a_config_as_the_cli_does(tmp_path, monkeypatch):
     names = [r["name"] for r in summary["results"]]
     assert names == ["PPO (best)", "PPO (last)", "impulse oracle", "shooting oracle", "random"]
     assert summary["table"] == (folder / "results.md").read_text().strip()
-    summary = train.train(config.replace(timesteps=1536), folder, resume=True)
+    summary = experiment.train(config.replace(timesteps=1536), folder, resume=True)
     assert summary["timesteps"] == saved_timesteps(folder / "last") == 1536
     with pytest.raises(ValueError, match="has 1536 timesteps"):
-        train.train(config.as_dict() | {"timesteps": 1536}, folder, resume=True)
+        experiment.train(config.as_dict() | {"timesteps": 1536}, folder, resume=True)
 
 
 SAC_TINY = [*TINY_SAC, TINY_NET]

@@ -11,6 +11,9 @@ from typing import Any
 
 from tether_gym.arguments import check_env
 
+ALGO_NAMES = ("ppo", "sac")
+"""`--algo`'s names (`tether_gym.training.zoo.ALGOS` maps them to their SB3 classes), here where
+the command line reads them without importing SB3."""
 CHECKPOINT_KEYS = ("num_timesteps", "train_seconds", "eval_success_rate", "torch_threads")
 """What a checkpoint's `config.yaml` adds to the run's (`tether_gym.training.folders`)."""
 
@@ -21,7 +24,7 @@ class RunConfig:
     `tether_gym.training.experiment.check_config`."""
 
     algo: str = "ppo"
-    """The algorithm, a name of `ALGOS`."""
+    """The algorithm, one of `ALGO_NAMES`."""
     env_id: str
     """The env's registered id."""
     env_kwargs: dict[str, Any] = field(default_factory=dict)

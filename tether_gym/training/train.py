@@ -33,9 +33,11 @@ only, no variants, no `--resume` yet; the `jax` extra): the run folder holds eac
 (`seed<k>.msgpack`, which `tether-evaluate --agents` plays) and the same final table, with the
 mean over seeds.
 
-This module is the command line; the run is `tether_gym.training.experiment.train(config,
-run_dir)` (re-exported here), for callers that make their own configs (a sweep's trials), with
-`tether_gym.training.config.RunConfig` (`make_config` from a zoo entry) and `check_run`.
+This module is the command line, which imports torch and stable-baselines3 only once its
+arguments are parsed (`--help` answers without them). The run is
+`tether_gym.training.experiment.train(config, run_dir)`, for callers that make their own configs
+(a sweep's trials), with `tether_gym.training.config.RunConfig` (`make_config` from a zoo entry)
+and `experiment.check_run`.
 """
 
 from __future__ import annotations
@@ -44,7 +46,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from tether_gym.agents.saved import read_config
 from tether_gym.arguments import (
     ArgumentParser,
     add_env_arguments,
@@ -54,21 +55,7 @@ from tether_gym.arguments import (
 )
 from tether_gym.families import env_config, family
 from tether_gym.seeds import TEST_SEED
-from tether_gym.training.config import RunConfig, make_config
-from tether_gym.training.experiment import check_config, check_run, train
-from tether_gym.training.folders import prepare_run_dir
-from tether_gym.training.recipe import RUN_OPTIONS, default_name, resolve_config
-from tether_gym.training.zoo import ALGOS
-
-__all__ = [
-    "RunConfig",
-    "build_parser",
-    "check_config",
-    "check_run",
-    "main",
-    "make_config",
-    "train",
-]
+from tether_gym.training.config import ALGO_NAMES, RunConfig
 
 BACKENDS = ("sb3", "jax")
 """`--backend`: stable-baselines3 (`experiment.train`), or PPO compiled with the env's JAX
@@ -92,7 +79,7 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         help="sb3: stable-baselines3 on the numba envs (default); jax: PPO compiled with the "
         "env's JAX kernel, several seeds at once (--seeds)",
     )
-    run.add_argument("--algo", choices=sorted(ALGOS), help="the algorithm (default ppo)")
+    run.add_argument("--algo", choices=ALGO_NAMES, help="the algorithm (default ppo)")
     run.add_argument("--n-envs", type=int, help="parallel envs (default: the conf file's)")
     run.add_argument(
         "--timesteps", type=float, help="total timesteps (default: the conf file's n_timesteps)"
@@ -181,6 +168,11 @@ def check_resumed_env(args: argparse.Namespace, config: RunConfig) -> None:
 
 def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
     """The run's config and folder from the command line, checked (ValueError)."""
+    from tether_gym.agents.saved import read_config
+    from tether_gym.training.experiment import check_config, check_run
+    from tether_gym.training.folders import prepare_run_dir
+    from tether_gym.training.recipe import RUN_OPTIONS, default_name, resolve_config
+
     given = {key: getattr(args, key) for key in RUN_OPTIONS if getattr(args, key) is not None}
     if args.resume is not None:
         fixed = [f"--{key.replace('_', '-')}" for key in given if key not in RESUME_OPTIONS]
@@ -225,6 +217,8 @@ def main(argv: list[str] | None = None) -> int:
         config, run_dir = run_from_args(args)
     except ValueError as error:
         parser.error(str(error))
+    from tether_gym.training.experiment import train
+
     try:
         resume, progress_bar = args.resume is not None, not args.no_progress_bar
         summary = train(

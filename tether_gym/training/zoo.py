@@ -24,12 +24,13 @@ from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtracto
 from tether_gym.agents.planned import planned_keys
 from tether_gym.arguments import DEFAULT_ENV_ID, did_you_mean
 from tether_gym.families import family
+from tether_gym.training.config import ALGO_NAMES
 from tether_gym.training.her import PathHerReplayBuffer
 
 if TYPE_CHECKING:
     from importlib.resources.abc import Traversable
 
-ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC}
+ALGOS: dict[str, type[BaseAlgorithm]] = dict(zip(ALGO_NAMES, (PPO, SAC), strict=True))
 """`--algo` names and their SB3 classes; each has its zoo file `hyperparams/<name>.yml`."""
 OWN_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_kwargs")
 """The zoo's own keys of an entry."""
