@@ -133,7 +133,7 @@ def test_an_existing_run_folder_is_not_overwritten(jax_run, capsys):
         (["--env", "TetherNavigate-v3"], "the JAX trainer does not train TetherNavigate-v3 yet"),
         (["--env", "TetherNavigate_PostsReach-v3"], "--env must be one of ['TetherBounce-v0']"),
         (["--algo", "sac"], "--backend jax trains ppo only, not --algo sac"),
-        (["--resume", "runs/x"], "--resume is not supported yet for --backend jax"),
+        (["--resume", "runs/x"], "cannot read 'runs/x/config.yaml'"),
         (["--hyperparams", "residual:greedy"], "no planner-backed variant: drop residual"),
         (["--hyperparams", "policy:AimPolicy"], "MlpPolicy only, not AimPolicy"),
         (["--hyperparams", "use_sde:True"], "gSDE (use_sde)"),
@@ -168,18 +168,83 @@ def test_an_env_without_a_jax_backend_is_refused_before_jax_is_imported(
     assert "--backend jax: TetherNavigate-v3 has no JAX backend (a TetherNavigate env)" in error
 
 
-def test_seeds_is_for_the_jax_backend_and_resume_refuses_a_jax_run(tmp_path, capsys):
+def test_seeds_is_for_the_jax_backend(tmp_path, capsys):
     with pytest.raises(SystemExit):
         train.main(["--seeds", "2", "--runs-dir", str(tmp_path / "runs")])
     assert "--seeds is for --backend jax" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--timesteps", "1e6"], "continues a --backend jax run as it was configured: drop "
+         "--timesteps"),
+        (["--seeds", "3", "--dynamics", "hybrid"], "drop --seeds, --dynamics"),
+        ([], "no checkpoint.npz there (interrupted before its first chunk of updates ended)"),
+        (["--backend", "jax"], "no checkpoint.npz there"),
+    ],
+)  # fmt: skip
+def test_resume_takes_a_jax_run_as_it_was_configured(tmp_path, capsys, args, message):
     run_dir = tmp_path / "jaxrun"
     run_dir.mkdir()
     (run_dir / "config.yaml").write_text(
         yaml.safe_dump({"backend": "jax", "env_id": "TetherBounce-v0", "seeds": [0]})
     )
     with pytest.raises(SystemExit):
-        train.main(["--resume", str(run_dir)])
-    assert "a --backend jax run, which --resume does not continue yet" in capsys.readouterr().err
+        train.main(["--resume", str(run_dir), *args])
+    assert message in capsys.readouterr().err
+    assert [path.name for path in run_dir.iterdir()] == ["config.yaml"]
+
+
+def test_resume_with_the_jax_backend_refuses_an_sb3_run(tmp_path, capsys):
+    run_dir = tmp_path / "sb3run"
+    run_dir.mkdir()
+    (run_dir / "config.yaml").write_text(yaml.safe_dump({"env_id": "TetherBounce-v0"}))
+    with pytest.raises(SystemExit):
+        train.main(["--backend", "jax", "--resume", str(run_dir)])
+    assert f"--resume {run_dir} is a stable-baselines3 run: drop --backend jax" in (
+        capsys.readouterr().err
+    )
+
+
+def test_an_interrupted_run_resumes_to_the_policies_of_an_uninterrupted_one(
+    jax_run, tmp_path, capsys, monkeypatch
+):
+    """Three chunks of one update (an evaluation after each; the last update's learning rate is
+    0 under the linear schedule); the run stopped by Ctrl-C after the first chunk's checkpoint,
+    then `--resume`d, ends with the same policies, bit for bit, and the same evaluations as the
+    run that was never stopped."""
+    from tether_gym.training import jax_ppo
+
+    args = [*TINY, "--seeds", "1", "--timesteps", "6144", "--eval-freq", "2048"]
+    whole, parts = tmp_path / "whole", tmp_path / "parts"
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert train.main([*args, "--runs-dir", str(whole)]) == 0
+    save = jax_ppo.Checkpoint.save
+
+    def save_then_interrupt(checkpoint, path):
+        save(checkpoint, path)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(jax_ppo.Checkpoint, "save", save_then_interrupt)
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert train.main([*args, "--runs-dir", str(parts)]) == 130
+    (run_dir,) = parts.iterdir()
+    assert f"continue with: tether-train --resume {run_dir}" in capsys.readouterr().err
+    assert not (run_dir / "seed0.msgpack").exists()
+    monkeypatch.setattr(jax_ppo.Checkpoint, "save", save)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert train.main(["--resume", str(run_dir)]) == 0
+    assert "continuing from update 1/3" in out.getvalue()
+    (uninterrupted,) = whole.iterdir()
+    for name in ("seed0.msgpack", "seed0_best.msgpack", "evaluations.csv"):
+        assert (run_dir / name).read_bytes() == (uninterrupted / name).read_bytes(), name
+    summary = json.loads((run_dir / "results.json").read_text())
+    assert (
+        summary["best_timesteps"]
+        == json.loads((uninterrupted / "results.json").read_text())["best_timesteps"]
+    )
 
 
 def test_a_missing_jax_names_the_extra(tmp_path, capsys, monkeypatch):

@@ -515,18 +515,66 @@ class SeedsRun:
         return JaxPolicyAgent(unstack(self.params, i), policy_config(self.config))
 
 
+@dataclasses.dataclass
+class Checkpoint:
+    """A `train_seeds` run after `updates` updates: its whole state stacked over seeds (the
+    parameters, Adam's moments, the envs' states and observations, the random keys), the
+    metrics so far ((seeds, updates) each) and the training seconds. From it the run continues
+    as if never stopped (`train_seeds(..., start=checkpoint)`)."""
+
+    state: RunnerState
+    updates: int
+    metrics: dict[str, np.ndarray]
+    train_seconds: float
+
+    def save(self, path: str | Path) -> Path:
+        """Write it to `path` (an .npz: the state's leaves in order, then the rest), through a
+        temporary file, so that an interrupted write leaves the previous checkpoint."""
+        path = Path(path)
+        leaves = {f"leaf{i}": np.asarray(x) for i, x in enumerate(jax.tree.leaves(self.state))}
+        metrics = {f"metric_{name}": value for name, value in self.metrics.items()}
+        part = path.with_name(path.name + ".part")
+        with part.open("wb") as file:
+            np.savez(file, updates=self.updates, train_seconds=self.train_seconds, **leaves,
+                     **metrics)  # fmt: skip
+        part.replace(path)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path, like: RunnerState) -> Checkpoint:
+        """Read a checkpoint of a run whose state has the structure, shapes and dtypes of
+        `like` (the run's `init`); ValueError naming the file where it does not."""
+        with np.load(path) as data:
+            leaves, treedef = jax.tree.flatten(like)
+            names = [f"leaf{i}" for i in range(len(leaves))]
+            stored = [name for name in data.files if name.startswith("leaf")]
+            found = [data[name] for name in names if name in stored]
+            if sorted(stored) != sorted(names) or any(
+                a.shape != np.shape(b) or a.dtype != np.asarray(b).dtype
+                for a, b in zip(found, leaves, strict=True)
+            ):
+                raise ValueError(f"{path} is not a checkpoint of this run's trainer (its state "
+                                 "differs in structure, shape or dtype)")  # fmt: skip
+            metrics = {name: data[f"metric_{name}"] for name in METRICS}
+            return cls(jax.tree.unflatten(treedef, [jnp.asarray(x) for x in found]),
+                       int(data["updates"]), metrics, float(data["train_seconds"]))  # fmt: skip
+
+
 def train_seeds(
     config: PPOConfig,
     seeds: list[int],
     chunk: int = 50,
     log: Callable[[str], None] | None = None,
-    after_chunk: Callable[[int, Any], None] | None = None,
+    after_chunk: Callable[[Checkpoint], None] | None = None,
+    start: str | Path | None = None,
 ) -> SeedsRun:
     """Train `seeds` (keys `jax.random.PRNGKey(seed)`) at once: `vmap` over seeds of the run of
     `make_train`, compiled ahead of time (announced, timed), then called in pieces of `chunk`
     updates so that `log` (e.g. `print`) gets the progress: updates done, the seeds' rollout
-    success and steps/s. `after_chunk(updates_done, params)` (the parameters stacked over seeds)
-    runs after each piece, off the training clock (a periodic evaluation)."""
+    success and steps/s. `after_chunk(checkpoint)` runs after each piece, off the training clock
+    (a periodic evaluation, `Checkpoint.save`). `start`: a saved `Checkpoint` of the same
+    config, seeds and chunk to continue from (the same updates follow, so the run ends as an
+    uninterrupted one)."""
     say = log or (lambda _: None)
     init, update = make_stages(config)
     chunk = max(1, min(chunk, config.n_updates))
@@ -543,13 +591,19 @@ def train_seeds(
     update_compiled = v_update.lower(state, jnp.int32(0), chunk).compile()
     compile_seconds = time.perf_counter() - clock
     say(f"compiled in {compile_seconds:.1f} s")
-    pieces, clock, done = [], time.perf_counter(), 0
+    done, before, pieces = 0, 0.0, []
+    if start is not None:
+        resumed = Checkpoint.load(start, state)
+        state, done, before = resumed.state, resumed.updates, resumed.train_seconds
+        pieces.append(resumed.metrics)
+        say(f"continuing from update {done}/{config.n_updates} ({start})")
+    clock = time.perf_counter()
     while done < config.n_updates:
         state, metrics = update_compiled(state, jnp.int32(done))
         metrics = jax.tree.map(np.asarray, metrics)
         done = min(done + chunk, config.n_updates)
         pieces.append(metrics)
-        elapsed = time.perf_counter() - clock
+        elapsed = before + time.perf_counter() - clock
         rate = len(seeds) * done * config.rollout_size / elapsed
         success = ", ".join(f"{s:.3f}" for s in np.nanmean(metrics["success"], axis=1))
         say(
@@ -558,14 +612,17 @@ def train_seeds(
         )
         if after_chunk is not None:
             paused = time.perf_counter()
-            after_chunk(done, state.params)
+            after_chunk(Checkpoint(state, done, _joined(pieces, done), elapsed))
             clock += time.perf_counter() - paused
-    train_seconds = time.perf_counter() - clock
-    metrics = {
-        name: np.concatenate([m[name] for m in pieces], axis=1)[:, : config.n_updates]
-        for name in METRICS
-    }
-    return SeedsRun(config, list(seeds), state.params, metrics, compile_seconds, train_seconds)
+    train_seconds = before + time.perf_counter() - clock
+    return SeedsRun(config, list(seeds), state.params, _joined(pieces, done), compile_seconds,
+                    train_seconds)  # fmt: skip
+
+
+def _joined(pieces: list[dict[str, np.ndarray]], updates: int) -> dict[str, np.ndarray]:
+    """The metrics of consecutive pieces as one (seeds, `updates`) array each."""
+    return {name: np.concatenate([m[name] for m in pieces], axis=1)[:, :updates]
+            for name in METRICS}  # fmt: skip
 
 
 def evaluate_seeds(run: SeedsRun, episodes: int = 1000, seed: int | None = None) -> list:

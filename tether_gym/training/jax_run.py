@@ -10,7 +10,7 @@ The recipe is resolved as the SB3 path resolves it (`recipe.resolve_config`: the
 Refused up front (ValueError naming the option): an env without a JAX backend
 (`families.family(env_id).backends`) or one the trainer does not train yet
 (`jax_ppo.ENVS`: TetherBounce-v0), an algorithm other than ppo, the planner-backed variants
-and the aim policy, `--resume` (not supported yet), and whatever the JAX trainer cannot honour.
+and the aim policy, and whatever the JAX trainer cannot honour.
 
 The run folder holds `config.yaml` (the `RunConfig` with `backend: jax` and `seeds`),
 `seed<k>.msgpack` + `seed<k>.json` per seed, its policy at the end (`save_trained`;
@@ -22,7 +22,9 @@ the final table, `results.md` and `results.json`: each seed's best and last poli
 env's baselines on the same test episodes (`TEST_SEED`) as an SB3 run's final table
 (`experiment.final_table`), and the mean over seeds of the best and of the last policies with
 its 95% t interval. The compile step is announced and timed apart; the training clock starts
-after it.
+after it. After every chunk of updates (each periodic evaluation) the whole training state is
+saved as `checkpoint.npz` (`jax_ppo.Checkpoint`): `tether-train --resume RUN_DIR` continues an
+interrupted run from it, to the same policies as an uninterrupted run.
 
 Imports jax only for an env with a JAX backend, after `require_extra` (which names the `jax`
 extra).
@@ -31,6 +33,7 @@ extra).
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import math
 import sys
@@ -46,13 +49,13 @@ from tether_gym.arguments import require_extra
 from tether_gym.families import FAMILIES, family
 from tether_gym.seeds import EVAL_SEED, TEST_SEED
 from tether_gym.training.config import RunConfig
-from tether_gym.training.folders import EVALUATIONS, append_row, prepare_run_dir
+from tether_gym.training.folders import EVALUATIONS, append_row, drop_rows_after, prepare_run_dir
 from tether_gym.training.recipe import default_name, resolve_config
 from tether_gym.training.summary import RESULTS
 
 if TYPE_CHECKING:
     from tether_gym.evaluation.results import Result
-    from tether_gym.training.jax_ppo import PPOConfig
+    from tether_gym.training.jax_ppo import Checkpoint, PPOConfig
 
 BACKEND = "jax"
 """The `--backend` this module trains with (the `Backend.name` of the families' JAX kernels)."""
@@ -60,6 +63,8 @@ MODULES = ("jax", "flax", "optax")
 """Import names of the `jax` extra the trainer needs."""
 PROGRESS_LINES = 20
 """Progress lines of a run without periodic evaluations (one per chunk of updates)."""
+CHECKPOINT = "checkpoint.npz"
+"""The run folder's training state after its last chunk of updates (`jax_ppo.Checkpoint`)."""
 
 
 @dataclass(frozen=True)
@@ -71,6 +76,8 @@ class JaxRun:
     ppo: PPOConfig
     seeds: list[int]
     run_dir: Path
+    resume: bool = False
+    """Whether it continues from the folder's `CHECKPOINT`."""
 
     def label(self) -> str:
         return f"{self.config.algo.upper()} jax"
@@ -140,13 +147,12 @@ def run_name(config: RunConfig, seeds: list[int]) -> str:
 
 def run_from_args(args: argparse.Namespace) -> JaxRun:
     """The checked run of the command line (ValueError; ModuleNotFoundError naming the `jax`
-    extra), its folder prepared (`prepare_run_dir`: never overwritten without --overwrite)."""
+    extra), its folder prepared (`prepare_run_dir`: never overwritten without --overwrite), or
+    with `--resume` the run saved in that folder."""
     from tether_gym.training.experiment import check_config
 
     if args.resume is not None:
-        raise ValueError(
-            "--resume is not supported yet for --backend jax: start the run again (--overwrite)"
-        )
+        return resumed_run(args)
     if args.save_replay_buffer:
         raise ValueError("--save-replay-buffer: --backend jax trains ppo, which has none")
     count = 1 if args.seeds is None else args.seeds
@@ -160,6 +166,38 @@ def run_from_args(args: argparse.Namespace) -> JaxRun:
     run_dir = args.runs_dir / (args.name or run_name(config, seeds))
     prepare_run_dir(run_dir, args.overwrite)
     return JaxRun(config, ppo, seeds, run_dir)
+
+
+def resumed_run(args: argparse.Namespace) -> JaxRun:
+    """`--resume RUN_DIR` of a `--backend jax` run: its saved config and seeds, checked again;
+    ValueError for options it would ignore (the run continues as it was configured) and for a
+    folder without a checkpoint."""
+    from tether_gym.agents.saved import read_config
+    from tether_gym.arguments import given_env_options
+    from tether_gym.training.experiment import check_config
+    from tether_gym.training.recipe import RUN_OPTIONS
+
+    run_dir = args.resume
+    saved = read_config(run_dir / "config.yaml")
+    if saved.get("backend", "sb3") != BACKEND:
+        raise ValueError(f"--resume {run_dir} is a stable-baselines3 run: drop --backend jax")
+    given = [f"--{key.replace('_', '-')}" for key in RUN_OPTIONS if getattr(args, key) is not None]
+    given += [f"--{key}" for key in ("name", "seeds", "hyperparams") if getattr(args, key)]
+    given += given_env_options(args)
+    if given:
+        raise ValueError(f"--resume {run_dir} continues a --backend jax run as it was "
+                         f"configured: drop {', '.join(given)}")  # fmt: skip
+    if not (run_dir / CHECKPOINT).is_file():
+        raise ValueError(
+            f"--resume {run_dir}: no {CHECKPOINT} there (interrupted before its first chunk of "
+            "updates ended): start the run again with --overwrite"
+        )
+    seeds = [int(seed) for seed in saved.pop("seeds")]
+    saved.pop("backend")
+    config = RunConfig.from_dict(saved)
+    check_jax_config(config)
+    check_config(config)
+    return JaxRun(config, ppo_config(config), seeds, run_dir, resume=True)
 
 
 def chunk_updates(run: JaxRun) -> int:
@@ -183,7 +221,7 @@ class PeriodicEval:
     seed's policy saved as its best (`best_stem`) when its success beats the seed's best so far
     (the first evaluation's always), as SB3's evaluation keeps `best/`."""
 
-    def __init__(self, run: JaxRun):
+    def __init__(self, run: JaxRun, timesteps: int = 0):
         from tether_gym.training.yardsticks import yardstick
 
         self.run = run
@@ -193,6 +231,20 @@ class PeriodicEval:
         self.agents: dict[str, Any] = {}
         self.best: dict[int, tuple[float, int]] = {}
         """Each seed's best success so far and the timesteps it was reached at."""
+        if timesteps:
+            self.resume(timesteps)
+
+    def resume(self, timesteps: int) -> None:
+        """Continue after `timesteps`: the evaluations past them dropped (they are made again),
+        each seed's best so far read from the rest."""
+        path = self.run.run_dir / EVALUATIONS
+        drop_rows_after(path, timesteps)
+        if path.is_file():
+            with path.open(newline="") as file:
+                for row in csv.DictReader(file):
+                    seed, rate = int(row["seed"]), float(row["success_rate"])
+                    if seed not in self.best or rate > self.best[seed][0]:
+                        self.best[seed] = (rate, int(row["timesteps"]))
 
     def _evaluate(self, agents: dict[str, Any]) -> list[Result]:
         from tether_gym.evaluation.runner import evaluate
@@ -263,24 +315,33 @@ def train(run: JaxRun, progress: bool = True) -> dict[str, Any]:
 
     wall = time.perf_counter()
     config, ppo, seeds, run_dir = run.config, run.ppo, run.seeds, run.run_dir
-    saved = {"backend": BACKEND, **config.as_dict(), "seeds": seeds}
-    (run_dir / "config.yaml").write_text(yaml.safe_dump(saved, sort_keys=False))
+    if not run.resume:
+        saved = {"backend": BACKEND, **config.as_dict(), "seeds": seeds}
+        (run_dir / "config.yaml").write_text(yaml.safe_dump(saved, sort_keys=False))
     trained = ppo.n_updates * ppo.rollout_size
     rounded = "" if trained == config.timesteps else (
         f" ({config.timesteps:,} asked, rounded up to whole rollouts)"
     )  # fmt: skip
     print(f"training {run.label()} ({len(seeds)} seeds: {', '.join(map(str, seeds))}) for "
           f"{trained:,} timesteps each{rounded} into {run_dir}", flush=True)  # fmt: skip
-    hook = PeriodicEval(run) if config.eval_freq else None
+    start = run_dir / CHECKPOINT if run.resume else None
+    done = _checkpoint_updates(start) if start is not None else 0
+    evaluate = PeriodicEval(run, done * ppo.rollout_size) if config.eval_freq else None
+
+    def after_chunk(checkpoint: Checkpoint) -> None:
+        if evaluate is not None:
+            evaluate(checkpoint.updates, checkpoint.state.params)
+        checkpoint.save(run_dir / CHECKPOINT)
 
     def log(line: str) -> None:
         if progress or not line.startswith("update "):  # the compile step is always said
             print(line, flush=True)
 
-    out = train_seeds(ppo, seeds, chunk_updates(run), log=log, after_chunk=hook)
+    out = train_seeds(ppo, seeds, chunk_updates(run), log=log, after_chunk=after_chunk,
+                      start=start)  # fmt: skip
     for i, seed in enumerate(seeds):
         save_trained(run_dir / f"seed{seed}", unstack(out.params, i), ppo)
-    best = hook.best if hook is not None else {}
+    best = evaluate.best if evaluate is not None else {}
     kept = " (the best as seed<k>_best.msgpack)" if best else ""
     print(f"trained {len(seeds)} seeds x {out.timesteps:,} timesteps in {out.train_seconds:.1f} s "
           f"({out.steps_per_second:,.0f} steps/s) after {out.compile_seconds:.1f} s compiling; "
@@ -320,6 +381,12 @@ def train(run: JaxRun, progress: bool = True) -> dict[str, Any]:
     return {**summary, "table": table}
 
 
+def _checkpoint_updates(path: Path) -> int:
+    """The updates done by the checkpoint `path` (read without jax)."""
+    with np.load(path) as data:
+        return int(data["updates"])
+
+
 def _device() -> str:
     import jax
 
@@ -338,10 +405,12 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     try:
         summary = train(run, progress=not args.no_progress_bar)
     except KeyboardInterrupt:
-        kept = {entry.name for entry in run.run_dir.iterdir()} - {"config.yaml"}
-        again = "pass --overwrite to start it again" if kept else "the same command starts it again"
-        print(f"\ninterrupted: a --backend jax run keeps its last policies only at the end "
-              f"(its best so far as seed<k>_best.msgpack); {again}", file=sys.stderr)  # fmt: skip
+        if (run.run_dir / CHECKPOINT).is_file():
+            print(f"\ninterrupted: continue with: tether-train --resume {run.run_dir}",
+                  file=sys.stderr)  # fmt: skip
+        else:
+            print(f"\ninterrupted before the first chunk of updates ended: {run.run_dir} holds "
+                  "no checkpoint; pass --overwrite to start it again", file=sys.stderr)  # fmt: skip
         return 130
     env = run.config.env_kwargs or "default env"
     print(f"\nTest episodes (seed {TEST_SEED}), {run.config.env_id} {env}:\n{summary['table']}")

@@ -29,9 +29,9 @@ resumes from its last evaluation); an existing run is never overwritten without 
 
 `--backend jax` trains `--seeds N` seeds (from `--seed` on) of the same recipe at once with PPO
 compiled with the env's JAX kernel (`tether_gym.training.jax_run`; TetherBounce-v0 only, PPO
-only, no variants, no `--resume` yet; the `jax` extra): the run folder holds each seed's policy
-(`seed<k>.msgpack`, which `tether-evaluate --agents` plays) and the same final table, with the
-mean over seeds.
+only, no variants; the `jax` extra): the run folder holds each seed's policy (`seed<k>.msgpack`,
+which `tether-evaluate --agents` plays) and the same final table, with the mean over seeds;
+`--resume` continues it from its last checkpoint.
 
 This module is the command line, which imports torch and stable-baselines3 only once its
 arguments are parsed (`--help` answers without them). The run is
@@ -179,13 +179,7 @@ def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
         fixed += [f"--{key}" for key in ("name", "hyperparams") if getattr(args, key)]
         if fixed:
             raise ValueError(f"--resume takes the config of {args.resume}: drop {', '.join(fixed)}")
-        saved = read_config(args.resume / "config.yaml")
-        if saved.get("backend", "sb3") != "sb3":
-            raise ValueError(
-                f"--resume {args.resume}: a --backend {saved['backend']} run, which --resume "
-                "does not continue yet"
-            )
-        config = RunConfig.from_dict(saved)
+        config = RunConfig.from_dict(read_config(args.resume / "config.yaml"))
         if given_env_options(args):
             check_resumed_env(args, config)
         config = config.replace(
@@ -201,13 +195,26 @@ def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
     return config, run_dir
 
 
+def saved_backend(run_dir: Path | None) -> str | None:
+    """The `--backend` of the run saved in `run_dir` (None: no run, or no readable config
+    there: `run_from_args` says which)."""
+    from tether_gym.agents.saved import read_config
+
+    try:
+        return (
+            None if run_dir is None else read_config(run_dir / "config.yaml").get("backend", "sb3")
+        )
+    except ValueError:
+        return None
+
+
 def main(argv: list[str] | None = None) -> int:
     """Train, evaluate, print the table; returns the exit status (130 after Ctrl-C)."""
     parser = build_parser(chosen_env(argv))
     args = parser.parse_args(argv)
     if args.num_threads < 1:
         parser.error(f"--num-threads must be at least 1, got {args.num_threads}")
-    if args.backend == "jax":
+    if args.backend == "jax" or saved_backend(args.resume) == "jax":
         from tether_gym.training import jax_run
 
         return jax_run.main(args, parser)
