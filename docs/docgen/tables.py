@@ -569,6 +569,14 @@ def jax_train_table(sources: dict[str, str], root: Path = ROOT, style: str = "pa
             f"{details['peak_rss_mb']:,} MB; {setup['episodes']:,} test episodes (seed "
             f"{setup['test_seed']:,}), the same as SB3's final table."
         )
+        machine = setup.get("machine", {})
+        load = machine.get("load_average_at_end", [0.0])[0]
+        if load > machine.get("cpus", load):
+            notes.append(
+                f"The machine's load average at the end of the JAX run was {load:.1f} on its "
+                f"{machine['cpus']} CPUs (other jobs shared them): its steps/s and wall time "
+                "are a loaded machine's."
+            )
     return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
 
 
