@@ -17,7 +17,6 @@ import subprocess
 import sys
 import tempfile
 import threading
-import time
 from pathlib import Path
 
 import numpy as np
@@ -241,18 +240,20 @@ def test_the_interval_over_seeds():
     assert t_interval(np.array([0.0, 1.0])) == (0.0, 1.0)
 
 
-def interrupt_when(condition, timeout: float = 240) -> threading.Thread:
-    """A thread that sends this process SIGINT (Ctrl-C) once `condition()` holds."""
+def interrupt_when(condition) -> threading.Event:
+    """Start a thread that sends this process SIGINT (Ctrl-C) once `condition()` holds, unless
+    the returned event is set first (the command ended without it: no deadline, so a loaded
+    machine only makes the wait longer)."""
+    ended = threading.Event()
 
     def watch() -> None:
-        deadline = time.monotonic() + timeout
-        while not condition() and time.monotonic() < deadline:
-            time.sleep(0.1)
+        while not condition():
+            if ended.wait(0.1):
+                return
         os.kill(os.getpid(), signal.SIGINT)
 
-    thread = threading.Thread(target=watch, daemon=True)
-    thread.start()
-    return thread
+    threading.Thread(target=watch, daemon=True).start()
+    return ended
 
 
 def snapshot(folder: Path) -> dict[str, tuple[int, bytes]]:
@@ -274,10 +275,11 @@ def test_resume_continues_an_interrupted_sweep_without_redoing_finished_trials(t
         files = runs.glob("*/evaluations.csv") if runs.is_dir() else []
         return any(len(path.read_text().splitlines()) > 2 for path in files)
 
-    watcher = interrupt_when(second_evaluated_twice)
+    ended = interrupt_when(second_evaluated_twice)
     command = [str(SMOKE), "--out", str(out), *(f"--set={item}" for item in overrides)]
-    assert sweep.main(command) == 130
-    watcher.join()
+    status = sweep.main(command)
+    ended.set()
+    assert status == 130, "the sweep ended before its second trial evaluated twice"
     err = capfd.readouterr().err
     assert err.count("--resume") == 1 and f"continue with tether-sweep --resume {out}" in err
     assert "Tuner.restore" not in err and "Token authentication" not in err, err
