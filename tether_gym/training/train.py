@@ -131,7 +131,8 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         "--resume",
         type=Path,
         metavar="RUN_DIR",
-        help="continue runs/<name> from its last model (to --timesteps in total)",
+        help="continue runs/<name> from its last model (to --timesteps in total), or a --backend "
+        "jax run from its last checkpoint",
     )
     out.add_argument("--overwrite", action="store_true", help="replace an existing run folder")
     out.add_argument(
