@@ -276,3 +276,29 @@ def test_help_and_the_sb3_path_do_not_import_jax():
         [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True
     ).stdout
     assert out.split() == ["False", "False"]
+
+
+def test_the_side_by_side_benchmark_times_both_commands_on_the_same_episodes(tmp_path, capsys):
+    """`benchmarks/experiments/jax_vs_sb3.py` on a tiny budget: both trainers' rows, each from
+    its own command's run folder, on the final tables' test episodes."""
+    from benchmarks.experiments import jax_vs_sb3
+
+    out = tmp_path / "vs.json"
+    argv = ["--jax-seeds", "2", "--sb3-seeds", "1", "--timesteps", "4096", "--json", str(out)]
+    assert jax_vs_sb3.main(argv) == 0
+    data = json.loads(out.read_text())
+    jax_row, sb3_row = data["rows"]
+    assert (jax_row["trainer"], jax_row["seeds"], sb3_row["trainer"], sb3_row["seeds"]) == (
+        "JAX PPO",
+        2,
+        "SB3 PPO",
+        1,
+    )
+    assert jax_row["command"] == "tether-train --backend jax --env TetherBounce-v0 --seeds 2 " \
+        "--timesteps 4096"  # fmt: skip
+    assert len(jax_row["last"]["per_seed"]) == 2 and len(sb3_row["last"]["per_seed"]) == 1
+    assert jax_row["best"] is not None  # the JAX run evaluates after its one chunk
+    assert sb3_row["wall_seconds"] == sum(sb3_row["wall_seconds_per_seed"]) > 0
+    assert data["details"]["wall_ratio"] == jax_row["wall_seconds"] / sb3_row["wall_seconds"]
+    assert data["setup"]["test_seed"] == 2_000_000
+    assert "JAX wall / SB3 wall" in capsys.readouterr().out
