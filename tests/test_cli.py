@@ -7,12 +7,10 @@ import dataclasses
 import importlib
 import importlib.util
 import re
-import subprocess
-import sys
 
 import pytest
 
-from tests.helpers import ROOT
+from tests.helpers.training import imported_by_tether_train
 from tether_gym import arguments, training
 from tether_gym.envs import BounceConfig
 from tether_gym.evaluation import cli as evaluate
@@ -103,21 +101,11 @@ def test_help_lists_both_envs_arguments_from_their_docstrings(command, capsys):
 def test_tether_train_answers_help_and_a_bad_option_before_torch_imports():
     """`tether-train --help` answers without torch and stable-baselines3 (their import is most of
     a run's start-up): the run's modules import once the arguments are parsed."""
-    code = (
-        "import sys\n"
-        "from tether_gym.training import train\n"
-        "for argv in (['--help'], ['--algo', 'a2c']):\n"
-        "    try:\n"
-        "        train.main(argv)\n"
-        "    except SystemExit:\n"
-        "        pass\n"
-        "print('torch' in sys.modules, 'stable_baselines3' in sys.modules)\n"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True
+    out, imported = imported_by_tether_train(
+        [["--help"], ["--algo", "a2c"]], ["torch", "stable_baselines3"]
     )
     assert "usage: tether-train" in out.stdout and "invalid choice: 'a2c'" in out.stderr
-    assert out.stdout.split()[-2:] == ["False", "False"]
+    assert imported == [False, False]
 
 
 @pytest.mark.parametrize("main", [training.main, evaluate.main], ids=["train", "evaluate"])

@@ -55,3 +55,28 @@ def jax_run_folder(run: Path, seeds: list[int], eval_episodes: int = 5) -> dict[
                "best_timesteps": {str(seed): 2048 for seed in seeds}}  # fmt: skip
     (run / "results.json").write_text(json.dumps(summary))
     return paths
+
+
+def imported_by_tether_train(argvs: list[list[str]], modules: list[str]):
+    """Run `tether-train` (`training.train.main`) on each argv in a fresh interpreter, each
+    ending in SystemExit (help, a refused option); the finished process (its stdout and stderr)
+    and whether each of `modules` was imported by then, in order."""
+    import subprocess
+    import sys
+
+    from tests.helpers import ROOT
+
+    code = (
+        "import sys\n"
+        "from tether_gym.training import train\n"
+        f"for argv in {argvs!r}:\n"
+        "    try:\n"
+        "        train.main(argv)\n"
+        "    except SystemExit:\n"
+        "        pass\n"
+        f"print(*(name in sys.modules for name in {modules!r}))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True
+    )
+    return done, [word == "True" for word in done.stdout.split()[-len(modules) :]]

@@ -9,15 +9,13 @@ import contextlib
 import importlib.util
 import io
 import json
-import subprocess
-import sys
 
 import pytest
 import yaml
 
 pytest.importorskip("stable_baselines3")
 
-from tests.helpers import ROOT
+from tests.helpers.training import imported_by_tether_train
 from tether_gym.training import train
 
 pytestmark = pytest.mark.jax_train
@@ -262,20 +260,11 @@ def test_a_missing_jax_names_the_extra(tmp_path, capsys, monkeypatch):
 
 
 def test_help_and_the_sb3_path_do_not_import_jax():
-    code = (
-        "import sys\n"
-        "from tether_gym.training import train\n"
-        "train.build_parser().format_help()\n"
-        "try:\n"
-        "    train.main(['--seeds', '2'])\n"
-        "except SystemExit:\n"
-        "    pass\n"
-        "print('jax' in sys.modules, 'tether_gym.training.jax_run' in sys.modules)\n"
+    out, imported = imported_by_tether_train(
+        [["--help"], ["--seeds", "2"]], ["jax", "tether_gym.training.jax_run"]
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True
-    ).stdout
-    assert out.split() == ["False", "False"]
+    assert "usage: tether-train" in out.stdout and "--seeds is for --backend jax" in out.stderr
+    assert imported == [False, False]
 
 
 def test_the_side_by_side_benchmark_times_both_commands_on_the_same_episodes(tmp_path, capsys):
