@@ -30,8 +30,8 @@ test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -q -n auto --dist worksteal -m "not jax_train" --durations=15
 
-# The JAX PPO's tests, apart and under a time limit: XLA's CPU runtime has been seen to stall
-# (every thread waiting) in a compiled PPO update, rarely; a stall fails here, not `make test`.
+# The JAX PPO's tests, apart (they compile the trainer for minutes) and under a time limit: a
+# deadlock of XLA's CPU pool (jaxlib 0.10's batched LAPACK kernels, docs/jax.md) fails here.
 test-jax-train: $(STAMP)
 	timeout 900 $(BIN)/python -m pytest -q -p no:xdist -m jax_train
 

@@ -54,6 +54,9 @@ class Backend:
     """Every id it registers -> the keyword arguments its registration fixes."""
     entry_point: str
     vector_entry_point: str | None = None
+    gymnax_entry_point: str | None = None
+    """The "module:name" of its env in the gymnax convention, built from the family's env
+    arguments: what the JAX trainer (`tether-train --backend jax`) trains; None: not trained."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -156,6 +159,7 @@ BOUNCE = Family(
             ids={"tether_gym/TetherBounce-jax-v0": {}},
             entry_point="tether_gym.jax.bounce:TetherBounceJaxEnv",
             vector_entry_point="tether_gym.jax.bounce:TetherBounceJaxVectorEnv",
+            gymnax_entry_point="tether_gym.jax.gymnax:TetherBounceGymnax",
         ),
     ),
 )
@@ -210,6 +214,7 @@ NAVIGATE = Family(
             },
             entry_point="tether_gym.jax.navigate:TetherNavigateJaxEnv",
             vector_entry_point="tether_gym.jax.navigate:TetherNavigateJaxVectorEnv",
+            gymnax_entry_point="tether_gym.jax.gymnax:TetherNavigateGymnax",
         ),
     ),
 )

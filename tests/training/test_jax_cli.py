@@ -128,20 +128,31 @@ def test_an_existing_run_folder_is_not_overwritten(jax_run, capsys):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--env", "TetherNavigate-v3"], "the JAX trainer does not train TetherNavigate-v3 yet"),
-        (["--env", "TetherNavigate_PostsReach-v3"], "--env must be one of ['TetherBounce-v0']"),
         (["--algo", "sac"], "--backend jax trains ppo only, not --algo sac"),
         (["--resume", "runs/x"], "cannot read 'runs/x/config.yaml'"),
         (["--hyperparams", "residual:greedy"], "no planner-backed variant: drop residual"),
-        (["--hyperparams", "policy:AimPolicy"], "MlpPolicy only, not AimPolicy"),
+        (["--hyperparams", "policy:AimPolicy"], "policy AimPolicy: TetherNavigate with control"),
+        (
+            ["--hyperparams", "policy:CnnPolicy"],
+            "builds policy MlpPolicy or MultiInputPolicy or AimPolicy, not 'CnnPolicy'",
+        ),
+        (
+            [
+                "--env",
+                "TetherNavigate_PostsReach-v3",
+                "--hyperparams",
+                "policy_kwargs:dict(features_extractor_class=NavigateExtractor, start_speed=2.0)",
+            ],
+            "start_speed must be in [0, 1], got 2.0",
+        ),
         (["--hyperparams", "use_sde:True"], "gSDE (use_sde)"),
         (["--seeds", "0"], "--seeds must be at least 1, got 0"),
         (["--rho", "0.5"], "rho must be"),
     ],
 )
 def test_what_the_jax_path_does_not_train_is_refused_up_front(tmp_path, capsys, args, message):
-    if "use_sde" in " ".join(args):  # the trainer's own refusal: after the jax import
-        pytest.importorskip("jax")
+    if any(word in " ".join(args) for word in ("use_sde", "CnnPolicy", "start_speed")):
+        pytest.importorskip("jax")  # the trainer's own refusals: after the jax import
     with pytest.raises(SystemExit):
         train.main(["--backend", "jax", *args, "--runs-dir", str(tmp_path / "runs")])
     assert message in capsys.readouterr().err

@@ -79,8 +79,36 @@ def test_what_the_trainer_cannot_do_is_refused():
         PPOConfig.from_zoo("TetherBounce-v0", overrides={"use_sde": True})
     with pytest.raises(ValueError, match="batch_size"):
         PPOConfig.from_zoo("TetherBounce-v0", overrides={"batch_size": 500})
-    with pytest.raises(ValueError, match="no JAX env"):
+    with pytest.raises(ValueError, match="policy AimPolicy reads the goal from its features"):
+        PPOConfig.from_zoo("TetherNavigate_PostsReach-v3",
+                           overrides={"policy_kwargs": "dict(net_arch=[64])"})  # fmt: skip
+    with pytest.raises(ValueError, match="NavigateExtractor reads TetherNavigate's observation"):
+        PPOConfig.from_zoo("TetherBounce-v0", overrides={
+            "policy_kwargs": "dict(features_extractor_class=NavigateExtractor)"})  # fmt: skip
+    with pytest.raises(ValueError, match="start_speed is AimPolicy's"):
+        PPOConfig.from_zoo("TetherNavigate_PostsReach-v3", overrides={"policy": "MultiInputPolicy"})
+
+
+def test_an_env_without_a_gymnax_backend_is_refused(monkeypatch):
+    from tether_gym import families
+    from tether_gym.training import jax_ppo
+
+    def without_backends(env_id):
+        return dataclasses.replace(families.family(env_id), backends=())
+
+    monkeypatch.setattr(jax_ppo, "family", without_backends)
+    with pytest.raises(ValueError, match="no JAX env in the gymnax convention for 'Tether"):
         PPOConfig(env_id="TetherNavigate-v3")
+
+
+def test_a_rung_s_recipe_is_its_zoo_entry_with_the_aim_policy():
+    config = PPOConfig.from_zoo("TetherNavigate_PostsStop-v3")
+    assert (config.policy, config.extractor, config.start_speed) == (
+        "AimPolicy", "NavigateExtractor", 0.0)  # fmt: skip
+    assert config.env_kwargs == {"control": "aim", "coast": True} and config.aim_control == "aim"
+    assert (config.n_envs, config.n_steps, config.batch_size, config.gamma) == (64, 64, 1024, 0.95)
+    assert (config.pi_arch, config.vf_arch, config.log_std_init) == ((256, 256), (256, 256), -2.5)
+    assert config.timesteps == 500_000 and PPOConfig.from_dict(config.as_dict()) == config
 
 
 def test_two_seeds_under_vmap_train_apart_and_the_reward_rises(trained):
@@ -146,3 +174,29 @@ def test_the_policy_plays_the_numba_env_and_its_saved_files_give_the_same_action
     (tmp_path / "policy.json").write_text('{"format": "other"}')
     with pytest.raises(ValueError, match="cannot load"):
         load_policy(path)
+
+
+def test_a_rung_s_recipe_trains_and_its_policy_plays_the_goal_dicts(tmp_path, capsys):
+    """OpenReach's aim recipe, shrunk (impulse dynamics, 8 envs x 8 steps, 2 updates, small
+    networks): two seeds train under `vmap`; the policy starts at the direct shot (AimPolicy),
+    so its rollouts and its deterministic play on the numba env's goal dicts mostly reach the
+    goal; `tether-evaluate` plays the saved policy beside `direct` with no env flags."""
+    recipe = PPOConfig.from_zoo("TetherNavigate_OpenReach-v3")
+    config = dataclasses.replace(
+        recipe, env_kwargs={**recipe.env_kwargs, "dynamics": "impulse"}, n_envs=8, n_steps=8,
+        batch_size=32, n_epochs=2, pi_arch=(32,), vf_arch=(32,), timesteps=128,
+    )  # fmt: skip
+    keys = jax.numpy.stack([jax.random.PRNGKey(0), jax.random.PRNGKey(1)])
+    out = jax.tree.map(np.asarray, jax.jit(jax.vmap(make_train(config)))(keys))
+    for name in METRICS:
+        assert out["metrics"][name].shape == (2, 2) and np.all(np.isfinite(out["metrics"][name]))
+    assert np.all(out["metrics"]["success"] > 0.5), out["metrics"]["success"]
+    run = SeedsRun(config, [0, 1], out["params"], out["metrics"], 0.0, 1.0)
+    (result,) = evaluate({"jax": run.agent(0)}, config.env_kwargs, 20, seed=3,
+                         env_id=config.env_id)  # fmt: skip
+    assert result.success_rate > 0.5
+    path = save_trained(tmp_path / "rung", unstack(out["params"], 0), config)
+    assert load_policy(path).config.row_keys == ("observation", "desired_goal")
+    main(["--agents", str(path), "direct", "--episodes", "20", "--no-progress-bar"])
+    table = capsys.readouterr().out
+    assert "| rung | 20 |" in table and "| direct | 20 |" in table

@@ -46,10 +46,8 @@ from torch import nn
 from tether_gym.agents.planned import PROPOSAL_FEATURES, PROPOSALS_KEY
 from tether_gym.envs.tether_navigate.config import MAX_ANCHORS, MAX_POSTS
 from tether_gym.envs.tether_navigate.controls import aimed_modes, control_mode
-from tether_gym.envs.tether_navigate.spaces import GOAL_KEYS, OBS
+from tether_gym.envs.tether_navigate.spaces import ANCHOR_COLUMNS, GOAL_KEYS, OBS, POST_COLUMNS
 
-ANCHORS = slice(OBS.anchor0_present, OBS.anchor0_present + 3 * MAX_ANCHORS)
-POSTS = slice(OBS.post0_present, OBS.post0_present + 3 * MAX_POSTS)
 POINT_FEATURES = 4
 """Per point in the frame of flight: along, across, distance, bearing / pi."""
 
@@ -89,8 +87,8 @@ class NavigateExtractor(BaseFeaturesExtractor):
         cos, sin = obs[:, OBS.angle_cos, None], obs[:, OBS.angle_sin, None]
         hx, hy = heading[:, :1], heading[:, 1:]
         orientation = torch.cat([cos * hx + sin * hy, sin * hx - cos * hy], dim=-1)
-        anchors = obs[:, ANCHORS].reshape(-1, MAX_ANCHORS, 3)
-        posts = obs[:, POSTS].reshape(-1, MAX_POSTS, 3)
+        anchors = obs[:, ANCHOR_COLUMNS].reshape(-1, MAX_ANCHORS, 3)
+        posts = obs[:, POST_COLUMNS].reshape(-1, MAX_POSTS, 3)
         present = torch.cat([torch.ones_like(speed), anchors[..., 0], posts[..., 0]], dim=-1)
         offsets = torch.cat([goal[:, None], anchors[..., 1:], posts[..., 1:]], dim=1)
         local, bearing = frame_of_flight(offsets, heading)

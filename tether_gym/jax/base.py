@@ -71,6 +71,9 @@ class KernelFuncEnv(FuncEnv):
 
     kernel: Kernel
     n_uniforms: int
+    row_keys: tuple[str, ...] = ()
+    """The Gymnasium env's dict observation entries whose concatenation is `observation`'s
+    plain row (empty: the Gymnasium env observes the row itself)."""
 
     def initial_from_uniforms(self, uniforms: jax.Array, params):
         """A new episode's state from its `n_uniforms` uniforms in [0, 1)."""

@@ -54,7 +54,7 @@ from tether_gym.envs.tether_navigate.controls import control_mode
 from tether_gym.envs.tether_navigate.controls.setup import ACTION as SETUP_ACTION
 from tether_gym.envs.tether_navigate.env import GoalMixin
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
-from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION, OUTCOME, SPIN_SCALE
+from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION, OUTCOME, ROW_KEYS, SPIN_SCALE
 from tether_gym.jax import navigate_physics as nav
 from tether_gym.jax.base import JaxVectorEnv, KernelFuncEnv, KernelJaxEnv, float_dtype
 from tether_gym.tasks import navigate as task
@@ -432,6 +432,7 @@ class TetherNavigateFunctional(KernelFuncEnv):
     Gymnasium envs do)."""
 
     n_uniforms = UNIFORMS
+    row_keys = ROW_KEYS
 
     def __init__(self, **kwargs):
         self.config = NavigateConfig(**kwargs)

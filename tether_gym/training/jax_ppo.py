@@ -10,17 +10,23 @@ stable-baselines3's `PPO` where they change what is learned.
 The recipe is the SB3 run's: `PPOConfig.from_zoo` reads the same zoo entry
 (`hyperparams/ppo.yml`, through `tether_gym.training.zoo`), SB3's defaults (read from the
 signatures of `PPO` and `ActorCriticPolicy`) fill what the entry leaves out, and an argument the
-trainer cannot honour (gSDE, `normalize`, a policy class other than `MlpPolicy`, ...) is refused.
+trainer cannot honour (gSDE, `normalize`, a policy class other than `POLICIES`, ...) is refused.
+Any env whose family's JAX backend has a gymnax entry point (`families.Backend`) trains:
+TetherBounce-v0 and every TetherNavigate id, in any control mode.
 
 What is SB3's here:
 
 - the networks: separate pi and vf MLPs (`net_arch=dict(pi=..., vf=...)`, a list: both), the
   activation, orthogonal initialization (gain sqrt(2) in the hidden layers, 0.01 for the action
-  mean, 1 for the value; zero biases), a state-independent log std (`log_std_init`);
+  mean, 1 for the value; zero biases), a state-independent log std (`log_std_init`); on
+  TetherNavigate, `NavigateExtractor`'s features and `AimPolicy`'s start at the goal
+  (`tether_gym.agents.jax_policy` mirrors them);
 - the Gaussian's sample is stored and its log-prob taken unclipped; the env gets it clipped to
   the action space's bounds; the deterministic action is the mean, clipped;
-- GAE over the rollout, bootstrapped from the value of the observation after it; the
-  observation as SB3 sees it (the env's float32 observation, no normalization);
+- GAE over the rollout, bootstrapped from the value of the observation after it; a truncated
+  episode's last reward plus gamma times the value of its last observation (SB3's time-limit
+  bootstrap); the observation as SB3 sees it (float32, no normalization; a goal dict's entries
+  as the plain row they were cut from);
 - per epoch, a fresh permutation of the rollout cut into `batch_size` minibatches; the advantage
   normalized per minibatch (torch's unbiased std, + 1e-8); the clipped surrogate, the value loss
   `mean((return - value)^2)` (clipped around the old value only with `clip_range_vf`), the
@@ -33,9 +39,8 @@ What is SB3's here:
   `LinearSchedule`), updates until the timesteps are reached (the last rollout may overshoot).
 
 What differs: the rollout runs the JAX kernel (`tether_gym.jax`, gymnax convention), float32;
-a truncated episode is not bootstrapped (the gymnax convention has no truncation flag;
-TetherBounce's episodes end after one step, terminated); `batch_size` must divide
-`n_steps * n_envs` (SB3 allows a short last minibatch); the random streams are JAX's.
+`batch_size` must divide `n_steps * n_envs` (SB3 allows a short last minibatch); the random
+streams are JAX's.
 
 The trained policy is an agent (`tether_gym.agents.jax_policy.JaxPolicyAgent`: SB3's
 `predict(obs, deterministic=True)` on numpy observations), so `tether_gym.evaluation` plays it on
@@ -62,23 +67,35 @@ from jax import lax
 
 from tether_gym.agents.jax_policy import (
     ACTIVATIONS,
+    EXTRACTORS,
     ActorCritic,
+    AimStart,
     JaxPolicyAgent,
     PolicyConfig,
     save_policy,
 )
-from tether_gym.jax.gymnax import TetherBounceGymnax
+from tether_gym.families import config_arguments, family, load
 
-ENVS: dict[str, Callable[..., Any]] = {"TetherBounce-v0": TetherBounceGymnax}
-"""Env ids with a JAX backend in the gymnax convention, and its class (built from the env
-arguments of the numba env)."""
 SUPPORTED_KWARGS = {
     "learning_rate", "n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "clip_range",
     "clip_range_vf", "normalize_advantage", "ent_coef", "vf_coef", "max_grad_norm", "target_kl",
     "policy_kwargs", "use_sde",
 }  # fmt: skip
 """PPO's arguments the trainer honours (use_sde only False)."""
-SUPPORTED_POLICY_KWARGS = {"net_arch", "activation_fn", "log_std_init", "ortho_init"}
+SUPPORTED_POLICY_KWARGS = {
+    "net_arch", "activation_fn", "log_std_init", "ortho_init", "features_extractor_class",
+    "start_speed",
+}  # fmt: skip
+POLICIES = ("MlpPolicy", "MultiInputPolicy", "AimPolicy")
+"""The zoo's policy names the trainer builds: an MLP over the observation's row (a goal
+dict's: `PolicyConfig.row_keys`) or its `EXTRACTORS` features, and `AimPolicy`."""
+
+
+def gymnax_entry_point(env_id: str) -> str | None:
+    """The "module:name" of `env_id`'s env in the gymnax convention (its family's JAX
+    backend's), None where it has none."""
+    entry_points = [b.gymnax_entry_point for b in family(env_id).backends if b.name == "jax"]
+    return next((entry for entry in entry_points if entry), None)
 
 
 def _defaults(function: Callable) -> dict[str, Any]:
@@ -126,12 +143,35 @@ class PPOConfig:
     activation: str = "relu"
     log_std_init: float = -2.0
     ortho_init: bool = True
+    policy: str = "MlpPolicy"
+    extractor: str | None = None
+    """The features the networks read (`jax_policy.EXTRACTORS`; None: the observation)."""
+    start_speed: float | None = None
+    """`AimPolicy`'s start speed (None: the middle of the range)."""
 
     def __post_init__(self):
         if self.activation not in ACTIVATIONS:
             raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}")
-        if self.env_id not in ENVS:
-            raise ValueError(f"no JAX env for {self.env_id!r}; JAX envs: {sorted(ENVS)}")
+        if gymnax_entry_point(self.env_id) is None:
+            raise ValueError(f"no JAX env in the gymnax convention for {self.env_id!r}")
+        if self.policy not in POLICIES:
+            raise ValueError(f"the JAX trainer builds policy {' or '.join(POLICIES)}, not "
+                             f"{self.policy!r}")  # fmt: skip
+        if self.extractor is not None:
+            if self.extractor not in EXTRACTORS:
+                raise ValueError(f"the JAX trainer's features_extractor_class is one of "
+                                 f"{sorted(EXTRACTORS)}, not {self.extractor!r}")  # fmt: skip
+            reads = EXTRACTORS[self.extractor][0]
+            if family(self.env_id).name != reads:
+                raise ValueError(f"features_extractor_class {self.extractor} reads {reads}'s "
+                                 f"observation, not {self.env_id}'s")  # fmt: skip
+        if self.policy == "AimPolicy":
+            if self.extractor is None:
+                raise ValueError("policy AimPolicy reads the goal from its features: "
+                                 "features_extractor_class=NavigateExtractor")  # fmt: skip
+            AimStart.of(self.aim_control, self.start_speed)
+        elif self.start_speed is not None:
+            raise ValueError("start_speed is AimPolicy's (policy: AimPolicy)")
         if (self.n_steps * self.n_envs) % self.batch_size:
             raise ValueError(
                 f"batch_size {self.batch_size} must divide n_steps * n_envs "
@@ -146,6 +186,13 @@ class PPOConfig:
     def n_updates(self) -> int:
         """Rollouts (each followed by its update) until `timesteps` are reached, as SB3."""
         return max(1, math.ceil(self.timesteps / self.rollout_size))
+
+    @property
+    def aim_control(self) -> str | None:
+        """The control mode `AimPolicy` aims in (None for another policy)."""
+        if self.policy != "AimPolicy":
+            return None
+        return config_arguments(self.env_id, self.env_kwargs).get("control")
 
     @property
     def n_minibatches(self) -> int:
@@ -197,8 +244,6 @@ class PPOConfig:
 
         from tether_gym.training.zoo import algo_kwargs
 
-        if params.get("policy", "MlpPolicy") != "MlpPolicy":
-            raise ValueError(f"the JAX trainer builds MlpPolicy only, not {params['policy']!r}")
         if params.get("normalize"):
             raise ValueError("the JAX trainer does not normalize observations (normalize)")
         raw = {k: v for k, v in params.items() if k in SUPPORTED_KWARGS}
@@ -217,6 +262,7 @@ class PPOConfig:
         arch = policy.get("net_arch") or {"pi": [64, 64], "vf": [64, 64]}
         if isinstance(arch, (list, tuple)):
             arch = {"pi": arch, "vf": arch}
+        extractor = policy_kwargs.get("features_extractor_class")
         learning_rate, linear = _rate(ppo["learning_rate"])
         for key in ("clip_range", "clip_range_vf"):
             if ppo[key] is not None:
@@ -248,6 +294,9 @@ class PPOConfig:
             activation=policy["activation_fn"].__name__.lower(),
             log_std_init=float(policy["log_std_init"]),
             ortho_init=bool(policy["ortho_init"]),
+            policy=params.get("policy", "MlpPolicy"),
+            extractor=None if extractor is None else getattr(extractor, "__name__", extractor),
+            start_speed=policy_kwargs.get("start_speed"),
         )
 
 
@@ -259,6 +308,9 @@ def network(config: PPOConfig, action_dim: int) -> ActorCritic:
         activation=config.activation,
         log_std_init=config.log_std_init,
         ortho_init=config.ortho_init,
+        extractor=config.extractor,
+        aim_control=config.aim_control,
+        start_speed=config.start_speed,
     )
 
 
@@ -273,8 +325,10 @@ def gaussian_entropy(log_std: jax.Array) -> jax.Array:
 
 
 def make_env(config: PPOConfig):
-    """The gymnax-convention JAX env of the recipe, and its params."""
-    env = ENVS[config.env_id](**config.env_kwargs)
+    """The gymnax-convention JAX env of the recipe (its id's arguments, `env_kwargs` over
+    them), and its params."""
+    env_class = load(gymnax_entry_point(config.env_id))
+    env = env_class(**config_arguments(config.env_id, config.env_kwargs))
     return env, env.default_params
 
 
@@ -300,8 +354,9 @@ METRICS = (
     "reward", "success", "policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction",
     "minibatches", "learning_rate",
 )  # fmt: skip
-"""Per update (a vector over updates, per seed): the rollout's mean reward and success rate,
-and the applied minibatches' mean losses, KL and clip fraction, their count and the rate."""
+"""Per update (a vector over updates, per seed): the rollout's mean reward, the success rate
+of the episodes that ended in it, and the applied minibatches' mean losses, KL and clip
+fraction, their count and the rate."""
 
 
 def make_train(config: PPOConfig) -> Callable[[jax.Array], dict[str, Any]]:
@@ -331,8 +386,8 @@ def make_stages(config: PPOConfig):
     tx = optax.chain(optax.clip_by_global_norm(config.max_grad_norm), optax.scale_by_adam(eps=1e-5))
     n_envs, n_steps, n_mb = config.n_envs, config.n_steps, config.n_minibatches
     total_mb = config.n_epochs * n_mb
-    vstep = jax.vmap(env.step, in_axes=(0, 0, 0, None))
-    vreset = jax.vmap(env.reset, in_axes=(0, None))
+    vstep = jax.vmap(env.step_env, in_axes=(0, 0, 0, None))
+    vreset = jax.vmap(env.reset_env, in_axes=(0, None))
 
     def init(key: jax.Array) -> RunnerState:
         key, k_net, k_env = jax.random.split(key, 3)
@@ -345,10 +400,17 @@ def make_stages(config: PPOConfig):
         mean, log_std, value = net.apply(state.params, state.obs)
         action = mean + jnp.exp(log_std) * jax.random.normal(k_act, mean.shape)
         log_prob = gaussian_log_prob(action, mean, log_std)
+        keys = jax.vmap(jax.random.split)(jax.random.split(k_step, n_envs))  # as env.step's
         obs, env_state, reward, done, info = vstep(
-            jax.random.split(k_step, n_envs), state.env_state, jnp.clip(action, low, high),
-            env_params,
-        )  # fmt: skip
+            keys[:, 0], state.env_state, jnp.clip(action, low, high), env_params
+        )
+        if config.gamma > 0.0:  # SB3: a truncated episode's last reward + gamma V(its last obs)
+            _, _, last_value = net.apply(state.params, obs)
+            reward = reward + config.gamma * last_value * info["truncated"]
+        new_obs, new_state = vreset(keys[:, 1], env_params)  # the finished episodes' next
+        env_state = jax.tree.map(lambda a, b: jnp.where(_lanes(done, a), a, b), new_state,
+                                 env_state)  # fmt: skip
+        obs = jnp.where(done[:, None], new_obs, obs)
         success = info.get("is_success", jnp.zeros_like(reward))
         transition = Transition(
             state.obs, action, log_prob, value, reward.astype(jnp.float32),
@@ -434,7 +496,7 @@ def make_stages(config: PPOConfig):
         means = sums[:5] / jnp.maximum(count, 1.0)
         metrics = {
             "reward": traj.reward.mean(),
-            "success": traj.success.mean(),
+            "success": traj.success.sum() / jnp.maximum(traj.done.sum(), 1.0),
             "policy_loss": means[0],
             "value_loss": means[1],
             "entropy": means[2],
@@ -457,6 +519,11 @@ def make_stages(config: PPOConfig):
     return init, update
 
 
+def _lanes(done: jax.Array, leaf: jax.Array) -> jax.Array:
+    """`done` (n,) broadcast against a state leaf (n, ...)."""
+    return done.reshape(done.shape + (1,) * (leaf.ndim - 1))
+
+
 def policy_config(config: PPOConfig) -> PolicyConfig:
     """What the policy trained with `config` needs to play (saved beside its parameters)."""
     env, params = make_env(config)
@@ -475,6 +542,10 @@ def policy_config(config: PPOConfig) -> PolicyConfig:
         action_low=np.asarray(act.low, dtype=float).tolist(),
         action_high=np.asarray(act.high, dtype=float).tolist(),
         recipe=config.as_dict(),
+        extractor=config.extractor,
+        aim_control=config.aim_control,
+        start_speed=config.start_speed,
+        row_keys=tuple(env.func_env.row_keys),
     )
 
 

@@ -7,10 +7,9 @@
 The recipe is resolved as the SB3 path resolves it (`recipe.resolve_config`: the zoo entry, its
 `env_kwargs` under the command line's, `--hyperparams`, the `RunConfig`), then read by
 `PPOConfig.from_params`; `--seeds N` trains seeds `--seed` .. `--seed` + N - 1 under `jax.vmap`.
-Refused up front (ValueError naming the option): an env without a JAX backend
-(`families.family(env_id).backends`) or one the trainer does not train yet
-(`jax_ppo.ENVS`: TetherBounce-v0), an algorithm other than ppo, the planner-backed variants
-and the aim policy, and whatever the JAX trainer cannot honour.
+Refused up front (ValueError naming the option): an env without a JAX backend in the gymnax
+convention (`families.Backend.gymnax_entry_point`), an algorithm other than ppo, the
+planner-backed variants, and whatever the JAX trainer cannot honour (`PPOConfig`).
 
 The run folder holds `config.yaml` (the `RunConfig` with `backend: jax` and `seeds`),
 `seed<k>.msgpack` + `seed<k>.json` per seed, its policy at the end (`save_trained`;
@@ -84,8 +83,10 @@ class JaxRun:
 
 
 def has_jax_backend(env_id: str) -> bool:
-    """Whether the family of `env_id` has a JAX backend (`Family.backends`)."""
-    return any(backend.name == BACKEND for backend in family(env_id).backends)
+    """Whether the family of `env_id` has a JAX backend the trainer trains (`Family.backends`,
+    with a gymnax entry point)."""
+    return any(backend.name == BACKEND and backend.gymnax_entry_point
+               for backend in family(env_id).backends)  # fmt: skip
 
 
 def jax_env_ids() -> list[str]:
@@ -97,9 +98,8 @@ def jax_env_ids() -> list[str]:
 
 def check_jax_config(config: RunConfig) -> None:
     """ValueError for what `--backend jax` does not train: an env without a JAX backend
-    (before jax is imported: ModuleNotFoundError naming the `jax` extra if it is missing) or
-    one the trainer does not train yet (`jax_ppo.ENVS`), an algorithm other than ppo, a
-    planner-backed variant or the aim policy."""
+    (before jax is imported: ModuleNotFoundError naming the `jax` extra if it is missing) in
+    the gymnax convention, an algorithm other than ppo or a planner-backed variant."""
     from tether_gym.agents.planned import planned_keys
 
     if not has_jax_backend(config.env_id):
@@ -108,13 +108,6 @@ def check_jax_config(config: RunConfig) -> None:
             f"env); --env must be one of {jax_env_ids()}"
         )
     require_extra("tether-train --backend jax", MODULES, "jax")
-    from tether_gym.training.jax_ppo import ENVS
-
-    if config.env_id not in ENVS:
-        raise ValueError(
-            f"--backend jax: the JAX trainer does not train {config.env_id} yet (its JAX kernel "
-            f"is there); --env must be one of {sorted(ENVS)}"
-        )
     if config.algo != "ppo":
         raise ValueError(f"--backend jax trains ppo only, not --algo {config.algo}")
     variant_keys = sorted(key for key in config.hyperparams if key in planned_keys())
@@ -123,9 +116,6 @@ def check_jax_config(config: RunConfig) -> None:
             f"--backend jax trains no planner-backed variant: drop {', '.join(variant_keys)} "
             "(--backend sb3 trains them)"
         )
-    policy = config.hyperparams.get("policy", "MlpPolicy")
-    if policy != "MlpPolicy":
-        raise ValueError(f"--backend jax builds policy MlpPolicy only, not {policy}")
 
 
 def ppo_config(config: RunConfig) -> PPOConfig:

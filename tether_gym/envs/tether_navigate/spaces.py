@@ -67,6 +67,12 @@ GOAL_KEYS = {
     "achieved_goal": slice(OBS.x, OBS.goal_x),
     "desired_goal": slice(OBS.goal_x, OBS.goal_y + 1),
 }
+ROW_KEYS = ("observation", "desired_goal")
+"""The goal dict's entries whose concatenation is the plain row."""
+ANCHOR_COLUMNS = slice(OBS.anchor0_present, OBS.anchor0_present + 3 * MAX_ANCHORS)
+"""The pegs' columns of the row: (present, dx, dy) per slot, nearest first."""
+POST_COLUMNS = slice(OBS.post0_present, OBS.post0_present + 3 * MAX_POSTS)
+"""The posts' columns of the row: (present, dx, dy) per slot, nearest first."""
 
 
 def decode_observation(obs) -> dict[str, np.ndarray]:
@@ -77,8 +83,8 @@ def decode_observation(obs) -> dict[str, np.ndarray]:
     `post_present` (..., k) bools (padding slots hold the puck's position); `maneuvers_left`
     as a fraction of `max_maneuvers`. The public decoder agents use."""
     if isinstance(obs, Mapping):
-        parts = (obs["observation"], obs["desired_goal"])
-        obs = np.concatenate([np.asarray(part, dtype=np.float64) for part in parts], axis=-1)
+        parts = [np.asarray(obs[key], dtype=np.float64) for key in ROW_KEYS]
+        obs = np.concatenate(parts, axis=-1)
     o = OBSERVATION.decode(obs)
     position = np.stack([o["x"], o["y"]], axis=-1)
 
