@@ -31,6 +31,7 @@ RESULTS_MACROS: dict[str, Callable[..., str]] = {
     "jax_agreement_table": tables.jax_agreement_table,
     "jax_throughput_table": tables.jax_throughput_table,
     "jax_train_table": tables.jax_train_table,
+    "jax_vs_sb3_table": tables.jax_vs_sb3_table,
     "jax_navigate_agreement_table": tables.jax_navigate_agreement_table,
 }
 """The macros that read results files (their `root` and `style` set by `expand`)."""

@@ -580,6 +580,51 @@ def jax_train_table(sources: dict[str, str], root: Path = ROOT, style: str = "pa
     return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
 
 
+def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """The JAX trainer and SB3 timed in one run (`benchmarks.experiments.jax_vs_sb3`): per
+    command, its seeds x timesteps, wall time, steps/s and the success of its best and last
+    policies on the same test episodes (mean [95% CI], worst seed)."""
+    _check_sources(sources)
+    lines = [
+        "| command | seeds x timesteps | wall time | steps/s | best policy [95% CI] | "
+        "worst seed | last policy [95% CI] |",
+        "|---|---|---:|---:|---|---:|---|",
+    ]
+    notes = []
+    for path in (path for p in sources for path in files_of(p, root)):
+        data = read_file(path)
+        for row in data["rows"]:
+            best, last = row["best"], row["last"]
+            best_cells = ["-", "-"] if best is None else [
+                _rate_cell({"mean": best["success_mean"], "ci": best["success_ci"]}),
+                f"{100 * best['worst']:.1f}%",
+            ]  # fmt: skip
+            cells = [
+                f"`{row['command']}`",
+                f"{row['seeds']} x {row['timesteps']:,}",
+                f"{row['wall_seconds']:,.0f} s",
+                f"{row['steps_per_second']:,.0f}",
+                *best_cells,
+                _rate_cell({"mean": last["success_mean"], "ci": last["success_ci"]}),
+            ]
+            lines.append("| " + " | ".join(cells) + " |")
+        jax, sb3 = data["rows"]
+        details, setup = data["details"], data["setup"]
+        notes.append(
+            f"{jax['trainer']} runs its {jax['seeds']} seeds in one process; {sb3['trainer']} "
+            f"runs one seed per process, one after another. Wall time is each command's, "
+            f"start to exit (start-up, compiling, training, periodic evaluations, final table): "
+            f"the JAX command's is {100 * details['wall_ratio']:.0f}% of the "
+            f"{sb3['seeds']} SB3 commands'. The JAX run compiled for "
+            f"{jax['compile_seconds']:.0f} s and peaked at {jax['peak_rss_mb']:,} MB of RSS. "
+            f"Each policy played the final table's test episodes (seed "
+            f"{setup['test_seed']:,}) on the numba env. Load average "
+            f"{details['load_before'][0]:.1f} before and {details['load_after'][0]:.1f} after, "
+            f"on {setup['cpus']} CPUs. " + _run_line(data)
+        )
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
+
+
 def _run_line(data: dict[str, Any], shown: dict[str, str] | None = None) -> str:
     """What ran a results file: jax's version, the device (and the `shown` parts: "device",
     "precision"), the commit, the wall time."""
