@@ -586,7 +586,7 @@ def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
     policies on the same test episodes (mean [95% CI], worst seed)."""
     _check_sources(sources)
     lines = [
-        "| command | seeds x timesteps | wall time | steps/s | best policy [95% CI] | "
+        "| trainer | seeds x timesteps | wall time | steps/s | best policy [95% CI] | "
         "worst seed | last policy [95% CI] |",
         "|---|---|---:|---:|---|---:|---|",
     ]
@@ -600,7 +600,7 @@ def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
                 f"{100 * best['worst']:.1f}%",
             ]  # fmt: skip
             cells = [
-                f"`{row['command']}`",
+                row["trainer"],
                 f"{row['seeds']} x {row['timesteps']:,}",
                 f"{row['wall_seconds']:,.0f} s",
                 f"{row['steps_per_second']:,.0f}",
@@ -611,8 +611,9 @@ def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
         jax, sb3 = data["rows"]
         details, setup = data["details"], data["setup"]
         notes.append(
-            f"{jax['trainer']} runs its {jax['seeds']} seeds in one process; {sb3['trainer']} "
-            f"runs one seed per process, one after another. Wall time is each command's, "
+            f"{jax['trainer']} is `{jax['command']}`, its {jax['seeds']} seeds in one process; "
+            f"{sb3['trainer']} is `{sb3['command']}` for k = 0 .. {sb3['seeds'] - 1}, one seed "
+            f"per process, one after another. Wall time is each command's, "
             f"start to exit (start-up, compiling, training, periodic evaluations, final table): "
             f"the JAX command's is {100 * details['wall_ratio']:.0f}% of the "
             f"{sb3['seeds']} SB3 commands'. The JAX run compiled for "

@@ -128,8 +128,9 @@ def test_the_orthogonal_initializer_is_jax_s_without_lapack(shape):
     from tether_gym.agents.jax_policy import orthogonal
 
     key = jax.random.PRNGKey(3)
-    ours = np.asarray(orthogonal(1.5)(key, shape))
-    np.testing.assert_allclose(ours, jax.nn.initializers.orthogonal(1.5)(key, shape), atol=1e-5)
+    ours = np.asarray(orthogonal(1.5)(key, shape, jax.numpy.float32))
+    theirs = jax.nn.initializers.orthogonal(1.5)(key, shape, jax.numpy.float32)
+    np.testing.assert_allclose(ours, theirs, atol=1e-5)
     network = ActorCritic(action_dim=3, pi_arch=(256, 256), vf_arch=(256, 256),
                           extractor="NavigateExtractor", aim_control="aim")  # fmt: skip
     keys = jax.random.split(jax.random.PRNGKey(0), 5)
