@@ -13,6 +13,7 @@ module imports no floor of the package, so every floor may import it
 
 from __future__ import annotations
 
+import functools
 import importlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -225,7 +226,9 @@ those `register_family` adds."""
 
 def register(env_family: Family) -> None:
     """Register every id of `env_family` and of its backends with Gymnasium, with their entry
-    points and the arguments the id fixes."""
+    points and the arguments the id fixes; `gym.make` checks them with Gymnasium's
+    `PassiveEnvChecker`, guarded against a refused first reset (`guard_passive_env_checker`)."""
+    guard_passive_env_checker()
     for implementation in (env_family, *env_family.backends):
         for env_id, kwargs in implementation.ids.items():
             gym.register(
@@ -234,6 +237,44 @@ def register(env_family: Family) -> None:
                 vector_entry_point=implementation.vector_entry_point,
                 kwargs=dict(kwargs),
             )
+
+
+def guard_passive_env_checker() -> None:
+    """Make Gymnasium's `PassiveEnvChecker` check the first reset that returns, not the first
+    one called, so that a refused reset (bad options: ValueError) costs nothing else.
+
+    `gym.make` wraps every env in the checker (unless `disable_env_checker`), which no env can
+    reach. Gymnasium 1.4's `PassiveEnvChecker.reset` (`gymnasium/wrappers/common.py`) sets
+    `checked_reset` before calling the env's reset and records the returned data in
+    `_previous_data` after it: a first reset that raises leaves the flag set and the data None,
+    later resets bypass the check, and from then on every `step` steps the env and then raises
+    `TypeError` in `env_data_reuse_passive_checker` (`utils/passive_env_checker.py`),
+    unpacking the None. Here a reset that raises while unchecked clears the flag again, the
+    next reset being checked instead: what the checker does for an env whose first reset
+    returns, for every env `gym.make` checks. Done once (the guard is marked); harmless where
+    Gymnasium records only a reset that returned."""
+    checker = gym.wrappers.PassiveEnvChecker
+    if getattr(checker.reset, "_guarded", False):
+        return
+    unguarded = checker.reset
+
+    @functools.wraps(unguarded)
+    def reset(
+        self: gym.wrappers.PassiveEnvChecker,
+        *,
+        seed: int | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[Any, dict[str, Any]]:
+        unchecked = self.checked_reset is False
+        try:
+            return unguarded(self, seed=seed, options=options)
+        except BaseException:
+            if unchecked:
+                self.checked_reset = False
+            raise
+
+    reset._guarded = True
+    checker.reset = reset
 
 
 def register_family(env_family: Family) -> None:

@@ -10,7 +10,7 @@ import pytest
 from tether_gym.physics import bounce, bounce_one
 
 ENTRY_POINTS = [bounce, bounce_one]
-POSITIVE = ["mass", "radius", "stiffness", "tether_length", "inertia_ratio", "speed"]
+POSITIVE = ["mass", "radius", "stiffness", "tether_length", "speed"]
 ALL_PARAMETERS = [
     "tether_angle",
     "offset_angle",
@@ -36,9 +36,19 @@ def call(entry, **kwargs):
 @pytest.mark.parametrize("name", POSITIVE)
 @pytest.mark.parametrize("value", [0.0, -1.0])
 def test_non_positive_values_are_refused(entry, name, value):
-    """mass, radius, stiffness, tether_length, inertia_ratio and speed must be > 0."""
+    """mass, radius, stiffness, tether_length and speed must be > 0."""
     with pytest.raises(ValueError, match=rf"{name} must be in \(0, inf\)"):
         call(entry, **{name: value})
+
+
+@pytest.mark.parametrize("entry", ENTRY_POINTS)
+@pytest.mark.parametrize("value", [0.0, 1e-24, 1e-310])
+def test_inertia_ratio_below_its_least_is_refused(entry, value):
+    """Issue 55: an inertia ratio of 1e-24 gave no spin under the hybrid model (the impulse
+    model: -240 rad/s) and 1e-310 a ZeroDivisionError; the models take kappa >= 0.001."""
+    with pytest.raises(ValueError, match=r"inertia_ratio must be in \[0.001, inf\)"):
+        call(entry, inertia_ratio=value)
+    assert call(entry, inertia_ratio=1e-3).completed
 
 
 @pytest.mark.parametrize("entry", ENTRY_POINTS)

@@ -14,7 +14,8 @@ and `truncated`, and everything else it holds is reported in `info`. Randomness 
 as uniforms, drawn by the env from its own generators, `n_uniforms` per reset; the kernel's
 configuration (`params`, validated) is bound when the kernel is built. Kernels return new
 arrays and never change their inputs, so a refused step (a NaN action raises `ValueError`)
-changes nothing.
+changes nothing; a refused reset (its options: `ValueError`) changes nothing either, the envs
+putting their random streams back.
 
 The state and the params come in either of two conventions, the envs here handling both alike
 (they index rows and never read a field):
@@ -184,10 +185,23 @@ class KernelEnv(gym.Env[np.ndarray, np.ndarray]):
         return None if self._state is None else self._state[0]
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
-        state, obs = self.kernel.reset(self.np_random.random((1, self.kernel.n_uniforms)))
-        if options:
-            self.kernel.reset_options(options, state, obs)
+        """A new episode, drawn from `np_random` (seeded first if `seed` is given), `options`
+        applied. A reset that raises (refused options: ValueError) changes nothing: the episode
+        goes on as before, and the generator and its seed are as they were (its state is kept
+        aside only when options are given, the one refusal that comes after a draw)."""
+        generator, generator_seed = self._np_random, self._np_random_seed
+        kept = options and seed is None and generator is not None
+        drawn = generator.bit_generator.state if kept else None
+        try:
+            super().reset(seed=seed)
+            state, obs = self.kernel.reset(self.np_random.random((1, self.kernel.n_uniforms)))
+            if options:
+                self.kernel.reset_options(options, state, obs)
+        except BaseException:
+            self._np_random, self._np_random_seed = generator, generator_seed
+            if drawn is not None:
+                generator.bit_generator.state = drawn
+            raise
         self._state, self.outcome, self._ended = state, None, False
         if self.render_mode is not None:  # kept only to be drawn
             self._scenes = [(self.state, None)]
@@ -252,7 +266,9 @@ class KernelVectorEnv(VectorEnv):
     a list); each copy keeps its own generator and draws its uniforms in the same order as a
     single env, so copy i sees exactly the episodes of a `KernelEnv` reset with its seed.
     Uniforms are drawn in blocks of `block` episodes per copy to keep the per-step cost flat.
-    `reset(options=...)` applies to every copy; rendering is not supported.
+    `reset(options=...)` applies to every copy; a reset that raises (refused options) changes
+    nothing, as a single env's: the copies' episodes, generators and uniforms are as they were.
+    Rendering is not supported.
     """
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.SAME_STEP}
@@ -314,6 +330,21 @@ class KernelVectorEnv(VectorEnv):
         else:
             self._cursor = self._cursor + ended  # one cursor per copy from now on
 
+    def _streams(self, reseed: bool) -> tuple:
+        """What a reset may change of the copies' random streams, to put back if it is refused:
+        the generators, the buffer, the cursor, and the generators' states unless they are to be
+        replaced (blocks used up are then drawn again from the same states)."""
+        cursor = self._cursor if isinstance(self._cursor, int) else self._cursor.copy()
+        states = None if reseed else [g.bit_generator.state for g in self._generators]
+        return self._generators, self._buffer, cursor, states
+
+    def _restore(self, kept: tuple) -> None:
+        """The random streams as `_streams` kept them."""
+        self._generators, self._buffer, self._cursor, states = kept
+        if states is not None:
+            for generator, state in zip(self._generators, states, strict=True):
+                generator.bit_generator.state = state
+
     def reset(
         self,
         *,
@@ -326,13 +357,22 @@ class KernelVectorEnv(VectorEnv):
             seeds = list(seed)
             if len(seeds) != self.num_envs:
                 raise ValueError(f"seed must hold num_envs={self.num_envs} seeds, got {seed!r}")
-        if seed is not None or self._generators is None:
-            self._generators = [seeding.np_random(s)[0] for s in seeds]
-            self._cursor = self._block
-        state, obs = self.kernel.reset(self._uniforms())
-        self._advance(None)  # drawn even if the options are refused, as by a single env's reset
-        if options:
-            self.kernel.reset_options(options, state, obs)
+        reseed = seed is not None or self._generators is None
+        kept = self._streams(reseed) if options else None  # options are what a reset refuses
+        try:
+            if reseed:
+                self._generators = [seeding.np_random(s)[0] for s in seeds]
+                self._cursor = self._block
+                if kept is not None:  # the kept buffer's undrawn uniforms untouched
+                    self._buffer = np.empty_like(self._buffer)
+            state, obs = self.kernel.reset(self._uniforms())
+            if options:
+                self.kernel.reset_options(options, state, obs)
+        except BaseException:
+            if kept is not None:
+                self._restore(kept)
+            raise
+        self._advance(None)
         self.state, self._obs = state, obs
         return self.kernel.view(obs), {}
 

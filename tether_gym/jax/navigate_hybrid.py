@@ -43,7 +43,7 @@ from tether_gym.envs.tether_navigate.config import (
 )
 from tether_gym.jax import physics
 from tether_gym.jax.navigate_physics import Puck, select
-from tether_gym.physics.hybrid import MAX_HALF_PERIODS, MAX_STEPS, RK4_STEPS_PER_HALF_PERIOD
+from tether_gym.physics.hybrid import MAX_STEPS, RK4_STEPS_PER_HALF_PERIOD
 from tether_gym.physics.obstacles import (
     MAX_HALVINGS,
     MAX_REFINEMENTS,
@@ -223,18 +223,9 @@ def contact(puck: Puck, s, params, ax, ay, length, e, path, n):
     speed = jnp.hypot(vx, vy)
     inertia = INERTIA_RATIO * PUCK_MASS * PUCK_RADIUS * PUCK_RADIUS
     p = physics.Tether(k, c, length, 1.0 / PUCK_MASS, 1.0 / inertia, physics.runtime_one(speed))
-    fastest = physics.fastest_rate(k, c, PUCK_MASS, INERTIA_RATIO, OFFSET)
-    if OFFSET > 0.0:
-        whirl = jnp.sqrt(w * w + speed * speed / (INERTIA_RATIO * PUCK_RADIUS * PUCK_RADIUS))
-        fastest = jnp.maximum(fastest, whirl)
-    h = math.pi / (fastest * RK4_STEPS_PER_HALF_PERIOD)
-    budget = (
-        MAX_HALF_PERIODS
-        * RK4_STEPS_PER_HALF_PERIOD
-        * fastest
-        / physics.slowest_rate(k, c, PUCK_MASS)
-    )
-    steps = jnp.minimum(jnp.floor(budget), MAX_STEPS)
+    rate = physics.step_rate(k, c, PUCK_MASS, INERTIA_RATIO, OFFSET, w, speed, PUCK_RADIUS)
+    h = math.pi / (rate * RK4_STEPS_PER_HALF_PERIOD)
+    steps = jnp.minimum(jnp.floor(physics.contact_budget(k, PUCK_MASS) / h), MAX_STEPS)
     bound = speed_bound(vx, vy, w)
     gap = clearance(o, cx, cy)[0]
     safe = jnp.where(bound > 0.0, gap / jnp.where(bound > 0.0, bound, 1.0), jnp.inf)

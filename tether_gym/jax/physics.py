@@ -214,11 +214,16 @@ def fastest_rate(k, c, mass, kappa, offset):
     return natural * jnp.where(z > 1.0, zo + jnp.sqrt(zo * zo - 1.0), 1.0)
 
 
-def slowest_rate(k, c, mass):
-    """The slowest rate (rad/s) of a contact (`physics.hybrid.slowest_rate`)."""
-    spring = jnp.sqrt(k / mass)
-    relax = k / jnp.where(c > 0.0, c, 1.0)
-    return jnp.where(c > 0.0, jnp.minimum(spring, relax), spring)
+def step_rate(k, c, mass, kappa, offset, spin, speed, radius):
+    """The rate (rad/s) whose half period sizes a contact's steps (`physics.hybrid.step_rate`)."""
+    fastest = fastest_rate(k, c, mass, kappa, offset)
+    whirl = jnp.sqrt(spin * spin + speed * speed / (kappa * radius * radius))
+    return jnp.where(offset > 0.0, jnp.maximum(fastest, whirl), fastest)
+
+
+def contact_budget(k, mass):
+    """How long (s) a contact may last before it is given up (`physics.hybrid.contact_budget`)."""
+    return MAX_HALF_PERIODS * math.pi / jnp.sqrt(k / mass)
 
 
 class Tether(NamedTuple):
@@ -312,12 +317,9 @@ def _start(y, c, offset, kappa, speed, radius, mass, rest_length, k, active):
     w = y[6]
     inertia = kappa * mass * radius * radius
     p = Tether(k, c, rest_length, 1.0 / mass, 1.0 / inertia, runtime_one(speed))
-    fastest = fastest_rate(k, c, mass, kappa, offset)
-    whirl = jnp.sqrt(w * w + speed * speed / (kappa * radius * radius))
-    fastest = jnp.where(offset > 0.0, jnp.maximum(fastest, whirl), fastest)
-    h = math.pi / (fastest * RK4_STEPS_PER_HALF_PERIOD)
-    budget = MAX_HALF_PERIODS * RK4_STEPS_PER_HALF_PERIOD * fastest / slowest_rate(k, c, mass)
-    budget = jnp.floor(jnp.minimum(budget, MAX_STEPS))
+    rate = step_rate(k, c, mass, kappa, offset, w, speed, radius)
+    h = math.pi / (rate * RK4_STEPS_PER_HALF_PERIOD)
+    budget = jnp.floor(jnp.minimum(contact_budget(k, mass) / h, MAX_STEPS))
     a, tension = _accel(y, p)
     zero = 0.0 * tension
     count = jnp.zeros((), jnp.int32)

@@ -93,7 +93,8 @@ def bounce(
         offset_angle: the paper's alpha, rad: from the tether's direction to the line from the
             attachment point to the centre of mass, counter-clockwise positive.
         offset: attachment distance from the centre of mass over the radius, in [0, 1].
-        inertia_ratio: kappa = I / (m R^2), > 0 (1/2 a solid disk, 1 a thin ring).
+        inertia_ratio: kappa = I / (m R^2), >= `checks.MIN_INERTIA_RATIO` (1/2 a solid disk, 1 a
+            thin ring).
         speed: pre-bounce speed of the centre of mass, m/s, > 0.
         spin: pre-bounce angular velocity, rad/s, counter-clockwise positive.
         restitution: e in [0, 1] (in (0, 1] for the hybrid and pymunk models).

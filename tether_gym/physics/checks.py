@@ -7,12 +7,17 @@ import math
 import numpy as np
 
 INF = math.inf
+MIN_INERTIA_RATIO = 1e-3
+"""The least inertia ratio kappa = I / (m R^2) the models take: a puck whose radius of gyration is
+3% of its radius. Below it the attachment point's whirl (speed / (sqrt(kappa) R)) outruns the
+spring models' steps and the impulse model's spin loses its digits (at 1e-24 the hybrid model
+reports no spin where the impulse model gives -240 rad/s)."""
 
 RANGES = {
     "tether_angle": (-INF, INF, False),
     "offset_angle": (-INF, INF, False),
     "offset": (0.0, 1.0, False),
-    "inertia_ratio": (0.0, INF, True),
+    "inertia_ratio": (MIN_INERTIA_RATIO, INF, False),
     "speed": (0.0, INF, True),
     "spin": (-INF, INF, False),
     "restitution": (0.0, 1.0, False),

@@ -22,9 +22,16 @@ length found by the Illinois (regula falsi) method on T, so the kink at L = L0 n
 a step and the method keeps its order. The attachment point is carried as a vector (rx, ry) that
 turns with the spin, which spares the trigonometry of an angle state; the orientation angle is
 integrated beside it by the same RK4 (dangle/dt = spin), so that it keeps count of whole turns.
-A bounce still taut after `MAX_HALF_PERIODS` half periods of the slowest time scale
-(`contact_budget`, the budget the pymunk model shares), or after `MAX_STEPS` steps, is reported
-with `completed = False` instead of hanging.
+A bounce still taut after `MAX_HALF_PERIODS` half periods of the undamped spring with the
+whole mass (`contact_budget`, the budget the pymunk model shares), or after `MAX_STEPS` steps,
+is reported with `completed = False` instead of hanging: a tether that holds the puck in an orbit
+about the anchor (a soft tether, or a restitution near 0 that leaves the attachment point no
+speed along the tether) never goes slack. The budget is not the overdamped spring's slow
+relaxation (rate k / c): the tension k x + c dx/dt of a stretch relaxing at that rate is already
+negative, so a contact ends within the fast decay (in about ln(4 zeta^2) / zeta of 1 / w_n) or
+is held by the orbit; a budget in units of c / k would only make the orbit's steps grow as
+zeta^2 (as 1 / e). `MAX_STEPS` bounds the steps where the fast time scale (a stiff damper, a
+fast whirl) makes the budget's steps too many: at most a few tenths of a second a bounce.
 
 Dissipation. The damper's coefficient is c = 2 zeta sqrt(k m_eff), m_eff the puck's effective
 mass along the tether at tautening, m / (1 + (d sin alpha)^2 / kappa). For a linear
@@ -63,10 +70,11 @@ from tether_gym.physics.state import PuckState, attachment_offset, puck_state, s
 RK4_STEPS_PER_HALF_PERIOD = 48
 """RK4 steps per half period of the fastest time scale of a contact."""
 MAX_HALF_PERIODS = 400
-"""A contact still taut after this many half periods of its slowest time scale is given up."""
-MAX_STEPS = 1 << 22
+"""A contact still taut after this many half periods of its undamped spring (the whole mass) is
+given up."""
+MAX_STEPS = 1 << 20
 """At most this many steps for one bounce, whatever the time scales (a stiff, heavily damped
-contact)."""
+contact; a fast whirl on a soft tether)."""
 SLACK_ITERATIONS = 60
 """At most this many Illinois iterations locate the slack instant inside the last step; they
 stop sooner where |T| <= `SLACK_TENSION` times the peak tension so far (T's rounding near zero)
@@ -105,18 +113,22 @@ def fastest_rate(k, c, mass, kappa, offset):
 
 
 @numba.njit(cache=True)
-def slowest_rate(k, c, mass):
-    """The slowest rate (rad/s) of a contact: the spring with the whole mass, or the stretch of
-    an overdamped spring relaxing at k / c."""
-    return min(math.sqrt(k / mass), k / c) if c > 0.0 else math.sqrt(k / mass)
+def step_rate(k, c, mass, kappa, offset, spin, speed, radius):
+    """The rate (rad/s) whose half period sizes a contact's steps: `fastest_rate`, or with the
+    attachment point off the centre of mass the fastest spin energy allows, w^2 <= w0^2 +
+    v0^2 / (kappa R^2), where that is faster (the attachment point whirls)."""
+    fastest = fastest_rate(k, c, mass, kappa, offset)
+    if offset > 0.0:
+        fastest = max(fastest, math.sqrt(spin * spin + speed * speed / (kappa * radius * radius)))
+    return fastest
 
 
 @numba.njit(cache=True)
-def contact_budget(k, c, mass):
+def contact_budget(k, mass):
     """How long (s) a contact may last before it is given up (`completed = False`):
-    MAX_HALF_PERIODS half periods of its slowest time scale. The one budget of the spring
-    models (the hybrid model counts it in steps)."""
-    return MAX_HALF_PERIODS * math.pi / slowest_rate(k, c, mass)
+    MAX_HALF_PERIODS half periods of the undamped spring with the whole mass, sqrt(k / m). The
+    one budget of the spring models (the hybrid model counts it in steps)."""
+    return MAX_HALF_PERIODS * math.pi / math.sqrt(k / mass)
 
 
 @numba.njit(cache=True)
@@ -305,13 +317,9 @@ def _contact(
     `tolerance` however long the contact (k = 0 draws nothing and gives up nothing)."""
     inertia = kappa * mass * radius * radius
     inv_m, inv_i = 1.0 / mass, 1.0 / inertia
-    fastest = fastest_rate(k, c, mass, kappa, offset)
-    if offset > 0.0:  # the attachment point whirls: resolve the fastest spin energy allows
-        fastest = max(fastest, math.sqrt(w * w + speed * speed / (kappa * radius * radius)))
-    h = math.pi / (fastest * RK4_STEPS_PER_HALF_PERIOD)
-    # `contact_budget` in steps of h
-    budget = MAX_HALF_PERIODS * RK4_STEPS_PER_HALF_PERIOD * fastest / slowest_rate(k, c, mass)
-    steps = min(int(budget), MAX_STEPS)
+    rate = step_rate(k, c, mass, kappa, offset, w, speed, radius)
+    h = math.pi / (rate * RK4_STEPS_PER_HALF_PERIOD)
+    steps = int(min(contact_budget(k, mass) / h, MAX_STEPS))  # the budget in steps of h
     p = (k, c, rest_length, inv_m, inv_i)
     bound = speed_bound(vx, vy, w, kappa, radius)
     if obstacles is None:  # numba prunes the branches on it: no obstacle code in the open

@@ -478,7 +478,7 @@ class ManeuverWorld(TetherWorld):
         reach = math.hypot(px - self.pegs[peg][0], py - self.pegs[peg][1])
         self.hook(self.pegs[peg], max(tether_length, reach), damping)
         horizon = self.epoch + check_float("horizon", horizon, 0.0, INF)
-        budget = contact_budget(self.stiffness, self.damping, self.mass)
+        budget = contact_budget(self.stiffness, self.mass)
         hits, self.wall_while_taut, self.momentum_taut = self.wall_hits, False, math.nan
         bounces, self.post_hit = self.bounces, False
         while self.attached and not self.post_hit:

@@ -18,9 +18,11 @@ Euler and gain about 2.6% of the energy per bounce at dt = 1e-5 s.
 Steps. While the tether is taut, or could go taut within a free-flight step, the step is
 `1 / taut_steps` of the half period of the fastest spring the puck can present: pi / (N w_max),
 with w_max^2 = k / m_eff_min and m_eff_min = m / (1 + d^2 / kappa) (the moment arm at its
-largest), raised by the damper's fast decay when it is overdamped (`hybrid.fastest_rate`, which
-sizes the hybrid model's step too). In free flight the step is
-`free_step`, shortened so the puck moves at most a quarter radius per step (wall contacts).
+largest), raised by the damper's fast decay when it is overdamped and by the fastest spin the
+puck's energy allows when the attachment point is off the centre of mass (`hybrid.step_rate`,
+which sizes the hybrid model's step too; taken when the tether is attached). In free flight the
+step is `free_step`, shortened so the puck moves at most a quarter radius per step (wall
+contacts).
 
 Events. Chipmunk steps at fixed instants, so the instants the tether goes taut and slack are
 located inside their steps by linear interpolation of the gauge min(k (L - L0), T) (positive
@@ -49,9 +51,9 @@ from dataclasses import dataclass
 
 import pymunk
 
-from tether_gym.physics.checks import INF, check_float
+from tether_gym.physics.checks import INF, MIN_INERTIA_RATIO, check_float
 from tether_gym.physics.geometry import initial_state
-from tether_gym.physics.hybrid import damping_ratio, effective_mass, fastest_rate
+from tether_gym.physics.hybrid import damping_ratio, effective_mass, step_rate
 from tether_gym.physics.state import PuckState
 
 PUCK, WALL, POST = 1, 2, 3
@@ -140,7 +142,7 @@ class TetherWorld:
     ) -> None:
         self.mass = check_float("mass", mass, 0.0, INF, low_open=True)
         self.radius = check_float("radius", radius, 0.0, INF, low_open=True)
-        self.inertia_ratio = check_float("inertia_ratio", inertia_ratio, 0.0, INF, low_open=True)
+        self.inertia_ratio = check_float("inertia_ratio", inertia_ratio, MIN_INERTIA_RATIO, INF)
         self.offset = check_float("offset", offset, 0.0, 1.0)
         self.stiffness = check_float("stiffness", stiffness, 0.0, INF, low_open=True)
         if int(taut_steps) != taut_steps or taut_steps < 1:
@@ -201,7 +203,7 @@ class TetherWorld:
         `world` passes the table, release and step options on to the constructor.
         """
         e = check_float("restitution", restitution, 0.0, 1.0, low_open=True)
-        kappa = check_float("inertia_ratio", inertia_ratio, 0.0, INF, low_open=True)
+        kappa = check_float("inertia_ratio", inertia_ratio, MIN_INERTIA_RATIO, INF)
         damping = tether_damping(stiffness, e, mass, kappa, offset * math.sin(offset_angle))
         made = cls(
             mass=mass,
@@ -219,18 +221,20 @@ class TetherWorld:
         return made
 
     def _set_tether(self, anchor: tuple[float, float], tether_length: float, damping: float):
-        """The tether's anchor, rest length and damper, validated, and the taut step they
-        imply."""
+        """The tether's anchor, rest length and damper, validated."""
         self.anchor = (check_float("anchor x", anchor[0]), check_float("anchor y", anchor[1]))
         self.tether_length = check_float("tether_length", tether_length, 0.0, INF, low_open=True)
         self.damping = check_float("damping", damping, 0.0, INF)
-        fastest = fastest_rate(
-            self.stiffness, self.damping, self.mass, self.inertia_ratio, self.offset
-        )
-        self.taut_step = math.pi / (fastest * self.taut_steps)
 
     def _attach(self) -> None:
-        """Attach the tether to the puck as it is now."""
+        """Attach the tether to the puck as it is now, with the taut step its tether and its
+        motion now imply (`hybrid.step_rate`)."""
+        v = self.body.velocity
+        rate = step_rate(
+            self.stiffness, self.damping, self.mass, self.inertia_ratio, self.offset,
+            self.body.angular_velocity, math.hypot(v.x, v.y), self.radius,
+        )  # fmt: skip
+        self.taut_step = math.pi / (rate * self.taut_steps)
         self.body.velocity_func = self._tether_velocity
         self.attached = True
         self.taut_time = self.slack_time = math.nan

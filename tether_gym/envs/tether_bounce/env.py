@@ -107,7 +107,8 @@ class TetherBounceEnv(KernelEnv):
     |--------------------|------------|------------------------------------------------------------|
     | `task`             | `"mixed"`  | `"heading"`, `"velocity"`, `"deadspin"` or `"mixed"`       |
     | `dynamics`         | `"hybrid"` | `"hybrid"` (spring tether), `"impulse"`, or `"pymunk"`     |
-    | `inertia_ratio`    | `0.5`      | kappa in (0, 4], or a `(low, high)` range drawn uniformly  |
+    | `inertia_ratio`    | `0.5`      | kappa in [0.001, 4], or a `(low, high)` range drawn        |
+    |                    |            | uniformly                                                  |
     | `restitution`      | `1.0`      | e in [0, 1] ((0, 1] unless impulse), or a range            |
     | `rho`              | `850.0`    | stiffness as the paper's rho at the fastest launch, in     |
     |                    |            | [1, 1e6], or a range drawn log-uniformly                   |

@@ -36,7 +36,7 @@ from tether_gym.envs.kernels import (
 )
 from tether_gym.kernel_cache import announce
 from tether_gym.physics import bounce
-from tether_gym.physics.checks import check_float
+from tether_gym.physics.checks import MIN_INERTIA_RATIO, check_float
 from tether_gym.physics.geometry import stiffness_for_rho
 from tether_gym.physics.hybrid import damping_ratio, hybrid_core
 from tether_gym.physics.impulse import impulse_core
@@ -197,7 +197,7 @@ class BounceConfig:
             rho = _value_or_range("rho", env_rho(stiffness), *RHO_RANGE)
         set_(self, "rho", rho)
         set_(self, "inertia_ratio", _value_or_range(
-            "inertia_ratio", self.inertia_ratio, 0.0, MAX_INERTIA_RATIO, low_open=True
+            "inertia_ratio", self.inertia_ratio, MIN_INERTIA_RATIO, MAX_INERTIA_RATIO
         ))  # fmt: skip
         set_(self, "spin_disturbance", check_float(
             "spin_disturbance", self.spin_disturbance, 0.0, MAX_SPIN_DISTURBANCE

@@ -61,9 +61,9 @@ CONTACT_POINTS = 128
 """Points drawn along a hybrid contact's arc (and its wall bounces) at most, each added where the
 arc since the last one could stray `PATH_TOLERANCE` from the chord. A contact whose arc needs
 more is given up there (`completed` False, released where its drawing ends), as one still taut
-at its time budget is: a soft tether (rho near 10) that captures the puck into an orbit about
-the peg. Completed contacts need far fewer (`benchmarks/validation/fuzz_navigate.py` counts those
-given up)."""
+at its time budget is: a tether that holds the puck in an orbit about the peg (a soft one, a
+brake near e = 0, a grazing tautening). Completed contacts need far fewer
+(`benchmarks/validation/fuzz_navigate.py` counts those given up)."""
 PATH_POINTS = MAX_WALL_HITS + 3 + CONTACT_POINTS + COAST_STRETCHES
 """A maneuver's path: its start, the wall hits, the tautening, the contact's arc, the slack
 instant, and with `coast` the coast's wall hits and its end."""
