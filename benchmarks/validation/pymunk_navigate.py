@@ -9,8 +9,10 @@ and each maneuver's end compared with the kernel's.
 
 Each rung is played at each `--rho` (the tether's stiffness as the env's `rho`: 850 is the
 default; a soft tether, rho = 10, makes contacts long enough to meet the walls and the posts
-often) and each `--wall-restitution` (0.9 the default), `--episodes` episodes each, seeds
-`--seed` on, actions drawn from the action space seeded alike. Each episode is replayed twice
+often) and each `--wall-restitution` (0.9 the default; `results/pymunk/sweep.json` runs 0, 0.9
+and 1 at rho 10, 850 and 1e6: at 0 a wall stops the puck's normal velocity, the puck slides
+along it, and a corner stops it), `--episodes` episodes each, seeds `--seed` on, actions drawn
+from the action space seeded alike. Each episode is replayed twice
 in the world: whole (`replay` from the episode's start, the world carrying its own state from
 maneuver to maneuver, up to the episode's end: "episode" below) and maneuver by maneuver (each
 from the kernel's state before it: "maneuver").

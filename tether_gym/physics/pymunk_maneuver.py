@@ -44,17 +44,25 @@ Walls. A step that would carry the rim into a wall ends `WALL_OVERLAP` (= Chipmu
 slop) past the contact (Chipmunk moves the puck over a step on a straight line at the step's
 velocity, taut or not, so the landing is exact): Chipmunk finds an overlap of the slop, which
 its position correction leaves alone (its bias acts beyond the slop), and its restitution
-reflects the normal velocity exactly (it acts on the velocity before the step). The world then
-moves the puck out of the wall to where the bounced motion puts it (the overlap reflected and
-scaled by the restitution), so no contact persists into the next step: Chipmunk's warm start
-of a persisting contact assumes steps of one length, and after a bounce a much shorter step
-(a sliver before a tautening) pulled the puck back into the wall; a contact is forgotten once
-it ends (`collision_persistence = 1`). In flight that is the exact bounce. While the tether is
-taut Chipmunk's bounce would drop the tether's pull along the wall's normal over the step (a
-first-order error: 6e-5 m after a soft contact at the default step), so there the world
-bounces the velocity at the step's end itself (leapfrog's: the drift velocity and half the
-step's kick) and applies the tether's tension at the bounced velocity over the other half;
-a bounce that slackens the tether releases it there, as the kernel's contact does.
+reflects the normal velocity (it acts on the velocity before the step); in flight the world
+bounces the velocity itself, as the kernel's bounce has it: the drift's normal velocity times
+-e, and on frictionless walls the drift's tangential velocity and the spin before the step
+(Chipmunk's are those to rounding, and at e = 0 a rounding's 1e-15 m/s would keep a puck sliding
+along a wall or stopped in a corner moving). The world then moves the puck out of the wall, so
+no contact persists into the next step: where it bounced, to where the bounced motion puts it
+(the overlap reflected and scaled by the restitution); where it did not (e = 0, or a taut tether
+pulling it back in), its normal velocity stopped, to rest `WALL_CLEARANCE` off the wall, sliding
+along it (two walls at a corner stop it). Chipmunk's warm start of a persisting contact applies
+the last step's impulse again scaled by the ratio of the two steps, and its solver takes back at
+most the unscaled one: after a bounce ending a landing the next, longer step would push the puck
+out at (ratio - 1) times the speed it hit the wall at (at e = 0, energy created without bound),
+and a much shorter one (a sliver before a tautening) would pull it back in. A contact is
+forgotten once it ends (`collision_persistence = 1`). While the tether is taut Chipmunk's bounce
+would drop the tether's pull along the wall's normal over the step (a first-order error: 6e-5 m
+after a soft contact at the default step), so there the world bounces the velocity at the step's
+end itself (leapfrog's: the drift velocity and half the step's kick) and applies the tether's
+tension at the bounced velocity over the other half; a bounce that slackens the tether releases
+it there, as the kernel's contact does.
 
 Posts. A step that would carry the rim into a post likewise ends `WALL_OVERLAP` past the touch
 along its straight line, or at its deepest point of a shallower graze, so Chipmunk sees every
@@ -105,6 +113,10 @@ predicted tautening, and the tether is crossed in steps of that sliver: the tens
 damper's, at once) then starts within a sliver of the tautening."""
 WALL_OVERLAP = 1e-5
 """A step into a wall ends this far (over R) past the contact: Chipmunk's collision slop."""
+WALL_CLEARANCE = 1e-9
+"""A puck that a wall stopped (restitution 0, or a taut tether pulling it back in) is left this
+far (over R) off it, as is one bounced out by less: far enough over rounding that Chipmunk sees
+no contact in the next step."""
 RAISED = 1e-12
 """m: a tether this close to the attachment point's distance at the decision was raised to it
 (`ManeuverPlan.raised`)."""
@@ -269,9 +281,9 @@ class ManeuverWorld(TetherWorld):
             step = self.taut_step
         else:
             step = self.free_flight_step()
-            if self.attached:
+            if self.attached and (reach := self.reach()) > 0.0:  # at rest: nothing nears
                 gap, rate = self._approach()
-                step = min(step, max(gap / self.reach(), self.taut_step))
+                step = min(step, max(gap / reach, self.taut_step))
                 landing = TAUT_LANDING * self.taut_step
                 if rate > 0.0 and gap < rate * step:
                     step = max(gap / rate - landing, landing)
@@ -323,7 +335,8 @@ class ManeuverWorld(TetherWorld):
 
     def step(self, dt: float) -> None:
         """`TetherWorld.step` with the wheel turning the body over the part of the step inside
-        its window; records the angular momentum about the peg at tautening."""
+        its window; records the angular momentum about the peg at tautening. `dt` > 0."""
+        dt = check_float("dt", dt, 0.0, INF, low_open=True)
         start, end, rate = self.wheel
         inside = max(0.0, min(end, self.time + dt) - max(start, self.time))
         wheel = rate * inside / dt
@@ -344,6 +357,8 @@ class ManeuverWorld(TetherWorld):
             walls = self._overlaps()
             if taut and self.taut:
                 self._taut_bounce((drift.x, drift.y), dt, walls)
+            elif not (taut or self.taut):
+                self._flight_bounce((drift.x, drift.y), spin, walls)
             self._leave_walls(walls)
         self.last_step = dt
         self.wall_while_taut |= self.touching and (taut or self.taut or self.bounces > bounces)
@@ -398,16 +413,41 @@ class ManeuverWorld(TetherWorld):
                  (1, -1.0, table.y_min + r - y), (1, 1.0, y - table.y_max + r))  # fmt: skip
         return [wall for wall in walls if wall[2] > 0.0]
 
+    def _flight_bounce(self, drift: tuple[float, float], spin: float, walls) -> None:
+        """The step that just ended on a wall (`walls`, `_overlaps`), slack throughout: the
+        velocity normal to each wall is the drift's (the velocity the puck moved at over the
+        step) times -restitution, and on frictionless walls the rest is the drift's and the
+        spin `spin`, the free spin before the step, as `events.wall_bounce_row` has it
+        (Chipmunk's differ by rounding: at e = 0, a puck sliding along a wall or stopped in a
+        corner would keep a velocity of 1e-15 m/s). With friction the tangential velocity and
+        the spin are Chipmunk's."""
+        velocity = list(self.body.velocity)
+        if self.table.friction == 0.0:
+            velocity, self.body.angular_velocity = list(drift), spin
+        for axis, side, _ in walls:
+            if drift[axis] * side > 0.0:  # into the wall
+                velocity[axis] = -self.table.elasticity * drift[axis]
+        self.body.velocity = tuple(velocity)
+
     def _leave_walls(self, walls: list[tuple[int, float, float]]) -> None:
-        """Move the puck out of the walls it overlaps, where its bounced motion puts it: the
-        overlap reflected and scaled by the restitution (no contact persists into the next
-        step: Chipmunk's warm start of a persisting contact assumes steps of one length, and
-        after a bounce a much shorter step would pull the puck back into the wall)."""
-        position, velocity = list(self.body.position), self.body.velocity
+        """Move the puck out of the walls it overlaps, so that no contact persists into the
+        next step: where it bounced (moving out), to where its bounced motion puts it, the
+        overlap reflected and scaled by the restitution; where it did not (a wall of
+        restitution 0, or a taut tether pulling it back in), its normal velocity is the wall's
+        to stop, and it rests against the wall, `WALL_CLEARANCE` off it. Chipmunk's warm start
+        of a persisting contact applies the last step's impulse again, scaled by the ratio of
+        the two steps, and its solver can take back only the unscaled one: after a bounce
+        ending a landing, a longer next step pushes the puck out of the wall (at e = 0 by
+        (ratio - 1) times the speed it hit the wall at), a much shorter one pulls it back in."""
+        position, velocity = list(self.body.position), list(self.body.velocity)
+        clear = WALL_CLEARANCE * self.radius
         for axis, side, depth in walls:
             if velocity[axis] * side < 0.0:  # bounced: moving out
-                position[axis] -= side * (1.0 + self.table.elasticity) * depth
-        self.body.position = tuple(position)
+                position[axis] -= side * max((1.0 + self.table.elasticity) * depth, depth + clear)
+            else:  # stopped at the wall, or pulled back into it
+                velocity[axis] = 0.0
+                position[axis] -= side * (depth + clear)
+        self.body.position, self.body.velocity = tuple(position), tuple(velocity)
 
     def _taut_bounce(self, drift: tuple[float, float], dt: float, walls) -> None:
         """The step that just ended on a wall (`walls`, `_overlaps`), taut throughout: the
