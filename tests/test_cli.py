@@ -181,3 +181,81 @@ def test_a_bad_hyperparameter_is_one_line_naming_its_key(override, message, tmp_
     assert exit_.value.code == 2
     err = capsys.readouterr().err
     assert err.startswith(f"tether-train: error: {message}") and err.count("\n") == 1
+
+
+RUN_MODULES = ["torch", "stable_baselines3", "jax", "tether_gym.agents.planner_kernels"]
+"""What a run imports (the planners' module compiles its numba kernels as it loads): none of
+it before a bad argument is answered."""
+
+
+def imported_by(target: str, argvs: list[list[str]], modules: list[str]):
+    """Run the console script `target` ("module:function") on each argv in a fresh
+    interpreter, each ending in SystemExit; the finished process and whether each of `modules`
+    was imported by then (`imported_by_tether_train` for any command)."""
+    import subprocess
+    import sys
+
+    from tests.helpers import ROOT
+
+    module, _, function = target.partition(":")
+    code = (
+        "import sys\n"
+        f"from {module} import {function} as main\n"
+        f"for argv in {argvs!r}:\n"
+        "    try:\n"
+        "        main(argv)\n"
+        "    except SystemExit:\n"
+        "        pass\n"
+        f"print(*(name in sys.modules for name in {modules!r}))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True
+    )
+    return done, [word == "True" for word in done.stdout.split()[-len(modules) :]]
+
+
+def test_tether_train_answers_an_unknown_env_or_argument_before_the_run_modules_import():
+    """A typo in --env or an env argument's name is answered as --help is, on either backend:
+    before torch, stable-baselines3, jax or the planners' kernels import."""
+    argvs = [["--env", "Nope-v0"], ["--backend", "jax", "--env", "Nope-v0"],
+             ["--env", "TetherNavigate-v3", "--env-kwargs", "n_obstacle:3"]]  # fmt: skip
+    out, imported = imported_by_tether_train(argvs, RUN_MODULES)
+    lines = out.stderr.splitlines()
+    assert lines[:2] == [lines[0]] * 2 and lines[0].startswith("tether-train: error: --env: ")
+    assert "Nope" in lines[0]
+    assert lines[2].startswith("tether-train: error: TetherNavigate-v3 has no argument 'n_obs")
+    assert imported == [False] * len(RUN_MODULES)
+
+
+def test_tether_evaluate_answers_an_unknown_env_before_the_agents_import():
+    """`tether-evaluate --env Nope-v0`, with or without agents named: one line, before the
+    agents (the planners' kernels, torch, jax) import."""
+    argvs = [["--env", "Nope-v0"], ["--env", "Nope-v0", "--agents", "greedy", "pretrained"]]
+    out, imported = imported_by("tether_gym.evaluation.cli:main", argvs, RUN_MODULES)
+    lines = out.stderr.splitlines()
+    assert len(lines) == 2
+    assert all(line.startswith("tether-evaluate: error: --env: ") for line in lines)
+    assert imported == [False] * len(RUN_MODULES)
+
+
+def test_tether_export_answers_a_bad_name_or_run_before_the_agents_import(tmp_path):
+    argvs = [[str(tmp_path), "a/b", "--command", "x"],
+             [str(tmp_path / "none"), "mine", "--command", "x"]]  # fmt: skip
+    out, imported = imported_by("tether_gym.evaluation.export:main", argvs, RUN_MODULES)
+    lines = out.stderr.splitlines()
+    assert lines[0].startswith("tether export: error: name must be a file name of letters")
+    assert lines[1].startswith("tether export: error: run_dir ") and "does not exist" in lines[1]
+    assert imported == [False] * len(RUN_MODULES)
+
+
+def test_train_help_names_every_env_family_the_jax_backend_trains(capsys):
+    """`tether-train --help` on `--backend jax` names each family it trains (`jax_env_ids`)."""
+    pytest.importorskip("stable_baselines3")
+    from tether_gym.families import family
+    from tether_gym.training import jax_run
+
+    out = " ".join(help_text(training.main, [], capsys).split())
+    start = out.index("`--backend jax` trains")
+    paragraph = out[start : out.index("--resume", start)]
+    for name in {family(env_id).name for env_id in jax_run.jax_env_ids()}:
+        assert name in paragraph

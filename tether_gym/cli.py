@@ -39,7 +39,7 @@ COMMANDS = {
     "record": Command("tether_gym.agents.record:main", "record an agent's episodes as a GIF"),
     "figures": Command("tether_gym.figures:main", "draw the paper's figures"),
     "export": Command(
-        "tether_gym.evaluation.export:main", "turn a run's best model into a pretrained agent"
+        "tether_gym.evaluation.export:main", "a run's best policy and its model card, to a folder"
     ),
     "compile": Command(
         "tether_gym.agents.warm:main", "compile every numba kernel ahead of time (first run)"

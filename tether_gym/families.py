@@ -226,8 +226,10 @@ those `register_family` adds."""
 
 def register(env_family: Family) -> None:
     """Register every id of `env_family` and of its backends with Gymnasium, with their entry
-    points and the arguments the id fixes; `gym.make` checks them with Gymnasium's
-    `PassiveEnvChecker`, guarded against a refused first reset (`guard_passive_env_checker`)."""
+    points and the arguments the id fixes. `gym.make` checks the numba envs with Gymnasium's
+    `PassiveEnvChecker`, guarded against a refused first reset (`guard_passive_env_checker`);
+    a backend's envs return its own arrays (jax's), which the checker takes for numpy ones and
+    warns of, so they are registered without it, as Gymnasium registers its own jax envs."""
     guard_passive_env_checker()
     for implementation in (env_family, *env_family.backends):
         for env_id, kwargs in implementation.ids.items():
@@ -236,6 +238,7 @@ def register(env_family: Family) -> None:
                 entry_point=implementation.entry_point,
                 vector_entry_point=implementation.vector_entry_point,
                 kwargs=dict(kwargs),
+                disable_env_checker=implementation is not env_family,
             )
 
 

@@ -13,7 +13,11 @@ where the command line's env differs, a one-line warning says so and the model p
 own control mode; an env of another family, or spaces that cannot match, is refused in one line
 naming both. Without `--seed` and `--episodes` a saved model plays the episodes of its run's
 final table (`episodes_to_play`); the output's first line says which episodes and why, and a
-line per saved model the env arguments and the control mode it plays in."""
+line per saved model the env arguments and the control mode it plays in.
+
+The agents, the runner and the reports import once the command line is parsed and its env
+checked: a typo (`--env Nope-v0`) is answered as fast as `--help`, without the planners' numba
+kernels, torch or jax."""
 
 from __future__ import annotations
 
@@ -30,20 +34,16 @@ from typing import Any
 
 import gymnasium as gym
 
-from tether_gym.agents import pretrained
-from tether_gym.agents.registry import looks_like_path, make_agent
-from tether_gym.agents.saved import SB3Agent, run_config
 from tether_gym.arguments import (
     ArgumentParser,
     add_env_arguments,
     check_env,
     chosen_env,
+    env_arguments,
     env_from_args,
     given_env_options,
 )
 from tether_gym.evaluation import results_file
-from tether_gym.evaluation.reports import format_table, paired_table, plot
-from tether_gym.evaluation.runner import evaluate, played_kwargs
 from tether_gym.families import FAMILIES, current_id, env_config, family
 from tether_gym.seeds import TEST_SEED
 
@@ -71,6 +71,10 @@ def trained_env(
     """The env the `--agents` entry `spec` was trained on (a `Trained`): a saved model's from
     its run's `config.yaml` (`run_config`), a pretrained agent's from its card ("pretrained"
     only given the env it plays, whose task picks it); None for the others."""
+    from tether_gym.agents import pretrained
+    from tether_gym.agents.registry import looks_like_path
+    from tether_gym.agents.saved import run_config
+
     if spec in pretrained.AGENTS:
         if spec == "pretrained" and env_id is None:
             return None
@@ -90,6 +94,8 @@ def trained_env(
 
 def is_saved(spec: str) -> bool:
     """Whether the `--agents` entry `spec` is a saved model's path (not an agent's name)."""
+    from tether_gym.agents.registry import looks_like_path
+
     names = {name for env_family in FAMILIES for name in env_family.agents}
     return spec not in names and looks_like_path(spec)
 
@@ -113,6 +119,8 @@ def episodes_to_play(args: argparse.Namespace, specs: list[str]) -> Episodes:
     training's and from the evaluations that picked the best model), as many as its run's
     `config.yaml` says (`eval_episodes`; `EPISODES` where it is not found, said so). Without a
     saved model, `EPISODES` from `SEED`. ValueError for a count below 1 or a negative seed."""
+    from tether_gym.agents.saved import run_config
+
     if args.episodes is not None and args.episodes < 1:
         raise ValueError(f"--episodes must be at least 1, got {args.episodes}")
     if args.seed is not None and args.seed < 0:
@@ -143,6 +151,8 @@ def episodes_to_play(args: argparse.Namespace, specs: list[str]) -> Episodes:
 def playing_line(name: str, agent, env_id: str, env_kwargs: dict[str, Any]) -> str:
     """A line saying which env arguments the saved model `agent` (its table's `name`) plays
     in, its control mode among them, and whose control mode that is."""
+    from tether_gym.agents.registry import played_kwargs
+
     played = played_kwargs(agent, env_kwargs)
     config = env_config(env_id, played)
     shown = {key: value for key, value in played.items() if key not in CONTROL_KEYS}
@@ -161,7 +171,10 @@ def playing_line(name: str, agent, env_id: str, env_kwargs: dict[str, Any]) -> s
 def env_to_play(args: argparse.Namespace, specs: list[str]) -> tuple[str, dict[str, Any]]:
     """The env id and arguments of the episodes: the command line's, validated; without
     `--env`, those of the first agent that knows its env (`trained_env`), its arguments too
-    unless the command line gives some."""
+    unless the command line gives some. An unknown `--env` is refused first, before any
+    agent's file is read."""
+    if args.env is not None:
+        env_arguments(args.env)
     first = next(filter(None, (trained_env(spec) for spec in specs)), None)
     if first is None:
         return env_from_args(args)
@@ -200,6 +213,8 @@ def fit_agent(spec: str, agent, env_id: str, env_kwargs: dict[str, Any]) -> None
     model (SB3's or JAX's) in its run's control mode (`control_kwargs`). Prints a one-line warning
     where the env it was trained on differs; ValueError naming both for an env of another
     family or spaces that cannot match."""
+    from tether_gym.agents.saved import SB3Agent
+
     trained = trained_env(spec, env_id, env_kwargs)
     if trained is not None:
         own, given = family(trained.env_id), family(env_id)
@@ -338,6 +353,9 @@ def main(argv: list[str] | None = None) -> None:
         if paired and paired not in names:
             raise ValueError(f"--paired must be one of --agents {specs}, got {args.paired!r}")
         episodes = episodes_to_play(args, specs)
+        from tether_gym.agents.registry import make_agent
+        from tether_gym.evaluation.runner import evaluate
+
         agents = {
             name: make_agent(spec, env_kwargs, env_id=env_id)
             for name, spec in zip(names, specs, strict=True)
@@ -355,6 +373,8 @@ def main(argv: list[str] | None = None) -> None:
         )
     except (ValueError, ModuleNotFoundError) as error:
         parser.error(str(error))
+    from tether_gym.evaluation.reports import format_table, paired_table, plot
+
     print(format_table(results))
     if paired:
         print(f"\nEpisode by episode against {paired}:")

@@ -1,42 +1,110 @@
-"""Export a training run's best policy as a pretrained agent: its policy file and model card.
+"""Export a training run's best policy with its model card: a policy file and a card that
+measures it on held-out episodes, in the format of the shipped agents.
 
-    tether export RUN_DIR NAME --command "..."
-    tether export RUN_DIR NAME --seed K --command "..."   # a `--backend jax` run's seed K
+    tether export RUN_DIR NAME --command "..."                  # ./NAME.pt and ./NAME.md
+    tether export RUN_DIR NAME --seed K --out DIR --command "..."   # a `--backend jax` run's seed K
+    tether export RUN_DIR pretrained --into-package --command "..."  # maintainers: replace one
+
+NAME is any file name (letters, digits, `.`, `_`, `-`); the files go to `--out` (default the
+current folder) and an existing one is replaced only with `--overwrite`. A shipped agent's name
+(`pretrained.AGENTS`) keeps its catalog's file stem (`default` for `pretrained`), so that
+`pretrained.load(NAME, DIR)` loads the folder as it loads the package. Only `--into-package`
+writes into the installed package (the maintainers' flag: it replaces a shipped agent, and
+drops its policy file of the other format). A JAX policy plays as `tether-evaluate --agents
+DIR/NAME.msgpack`.
 
 The card's success and its baselines' are measured here, on the held-out episodes
-(`HELD_OUT_SEED`) of the run's env, by `tether_gym.evaluation.runner`; the catalog
-(`tether_gym.agents.pretrained`) only loads the agents, so that the evaluation may load them
-without importing itself. For maintainers.
+(`HELD_OUT_SEED`) of the run's env, by `tether_gym.evaluation.runner`, a line and a progress
+bar per agent; the catalog (`tether_gym.agents.pretrained`) only loads the agents, so that the
+evaluation may load them without importing itself. The agents and the runner import once the
+command line is checked.
 """
 
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
-from tether_gym.agents.planned import playing, with_planner
-from tether_gym.agents.pretrained import (
-    AGENTS,
-    POLICIES,
-    TEST_EPISODES,
-    agent_file,
-    load_policy,
-    replayed_episodes,
-)
-from tether_gym.agents.registry import make_agent
-from tether_gym.agents.saved import SB3Agent, read_config
 from tether_gym.arguments import DEFAULT_ENV_ID, ArgumentParser
-from tether_gym.evaluation.runner import evaluate
 from tether_gym.families import family
 from tether_gym.seeds import HELD_OUT_SEED
 
+SUFFIXES = (".pt", ".msgpack", ".json", ".md")
+"""The files of an exported agent: an SB3 policy (`.pt`) or a JAX one (`.msgpack` + `.json`),
+and its card."""
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
+"""An exported agent's name: a file name without a folder."""
 
-def held_out(agent: object, env_kwargs: dict, episodes: int, env_id: str = DEFAULT_ENV_ID):
-    """The agent's result (its env family's type) on the first `episodes` held-out episodes."""
-    (result,) = evaluate({"agent": agent}, env_kwargs, episodes, HELD_OUT_SEED, env_id=env_id)
+
+def check_name(name: str) -> str:
+    """`name` if it is a file name of letters, digits, `.`, `_` and `-` (no folder: `--out`
+    picks the folder); ValueError naming `name` otherwise."""
+    if not NAME.fullmatch(name):
+        raise ValueError(
+            f"name must be a file name of letters, digits, '.', '_' and '-' (the folder is "
+            f"--out), got {name!r}"
+        )
+    return name
+
+
+def export_files(name: str, folder: Path | None, into_package: bool = False) -> dict[str, Path]:
+    """The files of the exported agent `name`, by suffix (`SUFFIXES`): in the installed
+    package with `into_package` (`name` one of `pretrained.AGENTS`: its catalog's files), else
+    in `folder`, under the catalog's stem for a shipped agent's name and `name` itself for any
+    other. ValueError for a bad name, a missing folder, or both or neither of `folder` and
+    `into_package`."""
+    from tether_gym.agents.pretrained import AGENTS, agent_file
+
+    check_name(name)
+    if into_package:
+        if folder is not None:
+            raise ValueError("folder: --into-package writes into the package; drop --out")
+        if name not in AGENTS:
+            raise ValueError(
+                f"name: --into-package replaces a shipped agent, one of {sorted(AGENTS)}; "
+                f"got {name!r}"
+            )
+        return {suffix: agent_file(name, suffix) for suffix in SUFFIXES}
+    if folder is None:
+        raise ValueError("folder: give the folder to export into (--out DIR)")
+    if not folder.is_dir():
+        raise ValueError(f"folder {str(folder)!r} does not exist or is not a folder")
+    stem = AGENTS.get(name, name)
+    return {suffix: folder / f"{stem}{suffix}" for suffix in SUFFIXES}
+
+
+def clear_files(files: dict[str, Path], overwrite: bool) -> None:
+    """Make way for an export's `files`: ValueError listing those that exist unless
+    `overwrite`, else remove them (a policy of the other format left beside the card would be
+    shipped for nothing)."""
+    existing = [path for path in files.values() if path.exists()]
+    if existing and not overwrite:
+        shown = ", ".join(str(path) for path in existing)
+        raise ValueError(f"{shown} exists; pass --overwrite to replace it")
+    for path in existing:
+        path.unlink()
+
+
+def held_out(
+    agent: object,
+    env_kwargs: dict,
+    episodes: int,
+    env_id: str = DEFAULT_ENV_ID,
+    progress: bool = False,
+    name: str = "agent",
+):
+    """The agent's result (its env family's type) on the first `episodes` held-out episodes,
+    with a progress bar labelled `name` if `progress`."""
+    from tether_gym.evaluation.runner import evaluate
+
+    (result,) = evaluate(
+        {name: agent}, env_kwargs, episodes, HELD_OUT_SEED, progress=progress, env_id=env_id
+    )
     return result
 
 
@@ -48,40 +116,58 @@ def export(
     folder: Path | None = None,
     episodes: int | None = None,
     seed: int | None = None,
+    *,
+    into_package: bool = False,
+    overwrite: bool = False,
+    progress: bool = False,
 ) -> tuple[Path, Path]:
-    """Write the policy of `run_dir` and its card as the pretrained agent `name` (into
-    `folder`, default the catalog's): an SB3 run's `best/` model, or seed `seed`'s best policy
-    of a `--backend jax` run (`seed<k>_best.msgpack`; its last, `seed<k>.msgpack`, where the run
-    evaluated none; `seed` may be left out where the run trained one).
+    """Write the policy of `run_dir` and its card as the agent `name` into `folder`, or with
+    `into_package` over the shipped agent `name` (`export_files`): an SB3 run's `best/` model,
+    or seed `seed`'s best policy of a `--backend jax` run (`seed<k>_best.msgpack`; its last,
+    `seed<k>.msgpack`, where the run evaluated none; `seed` may be left out where the run
+    trained one). Existing files of the agent are replaced only with `overwrite` (always with
+    `into_package`: replacing is what it is for).
 
     The card's facts come from the run's saved config; its success is measured here on
     `episodes` held-out episodes (default the env family's `card_episodes`) and on the first
-    `card_test_episodes` of them, beside the family's `baselines` on the same episodes. `note`
-    is appended to the card's text.
+    `card_test_episodes` of them, beside the family's `baselines` on the same episodes, each
+    agent announced on a line (with a progress bar if `progress`). `note` is appended to the
+    card's text.
 
     Raises:
-        ValueError: for an unknown name, a run without `best/` (SB3) or without the seed's
-            policy (JAX), or a model that normalizes its observations (a policy file cannot
-            carry VecNormalize statistics).
+        ValueError: for a bad name or folder, existing files without `overwrite`, a run
+            without `best/` (SB3) or without the seed's policy (JAX), or a model that
+            normalizes its observations (a policy file cannot carry VecNormalize statistics).
     """
+    from tether_gym.agents.saved import read_config
+
     top = run_dir / "config.yaml"
     if top.is_file() and read_config(top).get("backend") == "jax":
-        return _export_jax(run_dir, name, command, note, folder, episodes, seed)
+        return _export_jax(run_dir, name, command, note, folder, episodes, seed,
+                           into_package=into_package, overwrite=overwrite,
+                           progress=progress)  # fmt: skip
     if seed is not None:
         raise ValueError(f"seed: only a --backend jax run trains several seeds; {str(run_dir)!r}"
                          " is a run of one seed")  # fmt: skip
-    import stable_baselines3
-
-    policy_file, card_file = agent_file(name, ".pt", folder), agent_file(name, ".md", folder)
     best = run_dir / "best"
     if not (best / "model.zip").is_file():
         raise ValueError(f"run_dir {str(run_dir)!r} has no best/model.zip")
     if (best / "vecnormalize.pkl").is_file():
         raise ValueError(f"run_dir {str(run_dir)!r} normalizes observations: not supported")
+    files = export_files(name, folder, into_package)
     config = read_config(best / "config.yaml")
     last = read_config(run_dir / "last" / "config.yaml")
+    from tether_gym.agents.planned import with_planner
+    from tether_gym.agents.pretrained import POLICIES, load_policy
+    from tether_gym.agents.saved import SB3Agent
+
     if config.get("algo") not in POLICIES:
         raise ValueError(f"algo must be one of {sorted(POLICIES)}, got {config.get('algo')!r}")
+    clear_files(files, overwrite or into_package)
+    policy_file, card_file = files[".pt"], files[".md"]
+    _say(f"{run_dir}'s best model ({int(config['num_timesteps']):,} timesteps) -> {policy_file}")
+    import stable_baselines3
+
     algorithm = getattr(stable_baselines3, POLICIES[config["algo"]])
     model = algorithm.load(best / "model.zip", device="cpu")
     model.policy.save(str(policy_file))
@@ -99,11 +185,18 @@ def export(
         "train_seconds": last.get("train_seconds"),
         "torch_threads": last.get("torch_threads", 1),
         "command": command,
-        "held_out": _held_out_results(agent, config["env_id"], config["env_kwargs"], episodes),
+        "held_out": _held_out_results(
+            agent, config["env_id"], config["env_kwargs"], episodes, progress
+        ),
         "hyperparams": config["hyperparams"],
     }
     card_file.write_text(_card_text(facts, note))
     return policy_file, card_file
+
+
+def _say(line: str) -> None:
+    """A line of the export's progress, at once."""
+    print(f"tether export: {line}", flush=True)
 
 
 def _export_jax(
@@ -114,11 +207,15 @@ def _export_jax(
     folder: Path | None,
     episodes: int | None,
     seed: int | None,
+    *,
+    into_package: bool,
+    overwrite: bool,
+    progress: bool,
 ) -> tuple[Path, Path]:
     """`export` of a `--backend jax` run: seed `seed`'s best (else last) `.msgpack` and `.json`
     copied as the agent's (`agents.jax_policy`'s format), its card from the run's config and
     results.json."""
-    from tether_gym.agents.jax_policy import load_policy as load_jax_policy
+    from tether_gym.agents.saved import read_config
 
     config = read_config(run_dir / "config.yaml")
     seeds = config.get("seeds") or []
@@ -136,7 +233,13 @@ def _export_jax(
     source = run_dir / (f"seed{seed}.msgpack" if kept is None else f"seed{seed}_best.msgpack")
     if not source.is_file():
         raise ValueError(f"run_dir {str(run_dir)!r} has no {source.name}")
-    policy_file, card_file = agent_file(name, ".msgpack", folder), agent_file(name, ".md", folder)
+    files = export_files(name, folder, into_package)
+    clear_files(files, overwrite or into_package)
+    policy_file, card_file = files[".msgpack"], files[".md"]
+    kept_at = "its last policy" if kept is None else f"its best policy ({kept:,} timesteps)"
+    _say(f"{run_dir}'s seed {seed}, {kept_at} -> {policy_file}")
+    from tether_gym.agents.jax_policy import load_policy as load_jax_policy
+
     shutil.copyfile(source, policy_file)
     shutil.copyfile(source.with_suffix(".json"), policy_file.with_suffix(".json"))
     agent = load_jax_policy(policy_file)
@@ -154,7 +257,9 @@ def _export_jax(
         "train_seconds": summary["train_seconds"],
         "device": summary.get("device"),
         "command": command,
-        "held_out": _held_out_results(agent, config["env_id"], config["env_kwargs"], episodes),
+        "held_out": _held_out_results(
+            agent, config["env_id"], config["env_kwargs"], episodes, progress
+        ),
         "hyperparams": config["hyperparams"],
     }
     card_file.write_text(_card_text(facts, note))
@@ -162,11 +267,14 @@ def _export_jax(
 
 
 def _held_out_results(
-    agent: object, env_id: str, env_kwargs: dict, episodes: int | None
+    agent: object, env_id: str, env_kwargs: dict, episodes: int | None, progress: bool = False
 ) -> dict[str, Any]:
     """A card's `held_out`: the agent's and its family's baselines' successes on `episodes`
     held-out episodes (default the family's `card_episodes`) and on the first
-    `card_test_episodes` of them."""
+    `card_test_episodes` of them; a line per agent as it is played, and its result."""
+    from tether_gym.agents.pretrained import TEST_EPISODES
+    from tether_gym.agents.registry import make_agent
+
     env_family = family(env_id)
     if episodes is None:
         episodes = env_family.card_episodes
@@ -177,8 +285,13 @@ def _held_out_results(
     held: dict[str, Any] = {"seed": HELD_OUT_SEED, "episodes": episodes}
     if first_episodes != TEST_EPISODES:  # a card without it replays TEST_EPISODES
         held["test_episodes"] = first_episodes
+    _say(f"the card: {', '.join(agents)} on {episodes:,} held-out episodes of {env_id} (seed "
+         f"{HELD_OUT_SEED})")  # fmt: skip
     for label, agent in agents.items():
-        full = held_out(agent, env_kwargs, episodes, env_id)
+        clock = time.perf_counter()
+        full = held_out(agent, env_kwargs, episodes, env_id, progress, label)
+        _say(f"  {label}: {100 * float(full.success_rate):.1f}% success "
+             f"({time.perf_counter() - clock:.1f} s)")  # fmt: skip
         held[label] = {
             "successes": int(full.success.sum()),
             "success_rate": round(float(full.success_rate), 4),
@@ -224,6 +337,9 @@ def _threads(threads: int) -> str:
 def _card_text(facts: dict[str, Any], note: str) -> str:
     """The card: front matter, then the facts in words and a table."""
     import yaml
+
+    from tether_gym.agents.planned import playing
+    from tether_gym.agents.pretrained import replayed_episodes
 
     held = facts["held_out"]
     first = replayed_episodes(held)
@@ -281,22 +397,59 @@ def _env_flags(facts: dict[str, Any]) -> str:
     return flags + (" --env-kwargs " + " ".join(pairs) if pairs else "")
 
 
-def main(argv: list[str] | None = None) -> int:
-    """`tether export RUN_DIR NAME --command ...`."""
-    parser = ArgumentParser(prog="tether export", description=__doc__.split("\n\n")[0])
-    parser.add_argument("run_dir", type=Path, help="a training run folder with best/")
-    parser.add_argument("name", choices=sorted(AGENTS), help="the pretrained agent to replace")
-    parser.add_argument("--command", required=True, help="the command that trained the run")
-    parser.add_argument("--note", default="", help="text appended to the card")
-    parser.add_argument(
-        "--seed", type=int, default=None, help="a --backend jax run's seed to export"
+def build_parser() -> ArgumentParser:
+    """`tether export`'s command line."""
+    parser = ArgumentParser(
+        prog="tether export",
+        description=__doc__.split("\n\n")[0],
+        epilog="\n\n".join(__doc__.split("\n\n")[1:3]),
     )
+    add = parser.add_argument
+    add("run_dir", type=Path, metavar="RUN_DIR",
+        help="a training run folder: an SB3 run's (its best/model.zip) or a --backend jax "
+        "run's (seed<k>_best.msgpack, else seed<k>.msgpack)")  # fmt: skip
+    add("name", metavar="NAME",
+        help="the agent's file name: NAME.pt (SB3) or NAME.msgpack + NAME.json (JAX), and "
+        "NAME.md, its card")  # fmt: skip
+    add("--command", required=True, help="the command that trained the run")
+    add("--out", type=Path, metavar="DIR", help="the folder to write into (default: this one)")
+    add("--seed", type=int, default=None, help="a --backend jax run's seed to export")
+    add("--episodes", type=int, default=None,
+        help="held-out episodes of the card (default: the env family's, 10,000 on "
+        "TetherBounce-v0, 1,000 on TetherNavigate)")  # fmt: skip
+    add("--note", default="", help="text appended to the card")
+    add("--overwrite", action="store_true", help="replace the agent's existing files")
+    add("--into-package", action="store_true",
+        help="maintainers: replace the shipped agent NAME in the installed package "
+        "(tether_gym/agents/pretrained/)")  # fmt: skip
+    add("--no-progress-bar", action="store_true", help="no progress bar")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`tether export RUN_DIR NAME --command ...`; the arguments are checked before the agents
+    import."""
+    parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        paths = export(args.run_dir, args.name, args.command, args.note, seed=args.seed)
+        check_name(args.name)
+        if not args.run_dir.is_dir():
+            raise ValueError(f"run_dir {str(args.run_dir)!r} does not exist or is not a folder")
+        if args.episodes is not None and args.episodes < 1:
+            raise ValueError(f"--episodes must be at least 1, got {args.episodes}")
+        if args.into_package and args.out is not None:
+            raise ValueError("--into-package writes into the package; drop --out")
+        folder = None if args.into_package else (args.out or Path("."))
+        paths = export(
+            args.run_dir, args.name, args.command, args.note, folder, args.episodes, args.seed,
+            into_package=args.into_package, overwrite=args.overwrite,
+            progress=not args.no_progress_bar,
+        )  # fmt: skip
     except ValueError as error:
         parser.error(str(error))
     print("wrote", *paths)
+    if paths[0].suffix == ".msgpack":
+        print(f"play it: tether-evaluate --agents {paths[0]}")
     return 0
 
 

@@ -28,13 +28,15 @@ saves the last model before exiting, and so does every periodic evaluation (a ki
 resumes from its last evaluation); an existing run is never overwritten without `--overwrite`.
 
 `--backend jax` trains `--seeds N` seeds (from `--seed` on) of the same recipe at once with PPO
-compiled with the env's JAX kernel (`tether_gym.training.jax_run`; TetherBounce-v0 only, PPO
-only, no variants; the `jax` extra): the run folder holds each seed's policy (`seed<k>.msgpack`,
-which `tether-evaluate --agents` plays) and the same final table, with the mean over seeds;
-`--resume` continues it from its last checkpoint.
+compiled with the env's JAX kernel (`tether_gym.training.jax_run`; every env with a JAX backend:
+TetherBounce-v0 and the TetherNavigate ids; PPO only, no variants; the `jax` extra): the run
+folder holds each seed's policy (`seed<k>.msgpack`, which `tether-evaluate --agents` plays) and
+the same final table, with the mean over seeds; `--resume` continues it from its last
+checkpoint.
 
 This module is the command line, which imports torch and stable-baselines3 only once its
-arguments are parsed (`--help` answers without them). The run is
+arguments are parsed and the env's id and argument names checked (`--help` and a typo are
+answered without them). The run is
 `tether_gym.training.experiment.train(config, run_dir)`, for callers that make their own configs
 (a sweep's trials), with `tether_gym.training.config.RunConfig` (`make_config` from a zoo entry)
 and `experiment.check_run`.
@@ -50,6 +52,7 @@ from tether_gym.arguments import (
     ArgumentParser,
     add_env_arguments,
     chosen_env,
+    env_arguments,
     env_from_args,
     given_env_options,
 )
@@ -167,6 +170,17 @@ def check_resumed_env(args: argparse.Namespace, config: RunConfig) -> None:
         )
 
 
+def check_env_names(args: argparse.Namespace) -> None:
+    """ValueError for an unknown `--env` id or env argument name, before the run's modules
+    (torch, stable-baselines3, jax) import: a typo is answered as fast as `--help`. The values
+    are checked once merged with the recipe's env arguments (`resolve_config`); a resumed run
+    checks its own env (`check_resumed_env`)."""
+    if args.resume is None:
+        env_from_args(args, check=False)
+    elif args.env is not None:
+        env_arguments(args.env)
+
+
 def run_from_args(args: argparse.Namespace) -> tuple[RunConfig, Path]:
     """The run's config and folder from the command line, checked (ValueError)."""
     from tether_gym.agents.saved import read_config
@@ -215,6 +229,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.num_threads < 1:
         parser.error(f"--num-threads must be at least 1, got {args.num_threads}")
+    try:
+        check_env_names(args)
+    except ValueError as error:
+        parser.error(str(error))
     if args.backend == "jax" or saved_backend(args.resume) == "jax":
         from tether_gym.training import jax_run
 

@@ -16,8 +16,9 @@ it loads, and its card says so.
 
 The card's success is measured on held-out episodes (`tether_gym.seeds.HELD_OUT_SEED`), apart
 from the episodes that picked the best model of a run (`EVAL_SEED`) and from those that picked
-the best seed of a sweep (`TEST_SEED`). `tether export RUN_DIR NAME --command ...` turns a
-run's `best/` model (or `--seed K`'s policy of a JAX run) into these files (for maintainers:
+the best seed of a sweep (`TEST_SEED`). `tether export RUN_DIR NAME --command ...
+--into-package` turns a run's `best/` model (or `--seed K`'s policy of a JAX run) into these
+files (maintainers; without the flag it writes them to a folder of the user's:
 `tether_gym.evaluation.export`, which plays the agents; this catalog only loads them).
 """
 
