@@ -132,10 +132,18 @@ class KernelJaxEnv(FunctionalJaxEnv):
         return self.func_env.kernel
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        obs, info = super().reset(seed=seed)
-        if options:
-            self.state = self.func_env.with_options(self.state, options)
-            obs = self.func_env.observation(self.state, None)
+        """A new episode (`FunctionalJaxEnv.reset`), `options` applied. A reset that raises
+        (refused options: ValueError) changes nothing: the episode, the key and the seed are
+        as they were."""
+        kept = getattr(self, "state", None), self.rng, self._np_random, self._np_random_seed
+        try:
+            obs, info = super().reset(seed=seed)
+            if options:
+                self.state = self.func_env.with_options(self.state, options)
+                obs = self.func_env.observation(self.state, None)
+        except BaseException:
+            self.state, self.rng, self._np_random, self._np_random_seed = kept
+            raise
         self._ended = False
         return self.kernel.view(obs), info
 
@@ -244,17 +252,18 @@ class JaxVectorEnv(VectorEnv):
     ):
         if seed is not None and not isinstance(seed, (int, np.integer)):
             raise ValueError(f"seed must be one integer for the batch (or None), got {seed!r}")
-        if seed is not None or self._key is None:
+        key = self._key
+        if seed is not None or key is None:
             if seed is None:
                 seed = int(np.random.default_rng().integers(2**32))
-            self._key = jax.random.PRNGKey(int(seed))
-        state, self._key, obs = self.reset_batch(self._key, self.params)
-        if options:
+            key = jax.random.PRNGKey(int(seed))
+        state, key, obs = self.reset_batch(key, self.params)
+        if options:  # refused options raise here, the key and the episodes as they were
             state = self.func_env.with_options(state, options)
             obs = jax.vmap(self.func_env.observation, in_axes=(0, None, None))(
                 state, None, self.params
             )
-        self.state = state
+        self.state, self._key = state, key
         return self.func_env.kernel.view(np.array(obs)), {}
 
     def step(self, actions):
