@@ -13,10 +13,20 @@ Differences are |jax - numba| / max(1, |numba|) per outcome column (m, m/s, rad,
 absolute below 1), the folded angles (`tether_angle`, `offset_angle`, `wheel_target`) folded
 into (-pi, pi]; the flags (`FLAGS`) count their disagreements. A case whose flags all agree is
 compared on every continuous column and the observation; one whose flags differ is a changed
-outcome, classed by the flags that differ.
+outcome, classed by the flags that differ. Each changed outcome is also tried for rounding
+(`within_rounding`): numba's own maneuver from the state moved by a few ulps, and the class
+is prefixed "rounding: " where one of those tries gives the JAX outcome.
+
+The arguments are the ladder id's, at the defaults or at a range end (`VARIANTS`: a wall
+restitution of 0, the wheel's fastest rate, the softest and the stiffest tether). XLA's
+default build contracts a * b + c into fused multiply-adds, which numba does not: the rows
+are measured without them (`NO_FMA`), where the two kernels do the same arithmetic and differ
+by the transcendental functions only (libm's or XLA's), and with them (`--fma`), where every
+product-sum rounds otherwise and the aimed modes' searches take other branches on ties.
 
     python -m benchmarks.validation.jax_navigate_agreement [--cases 10000] [--dynamics impulse]
-        [--controls setup velocity aim velocity+coast aim+coast] [--precision float32] [--merge]
+        [--controls setup velocity aim velocity+coast aim+coast] [--variants defaults
+        wall_restitution=0 ...] [--precision float32] [--fma] [--merge]
 """
 
 from __future__ import annotations
@@ -60,11 +70,28 @@ CONTROLS = ("setup", "velocity", "aim", "velocity+coast", "aim+coast")
 modes only)."""
 
 
-def configuration(env_id: str, dynamics: str, control: str = "setup") -> NavigateConfig:
-    """The id's arguments with `dynamics` and `control` (a `CONTROLS` entry)."""
+VARIANTS = {
+    "defaults": {},
+    "wall_restitution=0": {"wall_restitution": 0.0},
+    "wheel_rate=1e4": {"wheel_rate": 1e4},
+    "wall_restitution=0,wheel_rate=1e4": {"wall_restitution": 0.0, "wheel_rate": 1e4},
+    "rho=10": {"rho": 10.0},
+    "rho=1e6": {"rho": 1e6},
+}
+"""The arguments measured over the ladder id's: its defaults and the ends of the documented
+ranges where the kernels take other paths (a puck that slides along a wall after a bounce at
+restitution 0, the wheel turning the body at 1e4 rad/s, `rho`'s ends: the hybrid contact's
+spring and the wheel's clearance from the walls; the impulse dynamics do not read `rho`)."""
+
+
+def configuration(env_id: str, dynamics: str, control: str = "setup",
+                  variant: str = "defaults") -> NavigateConfig:  # fmt: skip
+    """The id's arguments with `dynamics`, `control` (a `CONTROLS` entry) and a `VARIANTS`
+    entry's."""
     mode, _, coast = control.partition("+")
     extra = {"coast": True} if coast == "coast" else {}
-    return NavigateConfig(**ladder_ids()[env_id], dynamics=dynamics, control=mode, **extra)
+    arguments = {**ladder_ids()[env_id], **VARIANTS[variant], **extra}
+    return NavigateConfig(**arguments, dynamics=dynamics, control=mode)
 
 
 def cases(config: NavigateConfig, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -200,16 +227,59 @@ SAME_SCORE = 1e-6
 tie of the search (the golden-section steps or the pegs' comparison decided by rounding)."""
 
 
+def changed_cases(out: dict, diverged_at: float = DIVERGED) -> np.ndarray:
+    """The changed outcomes among the `differences` `out` of two outcome rows: another peg, a
+    flag or a count that differs, or a continuous outcome that differs by more than
+    `diverged_at`."""
+    counted = np.max([out[name] for name in (*FLAGS, *COUNTS)], axis=0) != 0.0
+    continuous = np.max([v for name, v in out.items() if name not in (*FLAGS, *COUNTS)], axis=0)
+    return (out["anchor"] > SAME_PEG) | counted | (continuous > diverged_at)
+
+
+ROUNDING_ULPS = 16
+"""ulps: how far `within_rounding` moves each coordinate of the puck's state."""
+ROUNDING_TRIES = 64
+"""Draws of `within_rounding` per case (measured on the default build's aimed changed outcomes
+at 16 ulps: 32 draws find about 95 % of those it finds at all, 64 the rest)."""
+PUCK_FIELDS = ("x", "y", "vx", "vy", "angle", "spin")
+
+
+def within_rounding(config: NavigateConfig, states, actions, got, diverged_at: float = DIVERGED,
+                    seed: int = 0) -> np.ndarray:  # fmt: skip
+    """Per case: whether numba's own maneuver, from the state with each coordinate of its puck
+    moved by up to `ROUNDING_ULPS` ulps (`ROUNDING_TRIES` draws), gives the JAX outcome rows
+    `got` (no changed outcome, `changed_cases`). Such a case is a branch that a rounding takes
+    either way: a search's scores or a tautening, a wall or a post at a threshold, which the
+    two kernels' different rounding (XLA's transcendental functions, fused multiply-adds)
+    decides. A difference that rounding does not explain (another formula, another path) is
+    not reached so."""
+    kernel = NavigateKernel(config)
+    rng = np.random.default_rng(seed)
+    reached = np.zeros(len(states), bool)
+    for _ in range(ROUNDING_TRIES):
+        if reached.all():
+            break
+        moved = states.copy()
+        for name in PUCK_FIELDS:
+            ulps = rng.integers(-ROUNDING_ULPS, ROUNDING_ULPS + 1, len(states))
+            moved[name] = moved[name] + ulps * np.spacing(moved[name])
+        _, _, out = kernel.step(moved, actions)
+        reached |= ~changed_cases(differences(OUTCOME, got, out), diverged_at)
+    return reached
+
+
 def compare(config: NavigateConfig, states, actions, diverged_at: float = DIVERGED) -> dict:
     """The observation's and the outcome's differences per field, `changed` (the cases whose
-    peg, flags or counts differ, or whose continuous outcome differs by more than `DIVERGED`)
-    and their classes, and `given_up` (numba's contact not completed). Classes: a peg hooked
-    otherwise ("peg tie (equal bearings)" where two pegs lie at one bearing, `bearing_tie`;
-    under the aimed modes "peg (search tie)" where the two set-ups' command errors agree to
-    `SAME_SCORE`), under the aimed modes a set-up found otherwise on the same peg ("set-up
-    (search tie)" likewise) or the same set-up flown otherwise ("flight (offset at +-pi/2)"
-    where the wheel's target is a grid end, a tautening at a right angle), and the flags and
-    counts that differ; `case_classes` each case's ("" where it agrees)."""
+    peg, flags or counts differ, or whose continuous outcome differs by more than `DIVERGED`,
+    `changed_cases`), their classes, `rounding` (the changed ones numba reaches within
+    rounding, `within_rounding`) and `given_up` (numba's contact not completed). Classes: a
+    peg hooked otherwise ("peg tie (equal bearings)" where two pegs lie at one bearing,
+    `bearing_tie`; under the aimed modes "peg (search tie)" where the two set-ups' command
+    errors agree to `SAME_SCORE`), under the aimed modes a set-up found otherwise on the same
+    peg ("set-up (search tie)" likewise) or the same set-up flown otherwise ("flight (offset
+    at +-pi/2)" where the wheel's target is a grid end, a tautening at a right angle), and the
+    flags and counts that differ, prefixed "rounding: " where numba reaches the outcome within
+    rounding; `case_classes` each case's ("" where it agrees)."""
     want = numba_side(config, states, actions)
     got = jax_side(config, states, actions)
     result = {
@@ -253,12 +323,18 @@ def compare(config: NavigateConfig, states, actions, diverged_at: float = DIVERG
             right = target[i] == 0.5 * np.pi
             per_case[i].append("flight (offset at +-pi/2)" if right else "flight")
     changed |= diverged
-    for names in per_case:
-        if names:
-            key = "+".join(names)
+    assert (changed == changed_cases(out, diverged_at)).all()
+    rounding = np.zeros(len(states), bool)
+    if changed.any():
+        idx = np.flatnonzero(changed)
+        rounding[idx] = within_rounding(config, states[idx], actions[idx], got[1][idx], diverged_at)
+    keys = [("rounding: " if r else "") + "+".join(names) if names else ""
+            for names, r in zip(per_case, rounding, strict=True)]  # fmt: skip
+    for key in keys:
+        if key:
             classes[key] = classes.get(key, 0) + 1
-    result["changed"], result["classes"] = changed, classes
-    result["case_classes"] = ["+".join(names) for names in per_case]
+    result["changed"], result["classes"], result["rounding"] = changed, classes, rounding
+    result["case_classes"] = keys
     result["given_up"] = want[1][:, OUTCOME.index["completed"]] == 0.0
     return result
 
@@ -277,10 +353,11 @@ def worst(result: dict, part: str, cases: np.ndarray | None = None) -> tuple[str
 
 
 def cell(env_id: str, dynamics: str, control: str, n: int, seed: int,
-         precision: str = "float64") -> dict:  # fmt: skip
-    """One row of the table. In float32 only a peg, a flag or a count that differs is a
-    changed outcome (every continuous value moves by float32's rounding)."""
-    config = configuration(env_id, dynamics, control)
+         precision: str = "float64", variant: str = "defaults") -> dict:  # fmt: skip
+    """One row of the table (`rounding`: the changed outcomes numba reaches within rounding,
+    `within_rounding`). In float32 only a peg, a flag or a count that differs is a changed
+    outcome (every continuous value moves by float32's rounding)."""
+    config = configuration(env_id, dynamics, control, variant)
     states, actions = cases(config, n, seed)
     start = time.perf_counter()
     result = compare(config, states, actions, DIVERGED if precision == "float64" else np.inf)
@@ -288,13 +365,13 @@ def cell(env_id: str, dynamics: str, control: str, n: int, seed: int,
     field, outcome = worst(result, "outcome", agree)
     given_up = ~result["changed"] & result["given_up"]
     return {
-        "id": env_id, "dynamics": dynamics, "control": control, "precision": precision,
-        "cases": n, "worst_outcome": outcome, "worst_field": field,
+        "id": env_id, "dynamics": dynamics, "control": control, "variant": variant,
+        "precision": precision, "cases": n, "worst_outcome": outcome, "worst_field": field,
         "worst_observation": worst(result, "observation", agree)[1],
         "given_up": int(given_up.sum()),
         "worst_given_up": worst(result, "outcome", given_up)[1] if given_up.any() else 0.0,
-        "changed": int(result["changed"].sum()), "classes": result["classes"],
-        "seconds": round(time.perf_counter() - start, 1),
+        "changed": int(result["changed"].sum()), "rounding": int(result["rounding"].sum()),
+        "classes": result["classes"], "seconds": round(time.perf_counter() - start, 1),
     }  # fmt: skip
 
 
@@ -302,7 +379,13 @@ NO_FMA = "--xla_cpu_max_isa=SSE4_2"
 """XLA's CPU code without fused multiply-adds (no FMA instructions below AVX2), as numba
 compiles (it does not contract a * b + c): the two then round the arithmetic alike and differ
 only by the transcendental functions (libm's or XLA's). `--fma` measures the default build."""
-KEY = ("id", "dynamics", "control", "precision")
+KEY = {"id": None, "dynamics": None, "control": None, "variant": "defaults",
+       "precision": "float64", "fma": True}  # fmt: skip
+"""A row's key and, for rows recorded before a field was, its value then."""
+
+
+def _key(row: dict) -> tuple:
+    return tuple(row.get(name, default) for name, default in KEY.items())
 
 
 def main() -> None:
@@ -317,6 +400,7 @@ def main() -> None:
     parser.add_argument("--controls", "--control", nargs="+", default=["setup"],
                         choices=CONTROLS)  # fmt: skip
     parser.add_argument("--ids", nargs="+", default=list(ladder_ids()))
+    parser.add_argument("--variants", nargs="+", default=["defaults"], choices=VARIANTS)
     parser.add_argument("--precision", choices=("float64", "float32"), default="float64")
     parser.add_argument("--fma", action="store_true", help="XLA's default build (`NO_FMA`)")
     parser.add_argument("--merge", action="store_true", help="keep the file's other rows (`KEY`)")
@@ -333,33 +417,36 @@ def main() -> None:
             hybrid = dynamics == "hybrid"
             ids = (args.hybrid_ids or args.ids) if hybrid else args.ids
             n = (args.hybrid_cases or args.cases) if hybrid else args.cases
-            for k, env_id in enumerate(ids):
-                row = cell(env_id, dynamics, control, n, args.seed + k, args.precision)
-                row["fma"] = bool(args.fma)
-                rows.append(row)
-                print(
-                    f"{env_id:36} {dynamics:8} {control:14} outcome {row['worst_outcome']:8.1e} "
-                    f"({row['worst_field']}) obs {row['worst_observation']:8.1e} given up "
-                    f"{row['given_up']} ({row['worst_given_up']:.1e}) changed {row['changed']} "
-                    f"{row['classes']} {row['seconds']} s",
-                    flush=True,
-                )
+            for variant in args.variants:
+                for k, env_id in enumerate(ids):
+                    seed = args.seed + k
+                    row = cell(env_id, dynamics, control, n, seed, args.precision, variant)
+                    row["fma"] = bool(args.fma)
+                    rows.append(row)
+                    print(
+                        f"{env_id:36} {dynamics:8} {control:14} {variant} outcome "
+                        f"{row['worst_outcome']:8.1e} ({row['worst_field']}) obs "
+                        f"{row['worst_observation']:8.1e} given up {row['given_up']} "
+                        f"({row['worst_given_up']:.1e}) changed {row['changed']} (rounding "
+                        f"{row['rounding']}) {row['classes']} {row['seconds']} s",
+                        flush=True,
+                    )
     command = results_file.script_command(__file__)
     details = {"jax": jax.__version__, "device": str(jax.devices()[0]),
                "xla_flags": os.environ.get("XLA_FLAGS", ""), "commands": [command]}  # fmt: skip
     if args.merge and args.out.exists():
         old = json.loads(args.out.read_text())
-        new_keys = {tuple(r.get(k, "float64") for k in KEY) for r in rows}
-        kept = [r for r in old.get("rows", []) if
-                tuple(r.get(k, "float64") for k in KEY) not in new_keys]  # fmt: skip
-        for r in kept:  # rows from before `precision` and `fma` were recorded
-            r.setdefault("precision", "float64")
-            r.setdefault("fma", True)
+        new_keys = {_key(r) for r in rows}
+        kept = [r for r in old.get("rows", []) if _key(r) not in new_keys]
+        for r in kept:  # rows from before a field of `KEY` was recorded
+            for name, default in KEY.items():
+                r.setdefault(name, default)
         rows = kept + rows
         previous = old.get("details", {}).get("commands", [old.get("command")])
         details["commands"] = [c for c in previous if c and c != command] + [command]
     setup = {"warmup": WARMUP, "diverged": DIVERGED, "same_score": SAME_SCORE,
-             "controls": list(CONTROLS)}  # fmt: skip
+             "controls": list(CONTROLS), "variants": VARIANTS,
+             "rounding_ulps": ROUNDING_ULPS, "rounding_tries": ROUNDING_TRIES}  # fmt: skip
     seconds = time.perf_counter() - began
     if args.merge and args.out.exists():  # the file's cost: every run it merges
         seconds += json.loads(args.out.read_text()).get("seconds") or 0.0

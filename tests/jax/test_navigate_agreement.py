@@ -159,3 +159,64 @@ def test_aimed_maneuvers_agree_with_the_numba_kernel(env_id, dynamics, control, 
     for part in ("observation", "outcome"):
         field, difference = worst(result, part, agree)
         assert difference <= AIMED_TOLERANCE, f"{part}.{field} differs by {difference:.3g}"
+
+
+def test_the_flights_event_times_are_the_numba_ones_bit_for_bit():
+    """A post's touch and the wheel's crossings over its grid of offset angles, computed for a
+    lane's puck against all its posts or angles at once, are numba's to the last bit: XLA's
+    algebraic simplifier turns a division by a value broadcast over an array (or by a
+    constant) into a multiplication by its reciprocal, an ulp off in about one case in three
+    (`navigate_physics.divide` keeps it a division). The aim search puts many tautenings at
+    the end of their stretch, a post's touch, where the flight's `t <= t_end` then decided the
+    other way and the maneuver ended otherwise."""
+    from tether_gym.envs.tether_navigate import flight, geometry
+    from tether_gym.jax import navigate as jn
+    from tether_gym.jax import navigate_physics as nav
+    from tether_gym.physics.state import PuckState
+
+    config = configuration("TetherNavigate_PostsReach-v3", "impulse", "setup", "wheel_rate=1e4")
+    states, _ = cases(config, CASES, 5)
+    state = jn.EnvState.from_records(states)
+    pucks = nav.Puck(state.x, state.y, state.vx, state.vy, state.angle, state.spin)
+    anchors = states["anchors"][:, 0]
+    length = 0.5 * (1.0 + np.random.default_rng(6).random(CASES))
+    grid = -0.5 * np.pi + np.arange(flight.WHEEL_GRID) * np.pi / (flight.WHEEL_GRID - 1)
+
+    def events(p, posts, n_posts, ax, ay, tether):
+        touch = nav.first_post_hit(p, posts, n_posts, 10.0, True)
+        crossing, _ = nav.wheel_crossing(p, ax, ay, tether, grid, 0.0, 10.0, 1e4, 0.0)
+        return touch, crossing
+
+    touch, crossing = jax.jit(jax.vmap(events))(
+        pucks, state.posts, state.n_posts, anchors[:, 0], anchors[:, 1], length
+    )
+    for i, s in enumerate(states):
+        puck = PuckState(*(float(s[name]) for name in ("x", "y", "vx", "vy", "angle", "spin")))
+        want = geometry.first_post_hit(puck, s["posts"], s["n_posts"], 10.0, True)
+        assert float(touch[i]) == want, (i, float(touch[i]), want)
+        for j, alpha in enumerate(grid):
+            t, _ = flight.wheel_crossing(puck, *anchors[i], length[i], alpha, 0.0, 10.0, 1e4, 0.0)
+            assert float(crossing[i, j]) == t, (i, j, float(crossing[i, j]), t)
+
+
+RANGE_ENDS = (("TetherNavigate_PostsReach-v3", "wall_restitution=0,wheel_rate=1e4", 384, 0),
+              ("TetherNavigate_PostsReach-v3", "defaults", 384, 0))  # fmt: skip
+"""(id, `VARIANTS` entry, cases, seed) of aim control, impulse dynamics, at a range end and at
+the defaults: the search at a wall restitution of 0 (the puck sliding along a wall) and the
+wheel at its fastest rate."""
+
+
+@pytest.mark.parametrize(("env_id", "variant", "n", "seed"), RANGE_ENDS)
+def test_aim_control_at_the_range_ends_agrees_with_the_numba_kernel(env_id, variant, n, seed):
+    """Without fused multiply-adds (`conftest.NO_FMA`) the kernels do the same arithmetic, and
+    every maneuver's outcome agrees: the search's comparisons decide alike (measured: 0 of
+    2,304 cases at the defaults and at these range ends, where 4 to 8 differed while XLA
+    multiplied by reciprocals)."""
+    config = configuration(env_id, "impulse", "aim", variant)
+    states, actions = cases(config, n, seed)
+    result = compare(config, states, actions)
+    assert not result["changed"].any(), result["classes"]
+    agree = ~result["changed"]
+    for part in ("observation", "outcome"):
+        field, difference = worst(result, part, agree)
+        assert difference <= AIMED_TOLERANCE, f"{part}.{field} differs by {difference:.3g}"

@@ -63,12 +63,6 @@ JAX_DYNAMICS = {"impulse": IMPULSE, "hybrid": HYBRID}
 """The dynamics of the JAX kernel, by name, and their codes (not pymunk's engine)."""
 JAX_CONTROLS = ("setup", "velocity", "aim")
 """The control modes the JAX kernel plays: every one (`controls.CONTROL_MODES`)."""
-SAME_ANGLE = {np.dtype(np.float64): 1e-12, np.dtype(np.float32): 1e-5}
-"""rad, per precision: the offset angle met is the command's (`offset_angle_met`) within this.
-The numba kernel compares them exactly, as its flight returns the command itself where the
-wheel meets it; XLA may compute the command twice (in two fusions, one with fused
-multiply-adds), an ulp apart, and float32 rounds the angles to about 1e-6 rad. Any other angle
-met is the wheel bisection's, at least its resolution (about 5e-5 rad) away."""
 CELLS = GRID[0] * GRID[1]
 UNIFORMS = 3 * (MAX_ANCHORS + MAX_POSTS + 2) + 3
 """Uniforms an episode may draw: the most any configuration draws (`NavigateConfig.n_uniforms`:
@@ -274,7 +268,8 @@ def observe(s: EnvState, params: EnvParams) -> jax.Array:
     anchors = _sorted_relative(s.anchors, s.n_anchors, s.x, s.y).ravel()
     posts = _sorted_relative(s.posts, s.n_posts, s.x, s.y).ravel()
     head = jnp.stack([
-        s.vx / MAX_SPEED, s.vy / MAX_SPEED, jnp.cos(s.angle), jnp.sin(s.angle), s.spin * SPIN_SCALE,
+        nav.divide(s.vx, MAX_SPEED), nav.divide(s.vy, MAX_SPEED), jnp.cos(s.angle),
+        jnp.sin(s.angle), s.spin * SPIN_SCALE,
     ])  # fmt: skip
     tail = jnp.stack([
         s.maneuvers_left / jnp.asarray(params.max_maneuvers), s.x, s.y, s.goal_x, s.goal_y,
@@ -334,7 +329,7 @@ def step_episode(s: EnvState, action: jax.Array, params: EnvParams) -> EnvState:
         solved = navigate_velocity.solve(action, s, params, clearance)
     anchor, length, alpha, e, aim_x, aim_y, command_met, command_error = solved
     ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
-    reach = jnp.hypot(s.x + ARM * jnp.cos(s.angle) - ax, s.y + ARM * jnp.sin(s.angle) - ay)
+    reach = nav.hypot(s.x + ARM * jnp.cos(s.angle) - ax, s.y + ARM * jnp.sin(s.angle) - ay)
     length = jnp.maximum(length, reach)
     f = nav.fly(
         s, dynamics, jnp.asarray(params.reaction_wheel), params.wheel_rate,
@@ -365,7 +360,7 @@ def step_episode(s: EnvState, action: jax.Array, params: EnvParams) -> EnvState:
         taut
         & jnp.asarray(params.coast)
         & ~hit_post
-        & ~(jnp.hypot(puck.vx, puck.vy) < task.REST_SPEED)
+        & ~(nav.hypot(puck.vx, puck.vy) < task.REST_SPEED)
     )
     puck, coast_post, path, n = nav.coast(
         puck, s.posts, s.n_posts, params.wall_restitution, aim_x, aim_y, path, n, coasting
@@ -373,13 +368,12 @@ def step_episode(s: EnvState, action: jax.Array, params: EnvParams) -> EnvState:
     hit_post = hit_post | coast_post
     path = jnp.where((jnp.arange(PATH_POINTS) >= n)[:, None], jnp.stack([puck.x, puck.y]), path)
     left = s.maneuvers_left - 1
-    at_rest = jnp.hypot(puck.vx, puck.vy) < task.REST_SPEED
+    at_rest = nav.hypot(puck.vx, puck.vy) < task.REST_SPEED
     reward, success, progress, term_success, term_maneuver, term_post = nav.terms(
         params.task, params.reward_type, path, s.goal_x, s.goal_y, at_rest, hit_post
     )
     terminated = success | at_rest | hit_post
     truncated = ~terminated & (left <= 0)
-    same_angle = SAME_ANGLE[f.met.dtype]
     values = {
         "reward": reward, "terminated": terminated, "truncated": truncated,
         "is_success": success, "position": jnp.stack([puck.x, puck.y]),
@@ -389,7 +383,7 @@ def step_episode(s: EnvState, action: jax.Array, params: EnvParams) -> EnvState:
         "taut_velocity": jnp.stack([taut_puck.vx, taut_puck.vy]),
         "taut_angle": taut_puck.angle, "taut_spin": taut_puck.spin, "bounced": bounced,
         "completed": completed, "tether_length": length, "tether_angle": beta,
-        "offset_angle": f.met, "offset_angle_met": jnp.abs(f.met - alpha) <= same_angle,
+        "offset_angle": f.met, "offset_angle_met": f.met_command,
         "wheel_target": f.wheel_target, "wheel_target_time": f.wheel_target_time,
         "wheel_turn": f.wheel_turn, "restitution": e, "command_met": command_met,
         "command_error": command_error, "flight_time": f.time, "wall_hits": hits,

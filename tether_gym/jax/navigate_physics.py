@@ -133,9 +133,31 @@ def hypot(x, y):
     return jnp.where(ay <= ax * 2.0**-54, ax + ay, h - (t1 + t2) / (2.0 * safe))
 
 
+def divide(a, b):
+    """a / b rounded as one IEEE division, as numba's `/` rounds it. XLA's algebraic simplifier
+    turns a division by a constant, or by one value broadcast over an array (a lane's scalar
+    over its posts, grid angles or pegs under `vmap`), into a multiplication by the reciprocal,
+    which rounds otherwise (an ulp off in about one case in three); a divisor times a 1 known
+    only at run time (1 where the numerator or divisor, whichever is wider, is not finite)
+    stays a division. A time found at a threshold (a crossing at the end of its stretch, a
+    post's touch) compares alike then."""
+    a, b = jnp.asarray(a), jnp.asarray(b)
+    like = a if a.ndim >= b.ndim else b
+    one = jnp.where(jnp.isfinite(like), 0.0 * like + 1.0, 1.0)
+    return a / (b * one)
+
+
 def free_flight(p: Puck, t) -> Puck:
-    """`events.free_flight_row`."""
-    return Puck(p.x + p.vx * t, p.y + p.vy * t, p.vx, p.vy, p.angle + p.spin * t, p.spin)
+    """`events.free_flight_row`, its products rounded before the sums (`physics.keep`), as
+    numba rounds them: with fused multiply-adds (XLA's default build) a puck flown to a wall
+    would stop an ulp away from where the numba one does, and at a wall restitution of 0 it
+    then slides along the wall with its rim an ulp inside or outside it, which the wheel's
+    clearance and the walls' tests compare exactly."""
+    one = runtime_one(p.x)
+    return Puck(
+        p.x + keep(p.vx * t, one), p.y + keep(p.vy * t, one), p.vx, p.vy,
+        p.angle + keep(p.spin * t, one), p.spin,
+    )  # fmt: skip
 
 
 def time_to_wall(p: Puck):
@@ -187,7 +209,7 @@ def first_post_hit(p: Puck, posts, n_posts, t_end, touching: bool):
     b = px * p.vx + py * p.vy
     disc = b * b - v2 * c
     safe_v2 = jnp.where(v2 == 0.0, 1.0, v2)
-    t = (-b - jnp.sqrt(jnp.maximum(disc, 0.0))) / safe_v2
+    t = divide(-b - jnp.sqrt(jnp.maximum(disc, 0.0)), safe_v2)
     hit = present & (v2 != 0.0) & ~(disc < 0.0) & (0.0 <= t) & (t <= t_end)
     first = jnp.min(jnp.where(hit, t, jnp.inf))
     if touching:
@@ -416,7 +438,7 @@ def wheel_crossing(p: Puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, c
     disc = b * b - v2 * (px * px + py * py - radius2)
     ok = ~((v2 == 0.0) | (disc < CROSSING_MARGIN * CROSSING_MARGIN * v2 * radius2))
     safe_v2 = jnp.where(v2 == 0.0, 1.0, v2)
-    t = (jnp.sqrt(jnp.where(ok, disc, 0.0)) - b) / safe_v2
+    t = divide(jnp.sqrt(jnp.where(ok, disc, 0.0)) - b, safe_v2)
     ok &= (0.0 <= t) & (t <= t_end)
     cx, cy = px + p.vx * t, py + p.vy * t
     x, y = ax + cx, ay + cy
@@ -444,7 +466,7 @@ def _nearest(alpha, works):
     nearest above it, whichever is nearer (the lower on a tie). (found, angle)."""
     step = math.pi / (WHEEL_GRID - 1)
     grid = jnp.arange(WHEEL_GRID)
-    below0 = jnp.minimum(jnp.trunc((alpha + 0.5 * math.pi) / step), WHEEL_GRID - 1)
+    below0 = jnp.minimum(jnp.trunc(divide(alpha + 0.5 * math.pi, step)), WHEEL_GRID - 1)
     below_ok = works & (grid <= below0)
     above_ok = works & (grid > below0)
     below = jnp.max(jnp.where(below_ok, grid, -1))
@@ -457,7 +479,8 @@ def _nearest(alpha, works):
 
 
 def wheel_target(p: Puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clearance):
-    """(t, rate, target): `flight._wheel_target`."""
+    """(t, rate, target, direct): `flight._wheel_target`, `direct` where the target is the
+    command `alpha` itself (the numba target is then `alpha`, the same float)."""
     args = (elapsed, t_end, wheel_rate, clearance)
     t0, rate0 = wheel_crossing(p, ax, ay, length, alpha, *args)
     step = math.pi / (WHEEL_GRID - 1)
@@ -478,7 +501,7 @@ def wheel_target(p: Puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, cle
     t = jnp.where(direct, t0, jnp.where(found, t1, jnp.inf))
     rate = jnp.where(direct, rate0, jnp.where(found, rate1, 0.0))
     target = jnp.where(direct, alpha, jnp.where(found, reachable, alpha))
-    return t, rate, target
+    return t, rate, target, direct
 
 
 def contact_clearance(s, dynamics: int, stiffness):
@@ -491,11 +514,11 @@ def contact_clearance(s, dynamics: int, stiffness):
 
 def wheel_plan(puck: Puck, posts, n_posts, ax, ay, length, alpha, clearance, wheel_rate,
                wall_restitution):  # fmt: skip
-    """(hits, t, time, rate, target): `flight._wheel_plan`, one iteration per stretch (at most
-    `MAX_WALL_HITS` + 1)."""
+    """(hits, t, time, rate, target, direct): `flight._wheel_plan`, one iteration per stretch
+    (at most `MAX_WALL_HITS` + 1); `direct` where the target is the command (`wheel_target`)."""
     inf = jnp.inf
     zero = jnp.zeros_like(puck.x)
-    none = (jnp.int32(-1), inf + zero, zero, zero, alpha + zero)
+    none = (jnp.int32(-1), inf + zero, zero, zero, alpha + zero, jnp.asarray(True))
 
     def cond(c):
         return ~c[3]
@@ -503,12 +526,12 @@ def wheel_plan(puck: Puck, posts, n_posts, ax, ay, length, alpha, clearance, whe
     def body(c):
         p, elapsed, hits, _done, result = c
         t_end, t_wall, wall, t_post = stretch_end(p, posts, n_posts, elapsed)
-        t, rate, target = wheel_target(
+        t, rate, target, direct = wheel_target(
             p, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clearance
         )
         hit = t < inf
         stop = (t_post < inf) | (t_wall > FLIGHT_HORIZON - elapsed) | (hits == MAX_WALL_HITS)
-        found = (hits, t, elapsed + t, rate, target)
+        found = (hits, t, elapsed + t, rate, target, direct)
         result = select(hit, found, select(stop, none, result))
         p = wall_bounce(free_flight(p, t_wall), wall, wall_restitution)
         return p, elapsed + t_wall, hits + 1, hit | stop, result
@@ -531,6 +554,12 @@ class Flight(NamedTuple):
     puck: Puck
     taut: jnp.ndarray
     met: jnp.ndarray
+    met_command: jnp.ndarray
+    """The angle met is the command (`offset_angle_met`): the numba flight returns the command
+    itself where the wheel's target is the command (`direct`) or no tether goes taut, and the
+    numba maneuver compares `met == alpha`; carried as a flag here, as the traced command may
+    be computed twice (in two fusions, one with fused multiply-adds, or in float32), an ulp
+    apart, and an angle met at an earlier tautening compared exactly."""
     time: jnp.ndarray
     hits: jnp.ndarray
     hit_post: jnp.ndarray
@@ -558,15 +587,16 @@ def fly(s, dynamics: int, reaction_wheel, wheel_rate, wall_restitution, stiffnes
     at_once_turning, capped1 = time_to_taut(
         turning, ax, ay, length, ARM, AT_ONCE + zero, narrow=False
     )
-    none = (jnp.int32(-1), inf + zero, zero, zero, alpha + zero)
+    none = (jnp.int32(-1), inf + zero, zero, zero, alpha + zero, jnp.asarray(True))
     use = reaction_wheel & (at_once == inf) & ~(at_once_turning < inf)
-    target_hits, target_t, target_time, rate, target = select(use, plan, none)
+    target_hits, target_t, target_time, rate, target, direct = select(use, plan, none)
     capped = capped0 | (reaction_wheel & (at_once == inf) & capped1)
     puck = start._replace(spin=s.spin + rate)
     path = jnp.zeros((PATH_POINTS, 2), zero.dtype)
     path, n = path_point(path, jnp.int32(0), puck.x, puck.y)
-    result = Flight(start, jnp.asarray(False), alpha + zero, zero, jnp.int32(0),
-                    jnp.asarray(False), n, path, target, target_time, zero, capped)  # fmt: skip
+    result = Flight(start, jnp.asarray(False), alpha + zero, jnp.asarray(True), zero,
+                    jnp.int32(0), jnp.asarray(False), n, path, target, target_time, zero,
+                    capped)  # fmt: skip
 
     def cond(c):
         return ~c[3]
@@ -583,7 +613,9 @@ def fly(s, dynamics: int, reaction_wheel, wheel_rate, wall_restitution, stiffnes
         taut = t < inf
         turned = free_flight(p, t)
         taut_puck = turned._replace(spin=s.spin)
-        met = jnp.where(on_target, target, offset_angle(taut_puck, ax, ay))
+        early = offset_angle(taut_puck, ax, ay)
+        met = jnp.where(on_target, target, early)
+        met_command = jnp.where(on_target, direct, early == alpha)
         stop = (t_post < inf) | (t_wall > FLIGHT_HORIZON - elapsed) | (hits == MAX_WALL_HITS)
         t_stop = jnp.where(t_post < inf, t_end, jnp.minimum(t_wall, FLIGHT_HORIZON - elapsed))
         stop_puck = free_flight(p, t_stop)._replace(spin=s.spin)
@@ -592,9 +624,9 @@ def fly(s, dynamics: int, reaction_wheel, wheel_rate, wall_restitution, stiffnes
         end_path, end_n = path_point(path, n, end_puck.x, end_puck.y)
         t_flight = jnp.where(taut, t, t_stop)
         ending = Flight(
-            end_puck, taut, jnp.where(taut, met, alpha), elapsed + t_flight, hits,
-            ~taut & (t_post < inf), end_n, end_path, target, target_time,
-            rate * (elapsed + t_flight), result.capped | capped,
+            end_puck, taut, jnp.where(taut, met, alpha), ~taut | met_command,
+            elapsed + t_flight, hits, ~taut & (t_post < inf), end_n, end_path, target,
+            target_time, rate * (elapsed + t_flight), result.capped | capped,
         )  # fmt: skip
         result = select(ended, ending, result._replace(capped=result.capped | capped))
         bounced = wall_bounce(free_flight(p, t_wall), wall, wall_restitution)
@@ -625,7 +657,7 @@ def coast(puck: Puck, posts, n_posts, wall_restitution, gx, gy, path, n, active)
             jnp.minimum(jnp.maximum(t / jnp.where(v2 > 0.0, v2, 1.0), 0.0), t_end),
             0.0,
         )
-        d = jnp.hypot(p.x + p.vx * t - gx, p.y + p.vy * t - gy)
+        d = hypot(p.x + p.vx * t - gx, p.y + p.vy * t - gy)
         better = going & (d < nearest)
         nearest = jnp.where(better, d, nearest)
         best = jnp.where(better, k, best)
@@ -648,9 +680,11 @@ def impulse_contact(p: Puck, ax, ay, e):
     """(puck, bounced): `physics.impulse.impulse_contact_row` (the pose unchanged)."""
     rx, ry = OFFSET * PUCK_RADIUS * jnp.cos(p.angle), OFFSET * PUCK_RADIUS * jnp.sin(p.angle)
     px, py = p.x + rx - ax, p.y + ry - ay
-    distance = jnp.hypot(px, py)
+    distance = hypot(px, py)
+    # kappa known at run time: I/m a constant, XLA would multiply by its reciprocal (`divide`)
+    kappa = INERTIA_RATIO * runtime_one(p.x)
     vx, vy, w, bounced = impulse_response(
-        p.vx, p.vy, p.spin, rx, ry, px / distance, py / distance, INERTIA_RATIO, PUCK_RADIUS, e
+        p.vx, p.vy, p.spin, rx, ry, px / distance, py / distance, kappa, PUCK_RADIUS, e
     )
     return p._replace(vx=vx, vy=vy, spin=w), bounced
 
@@ -670,20 +704,20 @@ def path_distance(path, gx, gy):
             1.0,
         ),
     )
-    d = jnp.hypot(gx - ax - s * dx, gy - ay - s * dy)
-    return jnp.minimum(jnp.hypot(path[0, 0] - gx, path[0, 1] - gy), jnp.min(d))
+    d = hypot(gx - ax - s * dx, gy - ay - s * dy)
+    return jnp.minimum(hypot(path[0, 0] - gx, path[0, 1] - gy), jnp.min(d))
 
 
 def terms(task_code, reward_type, path, gx, gy, at_rest, hit_post):
     """(reward, success, progress, term_success, term_maneuver, term_post):
     `tasks.navigate.terms`, both tasks and reward types computed and the traced ones picked."""
     end = path.shape[0] - 1
-    after = jnp.hypot(path[end, 0] - gx, path[end, 1] - gy)
+    after = hypot(path[end, 0] - gx, path[end, 1] - gy)
     reach = path_distance(path, gx, gy) < task.GOAL_RADIUS
     stop = at_rest & (after < task.GOAL_RADIUS)
     met = jnp.where(task_code == task.REACH, reach, stop) & ~hit_post
     term_success = jnp.where(met, task.SUCCESS_BONUS, 0.0)
-    before = jnp.hypot(path[0, 0] - gx, path[0, 1] - gy)
+    before = hypot(path[0, 0] - gx, path[0, 1] - gy)
     progress = before - after
     post = jnp.where(hit_post, -task.POST_PENALTY, 0.0)
     reward = progress + term_success - task.MANEUVER_COST + post

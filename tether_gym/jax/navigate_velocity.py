@@ -283,7 +283,7 @@ def _wanted(px, py, vx, vy, ux, uy, cmd, k_low, k_high, table: Table):
 
 def _longest_arm(radius, longest):
     """`velocity._longest_arm`."""
-    near = 0.5 * ((radius * radius - ARM * ARM) / longest - longest)
+    near = 0.5 * (nav.divide(radius * radius - ARM * ARM, longest) - longest)
     return jnp.where(near <= 0.0, ARM, jnp.sqrt(_pymax(ARM * ARM - near * near, 0.0)))
 
 
@@ -309,7 +309,7 @@ def _bounce_at(px, py, vx, vy, spin, peg: Peg, cmd, table: Table):
     ux = jnp.where(ok, (rx * projected + ry * arm) / _safe(r2), jnp.nan)
     uy = jnp.where(ok, (ry * projected - rx * arm) / _safe(r2), jnp.nan)
     pull = vx * ux + vy * uy + spin * arm
-    factor = 1.0 + arm * arm / GYRATION2
+    factor = 1.0 + nav.divide(arm * arm, GYRATION2)
     k_low = _pymax((1.0 + BRAKE_LOW) * pull / factor, 0.0)
     k_high = _pymax((1.0 + BRAKE_HIGH) * pull / factor, 0.0)
     k, miss, blocked = _wanted(px, py, vx, vy, ux, uy, cmd, k_low, k_high, table)
@@ -327,7 +327,7 @@ def bounce_on(puck: Puck, t, peg: Peg, aim: Aim, table: Table, wheel: Wheel):
         x, y, puck.vx, puck.vy, puck.spin, peg, (aim.x, aim.y, speed, weight), table
     )
     at, _ = nav.wheel_crossing(
-        puck, peg.x, peg.y, length, jnp.arcsin(arm / ARM), wheel.elapsed, wheel.t_end,
+        puck, peg.x, peg.y, length, jnp.arcsin(nav.divide(arm, ARM)), wheel.elapsed, wheel.t_end,
         wheel.rate, wheel.clearance,
     )  # fmt: skip
     turns = jnp.abs(at - t) <= 1e-6 * jnp.maximum(1.0, t)
@@ -355,7 +355,7 @@ def _windows(s, anchor, f: Flight, rate, clearance, after_stretch, after_t):
         t_highs.append(t_high)
         valids.append((k < f.count) & (k >= after_stretch) & (t_low <= t_high))
     t_low, t_high, valid = jnp.stack(t_lows), jnp.stack(t_highs), jnp.stack(valids)
-    step = (t_high - t_low) / (SAMPLES - 1)
+    step = nav.divide(t_high - t_low, float(SAMPLES - 1))
     ts = t_low[:, None] + jnp.arange(SAMPLES) * step[:, None]
     segment = jnp.repeat(jnp.arange(SEGMENTS), SAMPLES)
     return peg, segment, ts.ravel(), jnp.repeat(valid, SAMPLES), t_low, t_high, step
@@ -410,10 +410,11 @@ def tautening_window(x, y, vx, vy, ax, ay, r_low, r_high, t_end):
 
     def leaving(radius):
         disc = b * b - sv2 * (c - radius * radius)
-        return jnp.where(disc >= 0.0, (jnp.sqrt(jnp.where(disc >= 0.0, disc, 0.0)) - b) / sv2,
+        root = jnp.sqrt(jnp.where(disc >= 0.0, disc, 0.0))
+        return jnp.where(disc >= 0.0, nav.divide(root - b, sv2),
                          jnp.nan)  # fmt: skip
 
-    t_low = _pymax(0.0, -b / sv2)
+    t_low = _pymax(0.0, nav.divide(-b, sv2))
     inner = leaving(r_low)
     t_low = jnp.where(jnp.isnan(inner), t_low, _pymax(t_low, inner))
     outer = leaving(r_high)
@@ -503,7 +504,7 @@ def solve(action, s, params, clearance):
     met = jnp.where(none, 0.0, (turns & (miss < COMMAND_TOLERANCE)).astype(dtype))
     error = jnp.where(none, jnp.inf, miss)
     length = jnp.where(none, LENGTH_HIGH, length)
-    alpha = jnp.where(none, 0.0, jnp.arcsin(arm / ARM))
+    alpha = jnp.where(none, 0.0, jnp.arcsin(nav.divide(arm, ARM)))
     e = jnp.where(none, BRAKE_HIGH, e)
     return anchor, length, alpha, e, aim.x, aim.y, met, error
 
