@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from tether_gym.evaluation import results_file
+from tether_gym.evaluation.statistics import wilson_interval
 
 
 def read_file(path: Path) -> dict[str, Any]:
@@ -17,11 +18,14 @@ def read_file(path: Path) -> dict[str, Any]:
 
 
 def read_results(path: Path) -> dict[str, Any]:
-    """A results file or card as `{env_id, env_kwargs, seed, agents: {name: row}}`.
+    """A results file or card as `{env_id, env_kwargs, seed, agents: {name: row}}`, `seed` the
+    evaluation seed of the episodes its agents played (None where the file does not say it).
 
     A results file's rows are its agents (each row's `name`); its `setup` gives the env, its
-    arguments and the seed. A pretrained agent's model card (YAML front matter,
-    `tether_gym/agents/pretrained/*.md`) gives the same from its held-out table.
+    arguments and the seed: an evaluation's (`tether-evaluate --json`, the ladder), not a
+    training run's (a setup with `timesteps`, whose `seed` seeds the training). A pretrained
+    agent's model card (YAML front matter, `tether_gym/agents/pretrained/*.md`) gives the same
+    from its held-out table.
     """
     if path.suffix == ".md":
         return _card(path)
@@ -30,7 +34,7 @@ def read_results(path: Path) -> dict[str, Any]:
     return {
         "env_id": setup["env_id"],
         "env_kwargs": dict(setup.get("env_kwargs") or {}),
-        "seed": setup.get("seed"),
+        "seed": setup.get("test_seed", None if "timesteps" in setup else setup.get("seed")),
         "agents": {row["name"]: row for row in data["rows"]},
     }
 
@@ -85,6 +89,38 @@ def percent(result: dict[str, Any]) -> str:
     if ci:
         text += f" [{100 * ci[0]:.1f}, {100 * ci[1]:.1f}]"
     return text
+
+
+def interval(result: dict[str, Any]) -> tuple[float, float] | None:
+    """One evaluation's 95% interval: the one it records, else the Wilson interval of its
+    successes on its episodes (as `tether-evaluate` computes it) where `success_rate x
+    episodes` is a whole count, else None. Not for a mean over seeds (a t interval)."""
+    if result.get("success_ci"):
+        return tuple(result["success_ci"])
+    episodes = result.get("episodes")
+    if not isinstance(episodes, int) or episodes < 1:
+        return None
+    successes = result["success_rate"] * episodes
+    if abs(successes - round(successes)) > 1e-6:
+        return None
+    return wilson_interval(round(successes), episodes)
+
+
+def episodes_text(episodes: int, seed: int | None, prose: bool = False) -> str:
+    """How many episodes and the evaluation seed they come from, as a cell (`1,000 (seed
+    2,000,000)`) or in a sentence (`prose`: `1,000 from seed 2,000,000`); the count alone where
+    the seed is not known. The seed tells two tables' numbers apart: the same agent on another
+    seed's episodes succeeds on other episodes."""
+    if seed is None:
+        return f"{episodes:,}"
+    return f"{episodes:,} from seed {seed:,}" if prose else f"{episodes:,} (seed {seed:,})"
+
+
+def control_label(env_kwargs: dict[str, Any]) -> str:
+    """A TetherNavigate env's control mode as a column names it: `setup`, `aim`, and `aim +
+    coast` where its maneuvers coast (`coast:True`), which changes what an agent scores."""
+    control = env_kwargs.get("control", "setup")
+    return f"{control} + coast" if env_kwargs.get("coast") else control
 
 
 def train_minutes(summary: dict[str, Any]) -> str:

@@ -7,6 +7,7 @@ README is static Markdown).
 
 from __future__ import annotations
 
+import shlex
 import textwrap
 from pathlib import Path
 from typing import Any
@@ -14,45 +15,65 @@ from typing import Any
 import numpy as np
 
 from docgen import ROOT
-from docgen.results import files_of, kwargs_text, percent, read_file, read_results, train_minutes
+from docgen.results import (
+    control_label,
+    episodes_text,
+    files_of,
+    interval,
+    kwargs_text,
+    percent,
+    read_file,
+    read_results,
+    train_minutes,
+)
 from tether_gym.evaluation.statistics import t_interval
 
 STYLES = ("page", "readme")
 
 
-def sources_line(sources: dict[str, str], style: str = "page") -> str:
-    """The note under a table: its files, grouped by the command that writes them. On a page,
-    a collapsed block (a `??? info`) with each command folded in a code block of its own; in
-    the README, one italic line."""
+def sources_line(
+    sources: dict[str, str], style: str = "page", root: Path = ROOT, lead: str = ""
+) -> str:
+    """The note under a table: its files, grouped by the command that writes them, each command
+    as a shell reads it (`shell_command`). On a page, a collapsed block (a `??? info`) titled
+    with the number of files its globs match, each command folded in a code block of its own;
+    in the README, one italic line. `lead`, a sentence about the table's rows, goes before it:
+    on a page its own paragraph, in the README the italic line's first sentence."""
     by_command: dict[str, list[str]] = {}
     for pattern, command in sources.items():
         by_command.setdefault(command, []).append(pattern)
     if style not in STYLES:
         raise ValueError(f"style must be one of {STYLES}, got {style!r}")
+    requoted = [c for c in by_command if shell_command(c) != c]
+    quoting = " (quoted for the shell: the file records it without the quotes)"
     if style == "readme":
-        parts = [", ".join(f"`{p}`" for p in ps) + f", written by `{c}`"
-                 for c, ps in by_command.items()]  # fmt: skip
-        return "\n\n*Read from " + "; ".join(parts) + ".*\n"
-    files = sum(len(p) for p in by_command.values())
-    title = f"Read from {files} file{'s' * (files > 1)}" + (
+        parts = [", ".join(f"`{p}`" for p in ps) + f", written by `{shell_command(c)}`"
+                 + (quoting if c in requoted else "") for c, ps in by_command.items()]  # fmt: skip
+        return "\n\n*" + (f"{lead} " if lead else "") + "Read from " + "; ".join(parts) + ".*\n"
+    files = sum(len(files_of(p, root)) for p in sources)
+    title = f"Read from {count(files, 'file')}" + (
         f", written by {len(by_command)} commands" if len(by_command) > 1 else ""
     )
     body = []
     for command, patterns in by_command.items():
-        body.append(", ".join(f"`{p}`" for p in patterns) + ", written by:")
-        body.append(f"```bash\n{fold_command(command)}\n```")
+        body.append(", ".join(f"`{p}`" for p in patterns) + ", written by"
+                    + (quoting if command in requoted else "") + ":")  # fmt: skip
+        body.append(f"```bash\n{fold_command(shell_command(command))}\n```")
     block = "\n\n".join(body)
-    return f'\n\n??? info "{title}"\n\n{textwrap.indent(block, "    ")}\n'
+    lead = f"\n\n{lead}" if lead else ""
+    return f'{lead}\n\n??? info "{title}"\n\n{textwrap.indent(block, "    ")}\n'
 
 
-def fold_command(command: str, width: int = 88) -> str:
-    """A long shell command folded before its options (` \\` continuations, shell-valid), so it
-    reads without scrolling; quoted arguments are never split, nor `python -m MODULE`, nor a
-    comment (`# ...`: a continuation would end there). A short one as it is."""
-    if len(command) <= width:
-        return command
+SHELL_SPECIAL = frozenset("()<>;&|")
+"""The characters a shell reads as syntax outside quotes (a word with one, unquoted, is a
+syntax error or a redirection, not an argument)."""
+
+
+def shell_words(command: str) -> list[str]:
+    """`command` split at each space outside quotes, each word's own text kept (its quotes; an
+    empty word between two spaces)."""
     words, word, quote = [], "", ""
-    for char in command:  # split on spaces outside quotes, keeping each word's own text
+    for char in command:
         if quote:
             quote = "" if char == quote else quote
         elif char in "'\"":
@@ -63,6 +84,59 @@ def fold_command(command: str, width: int = 88) -> str:
             continue
         word += char
     words.append(word)
+    return words
+
+
+def _bare(word: str) -> str:
+    """A word's characters outside its quotes."""
+    bare, quote = "", ""
+    for char in word:
+        if quote:
+            quote = "" if char == quote else quote
+        elif char in "'\"":
+            quote = char
+        else:
+            bare += char
+    return bare
+
+
+def shell_command(command: str) -> str:
+    """`command` as a shell reads it, to paste into one. A results file written before commands
+    were recorded with their quotes holds its arguments joined by spaces
+    (`policy_kwargs:dict(features_extractor_class=X, net_arch=[64, 64])`); such an argument,
+    its words rejoined while a bracket stays open, is quoted whole (`shlex.quote`), as is any
+    word with a shell's special characters outside quotes. A command a shell reads already
+    (each argument quoted where it needs it) comes back as it is; a comment (`# ...`) too."""
+    merged: list[str] = []
+    grouped: list[bool] = []
+    comment, depth = "", 0
+    for number, word in enumerate(words := [w for w in shell_words(command) if w]):
+        if depth <= 0 and word.startswith("#"):  # a comment: the rest as it is
+            comment = " ".join(words[number:])
+            break
+        if depth > 0:
+            merged[-1] += " " + word
+            grouped[-1] = True
+        else:
+            merged.append(word)
+            grouped.append(False)
+        bare = _bare(word)
+        depth += sum(map(bare.count, "([{")) - sum(map(bare.count, ")]}"))
+    quoted = [
+        shlex.quote(word) if together or SHELL_SPECIAL & set(_bare(word)) else word
+        for word, together in zip(merged, grouped, strict=True)
+    ]
+    text = " ".join([*quoted, comment] if comment else quoted)
+    return command if " ".join(command.split()) == text else text
+
+
+def fold_command(command: str, width: int = 88) -> str:
+    """A long shell command folded before its options (` \\` continuations, shell-valid), so it
+    reads without scrolling; quoted arguments are never split, nor `python -m MODULE`, nor a
+    comment (`# ...`: a continuation would end there). A short one as it is."""
+    if len(command) <= width:
+        return command
+    words = shell_words(command)
     first = 3 if words[1:2] == ["-m"] else 1  # `python -m MODULE` stays whole
     lines = [" ".join(words[:first])]
     comment = False
@@ -76,6 +150,11 @@ def fold_command(command: str, width: int = 88) -> str:
     return " \\\n".join(lines)
 
 
+def count(number: int, noun: str) -> str:
+    """`number` and `noun`, plural but for one: `1 seed`, `5 seeds`."""
+    return f"{number:,} {noun}{'s' * (number != 1)}"
+
+
 def _check_sources(sources: dict[str, str]) -> None:
     if not isinstance(sources, dict) or not sources:
         raise ValueError("a results table needs {files glob: command that writes them}")
@@ -87,12 +166,14 @@ def _check_sources(sources: dict[str, str]) -> None:
 def success_table(
     sources: dict[str, str], agents: list[str] | None = None, root: Path = ROOT, style: str = "page"
 ) -> str:
-    """One row per results file and agent: env, its arguments, agent, episodes, success
-    [95% CI], and maneuvers to the goal where the files record them (the column left out where
-    none does). `sources` maps a glob of results files to the command that writes them; `agents`
-    keeps those agents, in that order."""
+    """One row per results file and agent: env, its arguments, agent, episodes and the seed they
+    come from, success [95% CI] (the interval from the file, else from its counts,
+    `results.interval`; the header says where a row has none), and maneuvers to the goal where
+    the files record them (the column left out where none does). `sources` maps a glob of
+    results files to the command that writes them; `agents` keeps those agents, in that
+    order."""
     _check_sources(sources)
-    rows = []
+    rows, every_ci = [], True
     for pattern in sources:
         for path in files_of(pattern, root):
             data = read_results(path)
@@ -101,22 +182,25 @@ def success_table(
                 if name not in data["agents"]:
                     continue
                 result = data["agents"][name]
+                result = {**result, "success_ci": interval(result)}
+                every_ci &= result["success_ci"] is not None
                 maneuvers = result.get("maneuvers_mean")
                 rows.append((
                     f"| `{data['env_id']}` | {kwargs_text(data['env_kwargs'])} | {name} | "
-                    f"{result['episodes']:,} | {percent(result)} |",
+                    f"{episodes_text(result['episodes'], data['seed'])} | {percent(result)} |",
                     "-" if maneuvers is None else f"{maneuvers:.2f}",
                 ))  # fmt: skip
     if not rows:
         raise ValueError(f"no agent of {agents} in {list(sources)}")
-    header = "| env | arguments | agent | episodes | success [95% CI] |"
+    success = "success [95% CI]" if every_ci else "success"
+    header = f"| env | arguments | agent | episodes (seed) | {success} |"
     align = "|---|---|---|---:|---|"
     if any(maneuvers != "-" for _, maneuvers in rows):
         header, align = header + " maneuvers to goal |", align + "---:|"
         lines = [f"{row} {maneuvers} |" for row, maneuvers in rows]
     else:
         lines = [row for row, _ in rows]
-    return "\n".join([header, align, *lines]) + sources_line(sources, style)
+    return "\n".join([header, align, *lines]) + sources_line(sources, style, root)
 
 
 def ladder_table(
@@ -127,10 +211,12 @@ def ladder_table(
     style: str = "page",
 ) -> str:
     """One row per env id, one column per agent: success [95% CI]. With `by_control`, one
-    column per control mode (`env_kwargs["control"]`) and agent. A cell no file fills is
-    blank; two files filling one cell are an error."""
+    column per control mode and agent (`results.control_label`: `coast` named). The episodes
+    the agents played and their seed: a line under the table where every cell's are the same,
+    else a column. A cell no file fills is blank; two files filling one cell are an error."""
     _check_sources(sources)
     table: dict[str, dict[str, str]] = {}
+    played: dict[str, dict[str, None]] = {}
     columns: list[str] = [] if by_control else list(agents)
     for pattern in sources:
         for path in files_of(pattern, root):
@@ -139,21 +225,31 @@ def ladder_table(
             for name in agents:
                 if name not in data["agents"]:
                     continue
+                episodes = (data["agents"][name]["episodes"], data["seed"])
+                played.setdefault(data["env_id"], {})[episodes] = None
                 column = name
                 if by_control:
-                    column = f"{name}, {data['env_kwargs'].get('control', 'setup')}"
+                    column = f"{name}, {control_label(data['env_kwargs'])}"
                     if column not in columns:
                         columns.append(column)
                 if column in row:
                     raise ValueError(f"{path.name}: a second result for {data['env_id']}, "
                                      f"{column}")  # fmt: skip
                 row[column] = percent(data["agents"][name])
+    every = {pair for pairs in played.values() for pair in pairs}
+    lead = ""
+    if len(every) == 1:  # one line says it for every cell
+        lead = f"Every cell on the same episodes: {episodes_text(*every.pop(), prose=True)}."
+    else:
+        columns.insert(0, "episodes (seed)")
+        for env_id, pairs in played.items():
+            table[env_id]["episodes (seed)"] = "; ".join(episodes_text(*p) for p in pairs)
     header = "| env | " + " | ".join(columns) + " |\n|---|" + "---|" * len(columns) + "\n"
     lines = [
         f"| `{env_id}` | " + " | ".join(row.get(column, "") for column in columns) + " |"
         for env_id, row in table.items()
     ]
-    return header + "\n".join(lines) + sources_line(sources, style)
+    return header + "\n".join(lines) + sources_line(sources, style, root, lead)
 
 
 def seeds_table(
@@ -162,12 +258,14 @@ def seeds_table(
     """One row per agent of each summary over seeds (`benchmarks/experiments/baselines.py`): the
     runs' timesteps and median train time, and each agent's mean success on the test episodes over
     the seeds with its 95% t interval and the worst seed (the planners and random play the same
-    episodes in every run). `agents` keeps those agents only."""
+    episodes in every run), and a line naming those episodes and their seed. `agents` keeps
+    those agents only."""
     _check_sources(sources)
-    rows, notes = [], []
+    rows, notes, played = [], [], {}
     for pattern in sources:
         for path in files_of(pattern, root):
             data = _flat(path)
+            played.update(dict.fromkeys(_test_episodes(data)))
             if "paired" in data:
                 notes.append(_paired_line(data))
             for result in data["rows"]:
@@ -182,7 +280,8 @@ def seeds_table(
         "| env | arguments | agent | seeds | timesteps | train min (median) | "
         "success, mean [95% CI] | worst seed |\n|---|---|---|---:|---:|---:|---|---:|\n"
     )
-    return header + "\n".join(rows) + "".join(notes) + sources_line(sources, style)
+    lead = f"Every row on the same test episodes: {' and '.join(played)}." if played else ""
+    return header + "\n".join(rows) + "".join(notes) + sources_line(sources, style, root, lead)
 
 
 def ladder_seeds_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
@@ -195,8 +294,10 @@ def ladder_seeds_table(sources: dict[str, str], root: Path = ROOT, style: str = 
     _check_sources(sources)
     learned, overrides = [], []
     yardsticks: dict[str, dict[str, str]] = {}
+    played: dict[str, None] = {}
     for path in (path for pattern in sources for path in files_of(pattern, root)):
         data = _flat(path)
+        played.update(dict.fromkeys(_test_episodes(data)))
         learned.append(_learned_row(data))
         overrides += [k for k in data.get("hyperparams") or {} if k not in ("policy", *overrides)]
         row = yardsticks.setdefault(data["env_id"], {})
@@ -222,15 +323,25 @@ def ladder_seeds_table(sources: dict[str, str], root: Path = ROOT, style: str = 
         "",
         note,
         "",
-        "The yardsticks on the same test episodes (the planners in set-up control, random in "
-        "each run's control mode):",
+        f"The yardsticks on the same test episodes{''.join(', ' + p for p in played)} (the "
+        "planners in set-up control; random in each run's control mode, the mean of the runs' "
+        "random agents, each drawing its actions from its run's seed):",
         "",
         "| env | " + " | ".join(columns) + " |",
         "|---|" + "---:|" * len(columns),
         *(f"| `{env_id}` | " + " | ".join(row.get(c, "") for c in columns) + " |"
           for env_id, row in yardsticks.items()),
     ]  # fmt: skip
-    return "\n".join(lines) + sources_line(sources, style)
+    return "\n".join(lines) + sources_line(sources, style, root)
+
+
+def _test_episodes(data: dict[str, Any]) -> list[str]:
+    """A summary over seeds' test episodes in words (`episodes_text`: its rows' episodes, from
+    its `test_seed`)."""
+    return list(dict.fromkeys(
+        episodes_text(row["episodes"], data.get("test_seed"), prose=True)
+        for row in data["rows"] if "episodes" in row
+    ))  # fmt: skip
 
 
 def _learned_row(data: dict[str, Any]) -> str:
@@ -255,7 +366,7 @@ def _yardsticks(data: dict[str, Any]) -> dict[str, str]:
     paired = data.get("paired")
     if paired is not None and paired["reference"] not in found:
         found[paired["reference"]] = paired["reference_success_rate"]
-    found[f"random, {data['env_kwargs'].get('control', 'setup')}"] = rates["random"]
+    found[f"random, {control_label(data['env_kwargs'])}"] = rates["random"]
     return {column: f"{100 * rate:.1f}%" for column, rate in found.items()}
 
 
@@ -316,7 +427,7 @@ def planner_table(sources: dict[str, str], root: Path = ROOT, style: str = "page
                 cells += [percent(result) for result in row["success"].values()]
                 lines.append(f"| {row['planner']} | {row['task']} | " + " | ".join(cells) + " |")
             blocks.append("\n".join(lines))
-    return "\n\n".join(blocks) + sources_line(sources, style)
+    return "\n\n".join(blocks) + sources_line(sources, style, root)
 
 
 def imitation_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
@@ -344,7 +455,7 @@ def imitation_table(sources: dict[str, str], root: Path = ROOT, style: str = "pa
         "pick among the best | where a detour is needed |\n"
         "|---|---|---:|---:|---|---:|---:|\n"
     )
-    return header + "\n".join(rows) + sources_line(sources, style)
+    return header + "\n".join(rows) + sources_line(sources, style, root)
 
 
 def _picker(row: dict[str, Any]) -> str:
@@ -353,7 +464,7 @@ def _picker(row: dict[str, Any]) -> str:
         return "always the goal (the direct shot)"
     if row["picker"] == "random":
         return "a random candidate"
-    return f"student: {row['features']}, {len(row['in_best']['seeds'])} seeds"
+    return f"student: {row['features']}, {count(len(row['in_best']['seeds']), 'seed')}"
 
 
 def _flat(path: Path) -> dict[str, Any]:
@@ -383,7 +494,7 @@ def fuzz_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") 
                 cells.append("-" if count is None else f"{count:,}")
         note = " (not a hole)" if any(name in data["notes"] for _, data in runs) else ""
         rows.append(f"| `{name}`{note} | " + " | ".join(cells) + " |")
-    return "\n".join(rows) + sources_line(sources, style)
+    return "\n".join(rows) + sources_line(sources, style, root)
 
 
 def cold_start_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
@@ -406,7 +517,7 @@ def cold_start_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
                 f"| {name} | {now['entry']:.1f} | {now['wall']:.1f} | {before['entry']:.1f} | "
                 f"{before['wall']:.1f} | {now['wall'] / before['wall']:.2f} |"
             )
-    return "\n".join(rows) + sources_line(sources, style)
+    return "\n".join(rows) + sources_line(sources, style, root)
 
 
 def jax_agreement_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
@@ -445,7 +556,7 @@ def jax_agreement_table(sources: dict[str, str], root: Path = ROOT, style: str =
             )
             lines.append(line)
         notes.append(_run_line(data))
-    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
 
 
 def jax_throughput_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
@@ -496,7 +607,7 @@ def jax_throughput_table(sources: dict[str, str], root: Path = ROOT, style: str 
                 + " (in brackets: with jax's persistent compilation cache filled)"
             )
         notes.append(note + ".")
-    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
 
 
 def jax_navigate_agreement_table(
@@ -505,31 +616,33 @@ def jax_navigate_agreement_table(
     """TetherNavigate's JAX kernel against numba's in float64
     (`benchmarks.validation.jax_navigate_agreement`): per dynamics x control over its ids, the
     cases, the worst difference of the outcome and of the observation where the outcome agrees,
-    and the changed outcomes with their classes."""
+    and the changed outcomes with their classes; the range ends (`variant`) in rows of their
+    own."""
     _check_sources(sources)
     lines = [
-        "| dynamics | control | ids | cases | worst outcome difference | worst observation "
-        "difference | changed outcomes | fused multiply-adds |",
-        "|---|---|---:|---:|---:|---:|---:|---|",
+        "| dynamics | control | arguments | ids | cases | worst outcome difference | worst "
+        "observation difference | changed outcomes | fused multiply-adds |",
+        "|---|---|---|---:|---:|---:|---:|---:|---|",
     ]
     notes = []
     for path in (path for p in sources for path in files_of(p, root)):
         data = read_file(path)
         cells: dict[tuple, list[dict[str, Any]]] = {}
         for row in data["rows"]:
-            key = (row["dynamics"], row["control"], row.get("precision", "float64"), row["fma"])
+            key = (row["dynamics"], row["control"], row.get("variant", "defaults"),
+                   row.get("precision", "float64"), row["fma"])  # fmt: skip
             cells.setdefault(key, []).append(row)
-        for (dynamics, control, precision, fma), rows in cells.items():
+        for (dynamics, control, variant, precision, fma), rows in cells.items():
             cases = sum(row["cases"] for row in rows)
             changed = sum(row["changed"] for row in rows)
             lines.append(
-                f"| {dynamics} | {control} ({precision}) | {len(rows)} | {cases:,} | "
+                f"| {dynamics} | {control} ({precision}) | {variant} | {len(rows)} | {cases:,} | "
                 f"{max(row['worst_outcome'] for row in rows):.1e} | "
                 f"{max(row['worst_observation'] for row in rows):.1e} | {changed:,} "
                 f"({100 * changed / cases:.2f}%) | {'on' if fma else 'off'} |"
             )
         notes.append(_run_line(data))
-    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
 
 
 def jax_train_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
@@ -577,7 +690,7 @@ def jax_train_table(sources: dict[str, str], root: Path = ROOT, style: str = "pa
                 f"{machine['cpus']} CPUs (other jobs shared them): its steps/s and wall time "
                 "are a loaded machine's."
             )
-    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
 
 
 def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
@@ -611,7 +724,8 @@ def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
         jax, sb3 = data["rows"]
         details, setup = data["details"], data["setup"]
         notes.append(
-            f"{jax['trainer']} is `{jax['command']}`, its {jax['seeds']} seeds in one process; "
+            f"{jax['trainer']} is `{jax['command']}`, its {count(jax['seeds'], 'seed')} in one "
+            "process; "
             f"{sb3['trainer']} is `{sb3['command']}` for k = 0 .. {sb3['seeds'] - 1}, one seed "
             f"per process, one after another. Wall time is each command's, "
             f"start to exit (start-up, compiling, training, periodic evaluations, final table): "
@@ -623,7 +737,7 @@ def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
             f"{details['load_before'][0]:.1f} before and {details['load_after'][0]:.1f} after, "
             f"on {setup['cpus']} CPUs. " + _run_line(data)
         )
-    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style)
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
 
 
 def _run_line(data: dict[str, Any], shown: dict[str, str] | None = None) -> str:

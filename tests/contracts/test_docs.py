@@ -189,8 +189,9 @@ def test_results_table_renders_from_its_files(page, call, tmp_path):
     changed = macros.expand(call, tmp_path)
     assert changed != table and all(mark in changed for mark in marks)
     unfolded = " ".join(table.replace("\\\n", " ").split())  # the note's commands, unfolded
-    for command in sources.values():
-        assert " ".join(command.split()) in unfolded, "the table names the command that writes it"
+    for command in sources.values():  # as a shell reads it (quoted where the file has not)
+        shown = " ".join(tables.shell_command(command).split())
+        assert shown in unfolded, "the table names the command that writes it"
 
 
 def test_no_results_table_is_typed_by_hand():
@@ -462,14 +463,17 @@ def _results(rows: list[dict], setup: dict, details: dict | None = None) -> str:
 
 def test_a_success_table_shows_maneuvers_only_where_its_files_record_them(tmp_path):
     """The maneuvers column where a row has them, `-` on the rows without; no column where no
-    file records them (a model card, a TetherBounce file)."""
+    file records them (a model card, a TetherBounce file). The episodes with their seed, and
+    the interval from the successes where the file records none."""
     setup = {"env_id": "TetherNavigate_OpenReach-v3", "env_kwargs": {}, "seed": 0}
     row = {"name": "greedy", "episodes": 10, "success_rate": 0.5}
     (tmp_path / "a.json").write_text(_results([row], setup))
     (tmp_path / "b.json").write_text(_results([{**row, "maneuvers_mean": 2.346}], setup))
     without = tables.success_table({"a.json": "tether-evaluate"}, root=tmp_path).splitlines()
-    assert without[0] == "| env | arguments | agent | episodes | success [95% CI] |"
-    assert without[2] == "| `TetherNavigate_OpenReach-v3` | defaults | greedy | 10 | 50.0% |"
+    assert without[0] == "| env | arguments | agent | episodes (seed) | success [95% CI] |"
+    assert without[2] == (
+        "| `TetherNavigate_OpenReach-v3` | defaults | greedy | 10 (seed 0) | 50.0% [23.7, 76.3] |"
+    )
     both = tables.success_table({"*.json": "tether-evaluate"}, root=tmp_path).splitlines()
     assert both[0].endswith("| success [95% CI] | maneuvers to goal |")
     assert [line.rsplit("|", 2)[1].strip() for line in both[2:4]] == ["-", "2.35"]

@@ -12,8 +12,9 @@ up), like a pretrained agent's card, names the env id and arguments it was train
 where the command line's env differs, a one-line warning says so and the model plays in its
 own control mode; an env of another family, or spaces that cannot match, is refused in one line
 naming both. Without `--seed` and `--episodes` a saved model plays the episodes of its run's
-final table (`episodes_to_play`); the output's first line says which episodes and why, and a
-line per saved model the env arguments and the control mode it plays in.
+final table (`episodes_to_play`). The output's first line says which episodes (how many, from
+which seed) and why, so that a number can be told from another table's on other episodes; with
+a saved model, a line per saved model says the env arguments and the control mode it plays in.
 
 The agents, the runner and the reports import once the command line is parsed and its env
 checked: a typo (`--env Nope-v0`) is answered as fast as `--help`, without the planners' numba
@@ -45,7 +46,7 @@ from tether_gym.arguments import (
 )
 from tether_gym.evaluation import results_file
 from tether_gym.families import FAMILIES, current_id, env_config, family
-from tether_gym.seeds import TEST_SEED
+from tether_gym.seeds import HELD_OUT_SEED, TEST_SEED
 
 CHECKPOINTS = ("best", "last")
 """The folders of a training run that hold a model (`runs/<name>/best/model.zip`)."""
@@ -109,7 +110,7 @@ class Episodes:
     why: str
 
     def line(self) -> str:
-        """The output's first line, with a saved model among the agents."""
+        """The output's first line."""
         return f"tether-evaluate: {self.count:,} episodes from seed {self.seed} ({self.why})"
 
 
@@ -118,7 +119,10 @@ def episodes_to_play(args: argparse.Namespace, specs: list[str]) -> Episodes:
     first), those of its run's final table: its test episodes (`TEST_SEED`, apart from the
     training's and from the evaluations that picked the best model), as many as its run's
     `config.yaml` says (`eval_episodes`; `EPISODES` where it is not found, said so). Without a
-    saved model, `EPISODES` from `SEED`. ValueError for a count below 1 or a negative seed."""
+    saved model, `EPISODES` from `SEED`; with a pretrained agent, the why names the seed of its
+    card's table (`HELD_OUT_SEED`), whose numbers `--seed` then reproduces. ValueError for a
+    count below 1 or a negative seed."""
+    from tether_gym.agents.pretrained import AGENTS
     from tether_gym.agents.saved import run_config
 
     if args.episodes is not None and args.episodes < 1:
@@ -128,6 +132,8 @@ def episodes_to_play(args: argparse.Namespace, specs: list[str]) -> Episodes:
     saved = next(filter(is_saved, specs), None)
     count, seed = EPISODES, SEED
     why = "the defaults"
+    if any(spec in AGENTS for spec in specs):
+        why += f"; a pretrained agent's card is on seed {HELD_OUT_SEED}'s episodes"
     if saved is not None:
         found = run_config(Path(saved))
         seed = TEST_SEED
@@ -362,8 +368,7 @@ def main(argv: list[str] | None = None) -> None:
         }
         pairs = zip(specs, agents.items(), strict=True)
         saved = [(name, agent) for spec, (name, agent) in pairs if is_saved(spec)]
-        if saved:
-            print(episodes.line(), flush=True)
+        print(episodes.line(), flush=True)
         for spec, agent in zip(specs, agents.values(), strict=True):
             fit_agent(spec, agent, env_id, env_kwargs)
         for name, agent in saved:

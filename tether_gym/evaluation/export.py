@@ -308,8 +308,8 @@ def _provenance(facts: dict[str, Any], env: object) -> str:
     if facts.get("backend") == "jax":
         return (
             f"{trained}{facts['seed']}, trained by the JAX PPO (`tether-train --backend jax`): "
-            f"{_kept(facts)} of a {facts['trained_timesteps']:,}-timestep run, one of "
-            f"{facts['seeds_trained_together']} seeds trained together in "
+            f"{_kept(facts)} of a {facts['trained_timesteps']:,}-timestep run, "
+            f"{_together(facts['seeds_trained_together'])} in "
             f"{facts['train_seconds']:.0f} s on {facts['device']}. The policy file holds the "
             "flax parameters (`.msgpack`) and, beside it, the network and spaces (`.json`): no "
             "optimizer state."
@@ -320,6 +320,12 @@ def _provenance(facts: dict[str, Any], env: object) -> str:
         f"{facts['train_seconds']:.0f} s on {_threads(facts.get('torch_threads', 1))}. The "
         "policy file holds the weights and constructor arguments only (no optimizer state)."
     )
+
+
+def _together(seeds: int) -> str:
+    """How many seeds a JAX run trained at once, in words: `trained alone`, `one of 5 seeds
+    trained together`."""
+    return "trained alone" if seeds == 1 else f"one of {seeds} seeds trained together"
 
 
 def _kept(facts: dict[str, Any]) -> str:
