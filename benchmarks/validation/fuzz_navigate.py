@@ -75,7 +75,7 @@ import tether_gym
 from tether_gym.envs.kernels import PUCK_MASS
 from tether_gym.envs.tether_navigate.arguments import NavigateConfig
 from tether_gym.envs.tether_navigate.config import (
-    DYNAMICS,
+    ALLOWED_DYNAMICS,
     INERTIA_RATIO,
     OFFSET,
     PATH_TOLERANCE,
@@ -172,7 +172,7 @@ DEFINITIONS = {
 CONTROL_MODES = tuple(
     (name, coast)
     for name, mode in MODES.items()
-    for coast in ((False, True) if mode.coasts else (False,))
+    for coast in ((False, True) if mode.aimed else (False,))
 )
 """(control, coast): every control mode, and with `coast` those that coast."""
 RUNGS = ("Open", "Posts", "Wall")
@@ -259,7 +259,7 @@ def combos(ids=None) -> list[tuple[str, str, bool, str]]:
         (env_id, control, coast, dynamics)
         for env_id in (ids or list(NAVIGATE.ids))
         for control, coast in CONTROL_MODES
-        for dynamics in DYNAMICS
+        for dynamics in ALLOWED_DYNAMICS
     ]
 
 

@@ -161,13 +161,6 @@ def point_velocity(vx, vy, spin, rx, ry):
 
 
 @numba.njit(cache=True)
-def attachment_velocity(state, arm):
-    """(vx, vy): the attachment point's velocity in the world frame, m/s."""
-    rx, ry = attachment_offset(state, arm)
-    return point_velocity(state.vx, state.vy, state.spin, rx, ry)
-
-
-@numba.njit(cache=True)
 def stretch_rate(vx, vy, spin, rx, ry, ux, uy):
     """dL/dt: the velocity along the unit vector (ux, uy) (from the anchor to the attachment
     point) of the attachment point at (rx, ry) from a centre of mass moving at (vx, vy).

@@ -10,9 +10,9 @@ import numpy as np
 
 from tether_gym.envs.kernels import HYBRID, IMPULSE, PUCK_MASS, tether_stiffness
 from tether_gym.envs.tether_navigate.config import (
+    ALLOWED_DYNAMICS,
     DEFAULT_ANCHORS,
     DEFAULT_OBSTACLES,
-    DYNAMICS,
     MAX_ANCHORS,
     MAX_POSTS,
     PARAMS,
@@ -67,7 +67,7 @@ class NavigateConfig:
         set_ = object.__setattr__
         modes = tuple(CONTROL_MODES)
         for name, options in (("task", TASKS), ("reward_type", REWARD_TYPES),
-                              ("dynamics", DYNAMICS), ("control", modes)):  # fmt: skip
+                              ("dynamics", ALLOWED_DYNAMICS), ("control", modes)):  # fmt: skip
             if getattr(self, name) not in options:
                 raise ValueError(f"{name} must be one of {options}, got {getattr(self, name)!r}")
         mode = control_mode(self.control)
@@ -97,11 +97,11 @@ class NavigateConfig:
              check_float("wall_restitution", self.wall_restitution, 0.0, 1.0))  # fmt: skip
         if not isinstance(self.reaction_wheel, (bool, np.bool_)):
             raise ValueError(f"reaction_wheel must be True or False, got {self.reaction_wheel!r}")
-        if mode.needs_wheel and not self.reaction_wheel:
+        if mode.aimed and not self.reaction_wheel:
             raise ValueError(f"control={self.control!r} needs reaction_wheel=True (the offset)")
         if not isinstance(self.coast, (bool, np.bool_)):
             raise ValueError(f"coast must be True or False, got {self.coast!r}")
-        if self.coast and not mode.coasts:
+        if self.coast and not mode.aimed:
             coasting = " or ".join(repr(name) for name in aimed_modes())
             raise ValueError(f"coast=True needs control={coasting} (it coasts to the aim)")
         set_(self, "wheel_rate", check_float("wheel_rate", self.wheel_rate, 0.0, 1e4))

@@ -73,7 +73,7 @@ start: shorter tethers meet a lower rho (rho grows with L), slower pucks a highe
 as 1 / v)."""
 RHO_RANGE = (10.0, 1e6)
 """The rho this env allows (`envs.kernels.tether_stiffness`), its default `DEFAULT_RHO`."""
-DYNAMICS = ("hybrid", "impulse")
+ALLOWED_DYNAMICS = ("hybrid", "impulse")
 """The dynamics this env allows; the kernels read their codes in `physics.MODELS` (`HYBRID`,
 `IMPULSE`)."""
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from tether_gym.envs.base import KernelEnv, KernelVectorEnv
 from tether_gym.envs.tether_navigate.arguments import NavigateConfig
-from tether_gym.envs.tether_navigate.config import DYNAMICS
+from tether_gym.envs.tether_navigate.config import ALLOWED_DYNAMICS
 from tether_gym.envs.tether_navigate.controls import CONTROL_MODES
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.tasks import navigate as task
@@ -354,9 +354,9 @@ class TetherNavigateVectorEnv(GoalMixin, KernelVectorEnv):
 
 
 KERNEL_BUILDS = tuple(
-    {"control": mode.name, "dynamics": dynamics, **({"coast": True} if mode.coasts else {})}
+    {"control": mode.name, "dynamics": dynamics, **({"coast": True} if mode.aimed else {})}
     for mode in {mode.solver: mode for mode in CONTROL_MODES.values()}.values()
-    for dynamics in DYNAMICS
+    for dynamics in ALLOWED_DYNAMICS
 )
 """The env arguments whose kernels differ (`tether compile`'s builds, `Family.warm`): one
 control mode per compiled set-up (modes that share a solver share its builds), each dynamics."""

@@ -54,16 +54,6 @@ class ControlMode:
         """The compiled set-up (`SOLVERS[solver]`)."""
         return SOLVERS[self.solver]
 
-    @property
-    def needs_wheel(self) -> bool:
-        """The set-up's offset angle is the env's to meet: the mode needs the reaction wheel."""
-        return self.aimed
-
-    @property
-    def coasts(self) -> bool:
-        """The mode has an aim the puck may coast to (the env's `coast`)."""
-        return self.aimed
-
     def build(self, dynamics: int) -> tuple[str, int]:
         """The key of `PLAYS` (and of the kernels built on it) for this mode and a dynamics
         code: modes that share a solver share their builds."""
@@ -87,7 +77,7 @@ class ControlMode:
         """An env's arguments `kwargs` for playing in this mode: `control` set to it, `coast`
         dropped where it does not apply (the episodes do not depend on the mode)."""
         kwargs = {**kwargs, "control": self.name}
-        if not self.coasts:
+        if not self.aimed:
             kwargs.pop("coast", None)
         return kwargs
 
