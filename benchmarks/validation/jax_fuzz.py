@@ -24,7 +24,8 @@ import jax
 import numpy as np
 
 from benchmarks.common import refuse_existing
-from benchmarks.validation.fuzz_navigate import HOLES, NOTES, audit_vector_step, random_actions
+from benchmarks.validation.fuzz_common import random_actions
+from benchmarks.validation.fuzz_navigate import HOLES, NOTES, audit_vector_step
 from benchmarks.validation.jax_navigate_agreement import CONTROLS, configuration
 from tether_gym.evaluation import results_file
 

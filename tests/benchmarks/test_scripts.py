@@ -29,3 +29,51 @@ def test_the_script_imports(name):
     with mock.patch.dict(os.environ):  # a script may set its threads on import (one_core)
         module = importlib.import_module(name)
     assert callable(getattr(module, "main", None)), f"{name} has no main()"
+
+
+def test_fuzz_bounce_writes_every_cell_and_keeps_an_existing_file(tmp_path):
+    """A few transitions of `validation/fuzz_bounce.py` per dynamics, single and vector: its JSON
+    has every cell with its transitions, a count per class and its slowest step, and a second run
+    refuses to overwrite it."""
+    from benchmarks.validation import fuzz_bounce
+    from tether_gym.evaluation import results_file
+
+    out = tmp_path / "bounce.json"
+    argv = ["--steps", "4", "--pymunk-steps", "2", "--vector-steps", "8",
+            "--pymunk-vector-steps", "2", "--num-envs", "4", "--pymunk-num-envs", "2",
+            "--block", "2", "--json", str(out)]  # fmt: skip
+    fuzz_bounce.main(argv)
+    data = results_file.read(out)
+    cells = {(row["dynamics"], row["kind"]): row for row in data["rows"]}
+    assert set(cells) == {(d, k) for d in fuzz_bounce.DYNAMICS for k in fuzz_bounce.KINDS}
+    for (dynamics, kind), row in cells.items():
+        assert row["steps"] >= (2 if dynamics == "pymunk" else 4), (dynamics, kind)
+        assert set(row["counts"]) == set(fuzz_bounce.CLASSES)
+        assert row["slowest"]["seconds"] > 0.0
+    with pytest.raises(SystemExit):
+        fuzz_bounce.main(argv)
+
+
+def test_jax_host_writes_its_rows_and_keeps_an_existing_file(tmp_path):
+    """`speed/jax_host.py` at batch 1 on TetherBounce without the XLA kernels: a row per
+    dynamics with the host-kernel JAX and numba figures and their ratio, and a second run
+    refuses to overwrite the file."""
+    jax = pytest.importorskip("jax")
+    from benchmarks.speed import jax_host
+    from tether_gym.evaluation import results_file
+
+    out = tmp_path / "host.json"
+    argv = ["--families", "TetherBounce", "--batches", "1", "--repeats", "1", "--no-xla",
+            "--json", str(out)]  # fmt: skip
+    x64 = jax.config.jax_enable_x64
+    try:
+        jax_host.main(argv)
+    finally:
+        jax.config.update("jax_enable_x64", x64)
+    rows = results_file.read(out)["rows"]
+    assert [row["dynamics"] for row in rows] == ["impulse", "hybrid"]
+    for row in rows:
+        assert row["host_jax"] > 0.0 and row["numba_vec"] > 0.0 and row["xla_jax"] is None
+        assert row["host_over_numba"] == row["host_jax"] / row["numba_vec"]
+    with pytest.raises(SystemExit):
+        jax_host.main(argv)

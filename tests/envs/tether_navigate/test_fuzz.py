@@ -15,6 +15,7 @@ import pytest
 
 import benchmarks.validation.fuzz_navigate as fz
 import tether_gym  # noqa: F401  (registers the env ids)
+from benchmarks.validation.fuzz_common import random_actions
 from benchmarks.validation.fuzz_navigate import (
     CLASSES,
     HOLES,
@@ -25,7 +26,6 @@ from benchmarks.validation.fuzz_navigate import (
     combos,
     episode_posts,
     fuzz,
-    random_actions,
     replay,
 )
 from tests.helpers.envs import vector_env
