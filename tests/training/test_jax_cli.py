@@ -1,7 +1,9 @@
 """`tether-train --backend jax`: a tiny two-seed run writes the run folder (config, policies,
 evaluations, the final table with both seeds, the yardsticks and the mean over seeds),
 `tether-evaluate` plays a saved seed with no env flags, and what the JAX path does not train is
-refused up front, naming the option."""
+refused up front, naming the option. Ctrl-C while compiling and while training exits with 130
+and one line, the second with a checkpoint that `--resume` continues from jax's compilation
+cache; a finished run is not run again."""
 
 from __future__ import annotations
 
@@ -9,6 +11,12 @@ import contextlib
 import importlib.util
 import io
 import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
 
 import pytest
 import yaml
@@ -58,7 +66,12 @@ def test_a_tiny_run_writes_the_run_folder_and_the_final_table(jax_run):
     # the compile step said before training, a progress line, steps/s and wall time at the end
     compiling, progress = output.index("compiling PPO"), output.index("update 2/2")
     assert compiling < output.index("compiled in") < progress
-    assert "steps/s, wall time" in output.splitlines()[-1]
+    assert "one XLA program of 2 updates" in output[compiling:]  # what is compiled
+    last = output.splitlines()[-1]
+    assert "steps/s; wall time" in last
+    # the wall time is the sum of its parts (as printed, to their rounding)
+    wall, *parts = (float(x) for x in re.findall(r"(\d+\.\d) s", last))
+    assert len(parts) == 5 and abs(wall - sum(parts)) <= 0.051 * len(parts), last
     evaluations = (run_dir / "evaluations.csv").read_text().splitlines()
     assert evaluations[0].startswith("timesteps,seed,success_rate,oracle_success_rate")
     assert [row.split(",")[:2] for row in evaluations[1:]] == [["4096", "0"], ["4096", "1"]]
@@ -220,9 +233,9 @@ def test_an_interrupted_run_resumes_to_the_policies_of_an_uninterrupted_one(
     jax_run, tmp_path, capsys, monkeypatch
 ):
     """Three chunks of one update (an evaluation after each; the last update's learning rate is
-    0 under the linear schedule); the run stopped by Ctrl-C after the first chunk's checkpoint,
-    then `--resume`d, ends with the same policies, bit for bit, and the same evaluations as the
-    run that was never stopped."""
+    0 under the linear schedule); the run stopped by Ctrl-C while the first chunk's checkpoint
+    is saved (before its evaluation), then `--resume`d, ends with the same policies, bit for
+    bit, and the same evaluations as the run that was never stopped."""
     from tether_gym.training import jax_ppo
 
     args = [*TINY, "--seeds", "1", "--timesteps", "6144", "--eval-freq", "2048"]
@@ -233,14 +246,18 @@ def test_an_interrupted_run_resumes_to_the_policies_of_an_uninterrupted_one(
 
     def save_then_interrupt(checkpoint, path):
         save(checkpoint, path)
-        raise KeyboardInterrupt
+        os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C while the checkpoint is saved
 
     monkeypatch.setattr(jax_ppo.Checkpoint, "save", save_then_interrupt)
     with contextlib.redirect_stdout(io.StringIO()):
         assert train.main([*args, "--runs-dir", str(parts)]) == 130
     (run_dir,) = parts.iterdir()
-    assert f"continue with: tether-train --resume {run_dir}" in capsys.readouterr().err
+    assert (
+        f" saved; continue from update 1/3 with: tether-train --resume {run_dir}\n"
+        == capsys.readouterr().err.split("...")[-1]
+    )
     assert not (run_dir / "seed0.msgpack").exists()
+    assert not (run_dir / "evaluations.csv").exists()  # stopped before the chunk's evaluation
     monkeypatch.setattr(jax_ppo.Checkpoint, "save", save)
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
@@ -302,3 +319,129 @@ def test_the_side_by_side_benchmark_times_both_commands_on_the_same_episodes(tmp
     assert data["details"]["wall_ratio"] == jax_row["wall_seconds"] / sb3_row["wall_seconds"]
     assert data["setup"]["test_seed"] == 2_000_000
     assert "JAX wall / SB3 wall" in capsys.readouterr().out
+
+
+def test_resuming_a_finished_run_says_so_and_writes_nothing(tmp_path, capsys):
+    """A run whose results.json is written: `--resume` neither compiles nor writes."""
+    from tests.helpers.training import jax_run_folder
+
+    run = tmp_path / "finished"
+    run.mkdir()
+    jax_run_folder(run, [0])
+    before = {path.name: (path.stat().st_mtime_ns, path.read_bytes()) for path in run.iterdir()}
+    assert train.main(["--resume", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert out == f"tether-train: {run} is finished (its final table: {run}/results.md): " \
+        "nothing to resume\n"  # fmt: skip
+    after = {path.name: (path.stat().st_mtime_ns, path.read_bytes()) for path in run.iterdir()}
+    assert after == before
+
+
+def test_the_compilation_cache_folder(monkeypatch, tmp_path):
+    from tether_gym.training.jax_run import compilation_cache_dir
+
+    monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert compilation_cache_dir() == tmp_path / "tether_gym" / "jax"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    monkeypatch.setenv("HOME", str(tmp_path))
+    assert compilation_cache_dir() == tmp_path / ".cache" / "tether_gym" / "jax"
+    monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", str(tmp_path / "elsewhere"))
+    assert compilation_cache_dir() == tmp_path / "elsewhere"
+    monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", "")
+    assert compilation_cache_dir() is None
+
+
+SMALL = ["--backend", "jax", "--timesteps", "40960", "--eval-freq", "0", "--eval-episodes", "20",
+         "--dynamics", "impulse"]  # fmt: skip
+"""20 updates of one seed, a chunk each (no periodic evaluation), on impulse dynamics."""
+
+
+def interrupt(argv: list[str], marker: str, delay: float, env: dict[str, str]):
+    """Run `python -m tether_gym.training.train argv`, send it SIGINT `delay` s after a line of
+    its output holds `marker`; its exit status, output and error output (killed after 10
+    minutes)."""
+    # a handled SIGINT is SIG_DFL in the child (an ignored one would stay ignored)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "tether_gym.training.train", *argv],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+        )
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    watchdog = threading.Timer(600, process.kill)
+    watchdog.start()
+    lines, timer = [], None
+    for line in process.stdout:
+        lines.append(line)
+        if timer is None and marker in line:
+            timer = threading.Timer(delay, process.send_signal, [signal.SIGINT])
+            timer.start()
+    code = process.wait()
+    watchdog.cancel()
+    return code, "".join(lines), process.stderr.read()
+
+
+def calls_back_on_the_host() -> bool:
+    """Whether the JAX envs step through the numba kernels here (`tether_gym.jax.host`)."""
+    try:
+        from tether_gym.jax.host import kernel
+    except ImportError:
+        return False
+    return kernel() == "host"
+
+
+@pytest.fixture(scope="module")
+def interrupted(tmp_path_factory):
+    """A run stopped by Ctrl-C while compiling, then (the same command) while training; jax's
+    compilation cache in a new folder."""
+    pytest.importorskip("jax")
+    root = tmp_path_factory.mktemp("interrupted")
+    env = {**os.environ, "JAX_COMPILATION_CACHE_DIR": str(root / "cache")}
+    env.pop("TF_CPP_MIN_LOG_LEVEL", None)
+    argv = [*SMALL, "--runs-dir", str(root / "runs"), "--name", "run"]
+    compiling = interrupt(argv, "compiling PPO", 2.0, env)
+    left = sorted(path.name for path in (root / "runs" / "run").iterdir())
+    cached = sorted(path.name for path in (root / "cache").glob("*-cache"))
+    training = interrupt(argv, "update 2/20", 0.0, env)
+    return root / "runs" / "run", root / "cache", env, (*compiling, left, cached), training
+
+
+def test_ctrl_c_while_compiling_exits_at_once_with_one_line(interrupted):
+    run_dir, _, _, (code, out, err, left, cached), _ = interrupted
+    assert "compiling PPO" in out and "compiled in" not in out  # stopped in the compile
+    assert (left, cached) == (["config.yaml"], [])  # no checkpoint; nothing compiled was kept
+    assert code == 130
+    assert err == f"\ntether-train: interrupted; {run_dir} holds no checkpoint yet: the same " \
+        "command starts the run again\n"  # fmt: skip
+
+
+def test_ctrl_c_while_training_saves_the_state_and_resume_continues_from_it(interrupted):
+    from tether_gym.training.jax_run import _checkpoint_updates
+
+    run_dir, cache, env, _, (code, out, err) = interrupted
+    assert code == 130
+    # the same command reused the folder the first Ctrl-C left, then stopped with one line
+    reused, stopped = [line for line in err.splitlines() if line]
+    assert reused == f"{run_dir} held a run stopped before its first checkpoint: reusing it"
+    done = _checkpoint_updates(run_dir / "checkpoint.npz")
+    assert done >= 2 and f"update {done}/20" in out
+    assert stopped == (
+        "tether-train: interrupted; saving the training state when the updates under way end "
+        f"(Ctrl-C again: stop now) ... saved; continue from update {done}/20 with: "
+        f"tether-train --resume {run_dir}"
+    )
+    # the compiled trainer is in jax's cache (unless it calls the numba kernels back on the
+    # host, which jax does not cache), with the seconds its compile took
+    cacheable = not calls_back_on_the_host()
+    assert bool(list(cache.glob("jit_update*"))) == cacheable
+    assert (cache / "tether_gym_compile_seconds.json").is_file()
+    code, out, err = interrupt(["--resume", str(run_dir)], "never said", 0.0, env)
+    assert (code, err) == (0, "")
+    assert f"continuing from update {done}/20" in out and "s last time ..." in out
+    assert ("(read from jax's compilation cache)" in out) == cacheable
+    assert "update 20/20" in out and (run_dir / "results.json").is_file()

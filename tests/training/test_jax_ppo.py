@@ -200,3 +200,32 @@ def test_a_rung_s_recipe_trains_and_its_policy_plays_the_goal_dicts(tmp_path, ca
     main(["--agents", str(path), "direct", "--episodes", "20", "--no-progress-bar"])
     table = capsys.readouterr().out
     assert "| rung | 20 |" in table and "| direct | 20 |" in table
+
+
+def test_the_compile_step_says_what_it_compiles_and_how_long_it_took_last_time(
+    tmp_path, monkeypatch
+):
+    from tether_gym.training import jax_ppo
+
+    record = tmp_path / jax_ppo.COMPILE_RECORD
+    monkeypatch.setattr(jax_ppo, "compile_record", lambda: record)
+    config = tiny_config()
+    said = jax_ppo.describe_compile(config, 2, 10, resume=False)
+    assert said.startswith("compiling PPO on TetherBounce-v0 for 2 seeds on ")
+    assert (
+        ": the envs' reset and one XLA program of 10 updates (each the rollout of 64 envs x 2 "
+        "steps, its advantages, 10 epochs of 2 minibatches; 30 updates in all);" in said
+    )
+    assert said.endswith("; not compiled here before (minutes on a loaded CPU) ...")
+    jax_ppo._record_compile(config, 2, 10, 61.04, hit=False)
+    assert said.replace("not compiled here before (minutes on a loaded CPU)", "61.0 s last time") \
+        == jax_ppo.describe_compile(config, 2, 10, resume=False)  # fmt: skip
+    jax_ppo._record_compile(config, 2, 10, 3.0, hit=True)
+    assert jax_ppo.describe_compile(config, 2, 10, resume=True).endswith(
+        "; 3.0 s last time (read from jax's cache, 61.0 s to compile) ..."
+    )
+    # another recipe, seed count or chunk is another program
+    assert "not compiled here before" in jax_ppo.describe_compile(config, 2, 5, resume=False)
+    assert "not compiled here before" in jax_ppo.describe_compile(config, 1, 10, resume=False)
+    monkeypatch.setattr(jax_ppo, "compile_record", lambda: None)
+    assert "jax's compilation cache is off" in jax_ppo.describe_compile(config, 2, 10, False)

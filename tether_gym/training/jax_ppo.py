@@ -52,8 +52,11 @@ in `tether_gym.agents.jax_policy`), which `load_policy` and `tether-evaluate --a
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import inspect
+import json
 import math
+import os
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -562,8 +565,8 @@ def unstack(tree, i: int):
 @dataclasses.dataclass
 class SeedsRun:
     """`train_seeds`'s outcome: the policies and metrics stacked over seeds (leading axis),
-    the seconds spent compiling and training (the compiled calls only) and the timesteps per
-    seed (whole rollouts)."""
+    the seconds spent compiling (this call) and training (the compiled calls only, the run's
+    earlier calls included) and the timesteps per seed (whole rollouts)."""
 
     config: PPOConfig
     seeds: list[int]
@@ -571,6 +574,9 @@ class SeedsRun:
     metrics: dict[str, np.ndarray]
     compile_seconds: float
     train_seconds: float
+    session_train_seconds: float | None = None
+    """This call's training seconds (`train_seconds` counts those of the checkpoint it continued
+    from too; None: the same)."""
 
     @property
     def timesteps(self) -> int:
@@ -614,14 +620,15 @@ class Checkpoint:
     @classmethod
     def load(cls, path: str | Path, like: RunnerState) -> Checkpoint:
         """Read a checkpoint of a run whose state has the structure, shapes and dtypes of
-        `like` (the run's `init`); ValueError naming the file where it does not."""
+        `like` (the run's `init`, or its `jax.eval_shape`); ValueError naming the file where it
+        does not."""
         with np.load(path) as data:
             leaves, treedef = jax.tree.flatten(like)
             names = [f"leaf{i}" for i in range(len(leaves))]
             stored = [name for name in data.files if name.startswith("leaf")]
             found = [data[name] for name in names if name in stored]
             if sorted(stored) != sorted(names) or any(
-                a.shape != np.shape(b) or a.dtype != np.asarray(b).dtype
+                a.shape != tuple(b.shape) or a.dtype != b.dtype
                 for a, b in zip(found, leaves, strict=True)
             ):
                 raise ValueError(f"{path} is not a checkpoint of this run's trainer (its state "
@@ -631,6 +638,103 @@ class Checkpoint:
                        int(data["updates"]), metrics, float(data["train_seconds"]))  # fmt: skip
 
 
+COMPILE_RECORD = "tether_gym_compile_seconds.json"
+"""In jax's persistent compilation cache folder: the seconds each trainer program took to
+compile there last time (`compile_record`), said before the next compile of the same program."""
+
+
+def compile_key(config: PPOConfig, seeds: int, chunk: int) -> str:
+    """What names a compiled trainer program: its recipe, seed count, chunk, device and jax
+    version (a digest)."""
+    text = json.dumps([config.as_dict(), seeds, chunk, str(jax.devices()[0]), jax.__version__],
+                      sort_keys=True, default=str)  # fmt: skip
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def compile_record() -> Path | None:
+    """The record of compile seconds in jax's persistent compilation cache folder (None when
+    the cache is off)."""
+    folder = jax.config.jax_compilation_cache_dir
+    return Path(folder) / COMPILE_RECORD if folder else None
+
+
+def _read_record(path: Path | None) -> dict[str, Any]:
+    try:
+        return json.loads(path.read_text()) if path is not None else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def _write_record(path: Path | None, key: str, entry: dict[str, Any]) -> None:
+    """Update `key` in the record (through a temporary file; a folder that cannot be written
+    keeps no record)."""
+    if path is None:
+        return
+    record = _read_record(path)
+    record[key] = entry
+    try:
+        part = path.with_name(f"{path.name}.{os.getpid()}.part")
+        part.write_text(json.dumps(record, indent=1) + "\n")
+        part.replace(path)
+    except OSError:
+        pass
+
+
+class _CacheHits:
+    """Counts jax's persistent-cache hits while open (`jax.monitoring`'s event)."""
+
+    EVENT = "/jax/compilation_cache/cache_hits"
+
+    def __init__(self):
+        self.hits = 0
+
+    def __call__(self, event: str, **_: Any) -> None:
+        if event == self.EVENT:
+            self.hits += 1
+
+    def __enter__(self) -> _CacheHits:
+        jax.monitoring.register_event_listener(self)
+        return self
+
+    def __exit__(self, *_: Any) -> None:
+        jax.monitoring.unregister_event_listener(self)
+
+
+def describe_compile(config: PPOConfig, seeds: int, chunk: int, resume: bool) -> str:
+    """The compile step's announcement: what is compiled, and how long it took last time here
+    (`compile_record`) or that it was never compiled here."""
+    programs = "" if resume else "the envs' reset and "
+    what = (
+        f"compiling PPO on {config.env_id} for {seeds} seeds on {jax.devices()[0]}: "
+        f"{programs}one XLA program of {chunk} updates (each the rollout of {config.n_envs} "
+        f"envs x {config.n_steps} steps, its advantages, {config.n_epochs} epochs of "
+        f"{config.n_minibatches} minibatches; {config.n_updates} updates in all)"
+    )
+    path = compile_record()
+    last = _read_record(path).get(compile_key(config, seeds, chunk))
+    if path is None:
+        return f"{what}; jax's compilation cache is off ..."
+    if last is None:
+        return f"{what}; not compiled here before (minutes on a loaded CPU) ..."
+    if not last.get("from_cache"):
+        return f"{what}; {last['seconds']:.1f} s last time ..."
+    compiled = last.get("compiled_seconds")
+    compiled = "" if compiled is None else f", {compiled:.1f} s to compile"
+    return f"{what}; {last['seconds']:.1f} s last time (read from jax's cache{compiled}) ..."
+
+
+def _record_compile(config: PPOConfig, seeds: int, chunk: int, seconds: float, hit: bool) -> None:
+    """Keep the seconds of this compile (and of the last one not read from the cache)."""
+    path = compile_record()
+    key = compile_key(config, seeds, chunk)
+    entry = {"seconds": round(seconds, 1), "from_cache": hit, "compiled_seconds": None}
+    if hit:
+        entry["compiled_seconds"] = _read_record(path).get(key, {}).get("compiled_seconds")
+    else:
+        entry["compiled_seconds"] = entry["seconds"]
+    _write_record(path, key, entry)
+
+
 def train_seeds(
     config: PPOConfig,
     seeds: list[int],
@@ -638,38 +742,48 @@ def train_seeds(
     log: Callable[[str], None] | None = None,
     after_chunk: Callable[[Checkpoint], None] | None = None,
     start: str | Path | None = None,
+    stage: Callable[[str], None] | None = None,
 ) -> SeedsRun:
     """Train `seeds` (keys `jax.random.PRNGKey(seed)`) at once: `vmap` over seeds of the run of
-    `make_train`, compiled ahead of time (announced, timed), then called in pieces of `chunk`
-    updates so that `log` (e.g. `print`) gets the progress: updates done, the seeds' rollout
-    success and steps/s. `after_chunk(checkpoint)` runs after each piece, off the training clock
-    (a periodic evaluation, `Checkpoint.save`). `start`: a saved `Checkpoint` of the same
-    config, seeds and chunk to continue from (the same updates follow, so the run ends as an
-    uninterrupted one)."""
+    `make_train`, compiled ahead of time (announced with the seconds it took last time,
+    `describe_compile`; timed; a hit of jax's persistent compilation cache said), then called in
+    pieces of `chunk` updates so that `log` (e.g. `print`) gets the progress: updates done, the
+    seeds' rollout success and steps/s. `after_chunk(checkpoint)` runs after each piece, off the
+    training clock (`Checkpoint.save`, a periodic evaluation). `start`: a saved `Checkpoint` of
+    the same config, seeds and chunk to continue from (the same updates follow, so the run ends
+    as an uninterrupted one); `after_chunk` runs again for it first (its evaluation may not have
+    ended), and nothing is compiled when it is the run's last. `stage(name)` is told "compile"
+    before compiling and "train" before each piece (where Ctrl-C may wait: `jax_run`)."""
     say = log or (lambda _: None)
+    tell = stage or (lambda _: None)
     init, update = make_stages(config)
     chunk = max(1, min(chunk, config.n_updates))
     keys = jnp.stack([jax.random.PRNGKey(seed) for seed in seeds])
     v_init = jax.jit(jax.vmap(init))
     v_update = jax.jit(jax.vmap(update, in_axes=(0, None, None)), static_argnums=2)
-    say(
-        f"compiling PPO on {config.env_id} for {len(seeds)} seeds "
-        f"({config.n_updates} updates of {config.rollout_size} steps) on {jax.devices()[0]} ..."
-    )
-    clock = time.perf_counter()
-    init_compiled = v_init.lower(keys).compile()
-    state = init_compiled(keys)
-    update_compiled = v_update.lower(state, jnp.int32(0), chunk).compile()
-    compile_seconds = time.perf_counter() - clock
-    say(f"compiled in {compile_seconds:.1f} s")
-    done, before, pieces = 0, 0.0, []
+    done, before, pieces, compile_seconds = 0, 0.0, [], 0.0
     if start is not None:
-        resumed = Checkpoint.load(start, state)
+        resumed = Checkpoint.load(start, jax.eval_shape(v_init, keys))
         state, done, before = resumed.state, resumed.updates, resumed.train_seconds
         pieces.append(resumed.metrics)
         say(f"continuing from update {done}/{config.n_updates} ({start})")
+    if done < config.n_updates:
+        tell("compile")
+        say(describe_compile(config, len(seeds), chunk, resume=start is not None))
+        clock = time.perf_counter()
+        if start is None:
+            state = v_init.lower(keys).compile()(keys)
+        with _CacheHits() as cache:  # the updates' program: the one that takes minutes
+            update_compiled = v_update.lower(state, jnp.int32(0), chunk).compile()
+        compile_seconds = time.perf_counter() - clock
+        _record_compile(config, len(seeds), chunk, compile_seconds, bool(cache.hits))
+        where = " (read from jax's compilation cache)" if cache.hits else ""
+        say(f"compiled in {compile_seconds:.1f} s{where}")
+    if start is not None and after_chunk is not None:
+        after_chunk(resumed)
     clock = time.perf_counter()
     while done < config.n_updates:
+        tell("train")
         state, metrics = update_compiled(state, jnp.int32(done))
         metrics = jax.tree.map(np.asarray, metrics)
         done = min(done + chunk, config.n_updates)
@@ -687,7 +801,7 @@ def train_seeds(
             clock += time.perf_counter() - paused
     train_seconds = before + time.perf_counter() - clock
     return SeedsRun(config, list(seeds), state.params, _joined(pieces, done), compile_seconds,
-                    train_seconds)  # fmt: skip
+                    train_seconds, train_seconds - before)  # fmt: skip
 
 
 def _joined(pieces: list[dict[str, np.ndarray]], updates: int) -> dict[str, np.ndarray]:

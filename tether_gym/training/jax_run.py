@@ -20,10 +20,18 @@ seed: its deterministic policy on the periodic evaluation's episodes beside the 
 the final table, `results.md` and `results.json`: each seed's best and last policies and the
 env's baselines on the same test episodes (`TEST_SEED`) as an SB3 run's final table
 (`experiment.final_table`), and the mean over seeds of the best and of the last policies with
-its 95% t interval. The compile step is announced and timed apart; the training clock starts
-after it. After every chunk of updates (each periodic evaluation) the whole training state is
-saved as `checkpoint.npz` (`jax_ppo.Checkpoint`): `tether-train --resume RUN_DIR` continues an
-interrupted run from it, to the same policies as an uninterrupted run.
+its 95% t interval. The compile step is announced (what is compiled, and the seconds it took
+last time: `jax_ppo.describe_compile`) and timed apart; the training clock starts after it. jax's
+persistent compilation cache (`compilation_cache_dir`: `~/.cache/tether_gym/jax`, or
+`JAX_COMPILATION_CACHE_DIR`) keeps the compiled trainer, so a second run or a resume of the same
+recipe loads it in seconds; XLA's own C++ log lines (its "Very slow compile?") stay off the
+console unless `TF_CPP_MIN_LOG_LEVEL` asks for them. After every chunk of updates, before its
+periodic evaluation, the whole training state is saved as `checkpoint.npz` (`jax_ppo.Checkpoint`):
+`tether-train --resume RUN_DIR` continues an interrupted run from it, to the same policies as an
+uninterrupted run, and says a finished run (its `results.json` written) is finished without
+compiling or writing anything. Ctrl-C at any moment exits with status 130 and one line
+(`Interrupts`): during a chunk of updates the run stops when the chunk ends and saves it, else at
+once, losing only the work since the last checkpoint.
 
 Imports jax only for an env with a JAX backend, after `require_extra` (which names the `jax`
 extra).
@@ -35,7 +43,10 @@ import argparse
 import csv
 import json
 import math
+import os
+import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -64,6 +75,157 @@ PROGRESS_LINES = 20
 """Progress lines of a run without periodic evaluations (one per chunk of updates)."""
 CHECKPOINT = "checkpoint.npz"
 """The run folder's training state after its last chunk of updates (`jax_ppo.Checkpoint`)."""
+CACHE_ENV = "JAX_COMPILATION_CACHE_DIR"
+"""jax's own variable for its persistent compilation cache's folder (empty: no cache)."""
+XLA_LOG_ENV = "TF_CPP_MIN_LOG_LEVEL"
+"""XLA's C++ log threshold (0 info .. 3 fatal), read when jax is imported."""
+QUIET_XLA = "3"
+"""The threshold a run sets unless the variable is set: XLA's errors that are not failures
+("Very slow compile?") stay off the console; failures still raise."""
+
+
+class RunFinished(Exception):
+    """`--resume` of a run whose final table is written: nothing is left to do."""
+
+
+class Interrupted(Exception):
+    """Ctrl-C acted on where the run can stop (its training state saved)."""
+
+
+IMMEDIATE = frozenset({"setup", "compile", "evaluate"})
+"""Stages where Ctrl-C exits at once: nothing since the last checkpoint is lost but the stage's
+own work (a compile, an evaluation); in the others ("train": a compiled chunk of updates;
+"save") the run stops at the end of the stage, with its state saved."""
+
+
+class Interrupts:
+    """Ctrl-C (SIGINT) during a `--backend jax` run, while open: never a KeyboardInterrupt
+    raised inside XLA (a compile or a computation), whose threads then crash the interpreter's
+    exit. Python runs a signal handler only between bytecodes, so a thread reads the signal from
+    `signal.set_wakeup_fd` as it arrives: in an `IMMEDIATE` stage it prints one line and exits
+    with 130 (`os._exit`: XLA's threads are not torn down); in another it says the run is being
+    saved (the start of that line) and the main thread stops at its next `check` (a second
+    Ctrl-C exits at once). Installed only in the main thread over Python's default handler (an
+    ignored SIGINT stays ignored)."""
+
+    def __init__(self) -> None:
+        self.run_dir: Path | None = None
+        self.n_updates = 0
+        self._stage = "setup"
+        self._requested = False
+        self._caught = 0  # the main thread's handler calls
+        self._read = 0  # the signals the watcher read
+        self._cond = threading.Condition(threading.RLock())
+        self._installed = False
+
+    def __enter__(self) -> Interrupts:
+        if (
+            threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+        ):
+            return self
+        self._pipe = os.pipe()
+        os.set_blocking(self._pipe[1], False)
+        self._previous_fd = signal.set_wakeup_fd(self._pipe[1], warn_on_full_buffer=False)
+        self._previous = signal.signal(signal.SIGINT, self._caught_in_main)
+        self._watcher = threading.Thread(target=self._watch, name="sigint", daemon=True)
+        self._watcher.start()
+        self._installed = True
+        return self
+
+    def __exit__(self, *_: Any) -> None:
+        if self._installed:
+            signal.signal(signal.SIGINT, self._previous)
+            signal.set_wakeup_fd(self._previous_fd)
+            os.close(self._pipe[1])  # the watcher reads the end of the pipe and returns
+            self._watcher.join()
+            os.close(self._pipe[0])
+            self._installed = False
+
+    def _caught_in_main(self, signum: int, frame: Any) -> None:
+        self._caught += 1  # the watcher acts; `check` waits for it
+
+    def _watch(self) -> None:
+        while data := os.read(self._pipe[0], 64):
+            for _ in range(data.count(signal.SIGINT)):
+                self._interrupted()
+
+    def _interrupted(self) -> None:
+        with self._cond:
+            self._read += 1
+            self._cond.notify_all()
+            if self._requested:
+                self._exit_now(" stopped now; ")
+            if self._stage in IMMEDIATE:
+                self._exit_now("\ntether-train: interrupted; ")
+            self._requested = True
+            sys.stderr.write("\ntether-train: interrupted; saving the training state when the "
+                             "updates under way end (Ctrl-C again: stop now) ...")  # fmt: skip
+            sys.stderr.flush()
+
+    def _exit_now(self, prefix: str) -> None:
+        try:
+            sys.stdout.flush()
+            sys.stderr.write(prefix + self.advice() + "\n")
+            sys.stderr.flush()
+        finally:
+            os._exit(130)
+
+    def advice(self) -> str:
+        """How the interrupted run continues: from its checkpoint, or the same command."""
+        if self.run_dir is None:
+            return "no run was started"
+        path = self.run_dir / CHECKPOINT
+        if path.is_file():
+            of = f"/{self.n_updates}" if self.n_updates else ""
+            return (f"continue from update {_checkpoint_updates(path)}{of} with: "
+                    f"tether-train --resume {self.run_dir}")  # fmt: skip
+        return f"{self.run_dir} holds no checkpoint yet: the same command starts the run again"
+
+    def check(self) -> None:
+        """Raise `Interrupted` if Ctrl-C asked the run to stop (after the watcher has read the
+        signals the main thread caught)."""
+        with self._cond:
+            self._cond.wait_for(lambda: self._read >= self._caught, timeout=2.0)
+            if self._requested:
+                raise Interrupted
+
+    @property
+    def requested(self) -> bool:
+        """Whether Ctrl-C asked the run to stop."""
+        return self._requested
+
+    def stage(self, name: str) -> None:
+        """Enter stage `name`; in an `IMMEDIATE` one, stop first if Ctrl-C asked it."""
+        with self._cond:
+            self._stage = name
+        if name in IMMEDIATE:
+            self.check()
+
+
+def compilation_cache_dir() -> Path | None:
+    """The folder of jax's persistent compilation cache a run uses: `JAX_COMPILATION_CACHE_DIR`
+    if set (empty: none), else `$XDG_CACHE_HOME/tether_gym/jax` (`~/.cache/tether_gym/jax`)."""
+    if CACHE_ENV in os.environ:
+        return Path(os.environ[CACHE_ENV]) if os.environ[CACHE_ENV] else None
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "tether_gym" / "jax"
+
+
+def use_compilation_cache() -> None:
+    """Turn on jax's persistent compilation cache in `compilation_cache_dir` (a folder set in
+    jax's config already is kept; one that cannot be created leaves the cache off)."""
+    import jax
+
+    if jax.config.jax_compilation_cache_dir is not None:  # the caller's, or jax's variable's
+        return
+    folder = compilation_cache_dir()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        print(f"tether-train: jax's compilation cache is off: {error}", file=sys.stderr)
+        return
+    jax.config.update("jax_compilation_cache_dir", str(folder))
 
 
 @dataclass(frozen=True)
@@ -161,10 +323,9 @@ def run_from_args(args: argparse.Namespace) -> JaxRun:
 def resumed_run(args: argparse.Namespace) -> JaxRun:
     """`--resume RUN_DIR` of a `--backend jax` run: its saved config and seeds, checked again;
     ValueError for options it would ignore (the run continues as it was configured) and for a
-    folder without a checkpoint."""
+    folder without a checkpoint; `RunFinished` for a run whose final table is written."""
     from tether_gym.agents.saved import read_config
     from tether_gym.arguments import given_env_options
-    from tether_gym.training.experiment import check_config
     from tether_gym.training.recipe import RUN_OPTIONS
 
     run_dir = args.resume
@@ -177,11 +338,18 @@ def resumed_run(args: argparse.Namespace) -> JaxRun:
     if given:
         raise ValueError(f"--resume {run_dir} continues a --backend jax run as it was "
                          f"configured: drop {', '.join(given)}")  # fmt: skip
+    if (run_dir / RESULTS).is_file():
+        raise RunFinished(
+            f"tether-train: {run_dir} is finished (its final table: {run_dir / 'results.md'}): "
+            "nothing to resume"
+        )
     if not (run_dir / CHECKPOINT).is_file():
         raise ValueError(
             f"--resume {run_dir}: no {CHECKPOINT} there (interrupted before its first chunk of "
             "updates ended): start the run again with --overwrite"
         )
+    from tether_gym.training.experiment import check_config
+
     seeds = [int(seed) for seed in saved.pop("seeds")]
     saved.pop("backend")
     config = RunConfig.from_dict(saved)
@@ -225,10 +393,11 @@ class PeriodicEval:
             self.resume(timesteps)
 
     def resume(self, timesteps: int) -> None:
-        """Continue after `timesteps`: the evaluations past them dropped (they are made again),
-        each seed's best so far read from the rest."""
+        """Continue from the checkpoint at `timesteps`: the evaluations from them on dropped
+        (they are made again: the checkpoint's own may have been interrupted), each seed's best
+        so far read from the rest."""
         path = self.run.run_dir / EVALUATIONS
-        drop_rows_after(path, timesteps)
+        drop_rows_after(path, timesteps - 1)  # timesteps are whole: the rows before the checkpoint
         if path.is_file():
             with path.open(newline="") as file:
                 for row in csv.DictReader(file):
@@ -243,7 +412,9 @@ class PeriodicEval:
         return evaluate(agents, config.env_kwargs, config.eval_episodes, EVAL_SEED,
                         env_id=config.env_id)  # fmt: skip
 
-    def __call__(self, updates: int, params: Any) -> None:
+    def __call__(self, updates: int, params: Any, stage: Any = None) -> None:
+        """Evaluate the seeds' `params` after `updates`; `stage` ("evaluate", then "save" for
+        the writing) as `Interrupts.stage`."""
         from tether_gym.agents.jax_policy import JaxPolicyAgent
         from tether_gym.training.jax_ppo import policy_config, save_trained, unstack
 
@@ -257,6 +428,8 @@ class PeriodicEval:
             agent.params = unstack(params, i)
         timesteps = min(updates, self.run.ppo.n_updates) * self.run.ppo.rollout_size
         results = self._evaluate(self.agents)
+        if stage is not None:
+            stage("save")
         for i, (seed, result) in enumerate(zip(self.run.seeds, results, strict=True)):
             if seed not in self.best or result.success_rate > self.best[seed][0]:
                 self.best[seed] = (result.success_rate, timesteps)
@@ -295,19 +468,28 @@ def seeds_row(results: list[Result], label: str) -> tuple[str, dict[str, Any]]:
     return f"| {' | '.join(cells)} |", figures
 
 
-def train(run: JaxRun, progress: bool = True) -> dict[str, Any]:
+def train(
+    run: JaxRun,
+    progress: bool = True,
+    interrupts: Interrupts | None = None,
+    started: float | None = None,
+) -> dict[str, Any]:
     """Train the seeds of `run`, save their policies, play the final table; returns the
-    summary written to results.json, with `table` (Markdown) added."""
+    summary written to results.json, with `table` (Markdown) added. `interrupts` is told each
+    stage and checked where the run can stop (`Interrupted`, the state saved); `started`: the
+    `time.perf_counter()` the command started at (`wall_seconds` counts from it)."""
     from tether_gym.agents.jax_policy import load_policy
     from tether_gym.evaluation.reports import format_table
     from tether_gym.training.experiment import final_table
     from tether_gym.training.jax_ppo import save_trained, train_seeds, unstack
 
-    wall = time.perf_counter()
+    wall = time.perf_counter() if started is None else started
+    interrupts = interrupts or Interrupts()
     config, ppo, seeds, run_dir = run.config, run.ppo, run.seeds, run.run_dir
+    interrupts.run_dir, interrupts.n_updates = run_dir, ppo.n_updates
     if not run.resume:
         saved = {"backend": BACKEND, **config.as_dict(), "seeds": seeds}
-        (run_dir / "config.yaml").write_text(yaml.safe_dump(saved, sort_keys=False))
+        _write_atomic(run_dir / "config.yaml", yaml.safe_dump(saved, sort_keys=False))
     trained = ppo.n_updates * ppo.rollout_size
     rounded = "" if trained == config.timesteps else (
         f" ({config.timesteps:,} asked, rounded up to whole rollouts)"
@@ -317,39 +499,54 @@ def train(run: JaxRun, progress: bool = True) -> dict[str, Any]:
     start = run_dir / CHECKPOINT if run.resume else None
     done = _checkpoint_updates(start) if start is not None else 0
     evaluate = PeriodicEval(run, done * ppo.rollout_size) if config.eval_freq else None
+    eval_seconds = 0.0
 
     def after_chunk(checkpoint: Checkpoint) -> None:
-        if evaluate is not None:
-            evaluate(checkpoint.updates, checkpoint.state.params)
+        nonlocal eval_seconds
+        interrupts.stage("save")
         checkpoint.save(run_dir / CHECKPOINT)
+        interrupts.check()
+        if evaluate is not None:
+            clock = time.perf_counter()
+            interrupts.stage("evaluate")
+            evaluate(checkpoint.updates, checkpoint.state.params, interrupts.stage)
+            interrupts.check()
+            eval_seconds += time.perf_counter() - clock
 
     def log(line: str) -> None:
         if progress or not line.startswith("update "):  # the compile step is always said
             print(line, flush=True)
 
     out = train_seeds(ppo, seeds, chunk_updates(run), log=log, after_chunk=after_chunk,
-                      start=start)  # fmt: skip
+                      start=start, stage=interrupts.stage)  # fmt: skip
+    interrupts.stage("save")
     for i, seed in enumerate(seeds):
         save_trained(run_dir / f"seed{seed}", unstack(out.params, i), ppo)
+    interrupts.check()
     best = evaluate.best if evaluate is not None else {}
     kept = " (the best as seed<k>_best.msgpack)" if best else ""
     print(f"trained {len(seeds)} seeds x {out.timesteps:,} timesteps in {out.train_seconds:.1f} s "
           f"({out.steps_per_second:,.0f} steps/s) after {out.compile_seconds:.1f} s compiling; "
           f"policies saved as {run_dir}/seed<k>.msgpack{kept}", flush=True)  # fmt: skip
+    interrupts.stage("evaluate")
     clock = time.perf_counter()
     label = run.label()
     named = {f"{label} seed{seed} (best)": load_policy(best_stem(run_dir, seed))
              for seed in seeds if seed in best}  # fmt: skip
     named.update({f"{label} seed{seed} (last)": out.agent(i) for i, seed in enumerate(seeds)})
     results = final_table(config, named)
-    eval_seconds = time.perf_counter() - clock
+    final_seconds = time.perf_counter() - clock
+    interrupts.stage("save")
     played = {"best": results[: len(best)], "last": results[len(best) : len(named)]}
     rows, figures = {}, {}
     for kind, kind_results in played.items():
         if kind_results:
             rows[kind], figures[kind] = seeds_row(kind_results, f"{label} ({kind})")
     table = format_table(results) + "\n" + "\n".join(rows.values())
-    (run_dir / "results.md").write_text(table + "\n")
+    _write_atomic(run_dir / "results.md", table + "\n")
+    session_train = out.train_seconds if out.session_train_seconds is None else (
+        out.session_train_seconds
+    )  # fmt: skip
     summary = {
         "run_dir": str(run_dir),
         "backend": BACKEND,
@@ -359,16 +556,45 @@ def train(run: JaxRun, progress: bool = True) -> dict[str, Any]:
         "timesteps": out.timesteps,
         "train_seconds": out.train_seconds,
         "compile_seconds": out.compile_seconds,
+        "session_train_seconds": session_train,
+        "eval_seconds": eval_seconds,
         "steps_per_second": out.steps_per_second,
-        "final_table_seconds": eval_seconds,
-        "wall_seconds": time.perf_counter() - wall,
+        "final_table_seconds": final_seconds,
+        "wall_seconds": 0.0,
         "device": _device(),
         "mean_over_seeds": figures,
         "best_timesteps": {str(seed): timesteps for seed, (_, timesteps) in best.items()},
         "results": [result.summary() for result in results],
     }
-    (run_dir / RESULTS).write_text(json.dumps(summary, indent=1) + "\n")
+    summary["wall_seconds"] = time.perf_counter() - wall
+    _write_atomic(run_dir / RESULTS, json.dumps(summary, indent=1) + "\n")  # last: finished
     return {**summary, "table": table}
+
+
+def wall_line(summary: dict[str, Any]) -> str:
+    """The command's wall time as the sum of its parts (this command's: a resumed run's
+    earlier training is said apart, outside the sum)."""
+    parts = {
+        "compile": summary["compile_seconds"],
+        "training": summary["session_train_seconds"],
+        "periodic evaluations": summary["eval_seconds"],
+        "final table": summary["final_table_seconds"],
+    }
+    rest = summary["wall_seconds"] - sum(parts.values())
+    terms = [f"{name} {seconds:.1f} s" for name, seconds in parts.items()]
+    earlier = summary["train_seconds"] - summary["session_train_seconds"]
+    if earlier > 0.05:
+        terms[1] += f" (and {earlier:.1f} s in the run's earlier commands)"
+    return (f"wall time {summary['wall_seconds']:.1f} s = {' + '.join(terms)} + start-up and "
+            f"saving {rest:.1f} s")  # fmt: skip
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    """Write `path` through a temporary file: an interrupted write leaves the old file (or
+    none), never part of one."""
+    part = path.with_name(path.name + ".part")
+    part.write_text(text)
+    part.replace(path)
 
 
 def _checkpoint_updates(path: Path) -> int:
@@ -386,26 +612,31 @@ def _device() -> str:
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """`tether-train --backend jax`: check, train, print the table, the steps/s and the wall
-    time; returns the exit status (130 after Ctrl-C)."""
+    time as the sum of its parts; returns the exit status (130 after Ctrl-C, `Interrupts`)."""
     clock = time.perf_counter()
-    try:
-        run = run_from_args(args)
-    except (ValueError, ModuleNotFoundError) as error:
-        parser.error(str(error))
-    try:
-        summary = train(run, progress=not args.no_progress_bar)
-    except KeyboardInterrupt:
-        if (run.run_dir / CHECKPOINT).is_file():
-            print(f"\ninterrupted: continue with: tether-train --resume {run.run_dir}",
-                  file=sys.stderr)  # fmt: skip
-        else:
-            print(f"\ninterrupted before the first chunk of updates ended: {run.run_dir} holds "
-                  "no checkpoint; pass --overwrite to start it again", file=sys.stderr)  # fmt: skip
-        return 130
+    os.environ.setdefault(XLA_LOG_ENV, QUIET_XLA)  # read when jax is imported (below)
+    with Interrupts() as interrupts:
+        interrupts.run_dir = args.resume  # a new run's folder is known once checked
+        try:
+            run = run_from_args(args)
+        except RunFinished as finished:
+            print(finished)
+            return 0
+        except (ValueError, ModuleNotFoundError) as error:
+            parser.error(str(error))
+        use_compilation_cache()
+        try:
+            summary = train(run, not args.no_progress_bar, interrupts, clock)
+            if interrupts.requested:  # Ctrl-C while the finished run's table was written
+                print(" not needed: the run is finished", file=sys.stderr)
+        except Interrupted:
+            print(f" saved; {interrupts.advice()}", file=sys.stderr)
+            return 130
+        except KeyboardInterrupt:  # Ctrl-C where `Interrupts` is not installed
+            print(f"\ntether-train: interrupted; {interrupts.advice()}", file=sys.stderr)
+            return 130
     env = run.config.env_kwargs or "default env"
     print(f"\nTest episodes (seed {TEST_SEED}), {run.config.env_id} {env}:\n{summary['table']}")
     print(f"\n{len(run.seeds)} seeds on {summary['device']}: {summary['steps_per_second']:,.0f} "
-          f"steps/s, wall time {time.perf_counter() - clock:.1f} s (compile "
-          f"{summary['compile_seconds']:.1f} s, training {summary['train_seconds']:.1f} s, "
-          f"final table {summary['final_table_seconds']:.1f} s)")  # fmt: skip
+          f"steps/s; {wall_line(summary)}")  # fmt: skip
     return 0
