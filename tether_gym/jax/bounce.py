@@ -378,13 +378,18 @@ class TetherBounceJaxEnv(KernelJaxEnv, EzPickle):
 
     TetherBounce-v0's (`task`, `dynamics` "hybrid" or "impulse", `inertia_ratio`,
     `restitution`, `rho`, `stiffness`, `spin_disturbance`); `render_mode` must be None (no
-    rendering: TetherBounce-v0 draws the bounce), and there is no pymunk dynamics.
+    rendering: TetherBounce-v0 draws the bounce), and there is no pymunk dynamics. `kernel`:
+    "host" (the numba kernel called from the jitted step, `jax.host`: numba's speed on a CPU),
+    "xla" (the XLA kernel of this module, for accelerators and `jax.grad`), or None (the
+    default): "host" when jax's default device is a CPU, else "xla".
 
     ## Precision
 
-    float64 under `jax_enable_x64` (agreeing with TetherBounce-v0 to rounding), float32
-    otherwise: good to about 1e-5 with impulse dynamics, not to be trusted with hybrid
-    dynamics, whose stiff spring reads its stretch as the difference of two lengths near 1 m.
+    float64 under `jax_enable_x64` (the host kernel: TetherBounce-v0 bit for bit; the XLA
+    kernel: to rounding), float32 otherwise: the host kernel computes in float64 and rounds its
+    outputs; the XLA kernel is good to about 1e-5 with impulse dynamics, not to be trusted with
+    hybrid dynamics, whose stiff spring reads its stretch as the difference of two lengths near
+    1 m.
 
     ## Version History
 
@@ -393,15 +398,26 @@ class TetherBounceJaxEnv(KernelJaxEnv, EzPickle):
 
     metadata = {"render_modes": [], "render_fps": 30, "jax": True}
 
-    def __init__(self, render_mode: str | None = None, **kwargs):
-        EzPickle.__init__(self, render_mode=render_mode, **kwargs)
-        super().__init__(TetherBounceFunctional(**kwargs), render_mode)
+    def __init__(self, render_mode: str | None = None, kernel: str | None = None, **kwargs):
+        EzPickle.__init__(self, render_mode=render_mode, kernel=kernel, **kwargs)
+        super().__init__(functional(kernel, **kwargs), render_mode)
 
 
 class TetherBounceJaxVectorEnv(JaxVectorEnv):
     """`num_envs` copies of `TetherBounceJaxEnv` stepped by one jitted call with a masked
     same-step autoreset (`jax.base.JaxVectorEnv`), returning numpy arrays: every step ends all
-    episodes and starts the next ones. Arguments after `num_envs` are TetherBounce-v0's."""
+    episodes and starts the next ones. Arguments after `num_envs` are `TetherBounceJaxEnv`'s."""
 
-    def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs):
-        super().__init__(TetherBounceFunctional(**kwargs), num_envs, render_mode)
+    def __init__(
+        self, num_envs: int = 1, render_mode: str | None = None, kernel: str | None = None,
+        **kwargs,
+    ):  # fmt: skip
+        super().__init__(functional(kernel, **kwargs), num_envs, render_mode)
+
+
+def functional(kernel: str | None = None, **kwargs) -> TetherBounceFunctional:
+    """TetherBounce's `FuncEnv` on a kernel ("host", "xla", None: `jax.host.kernel()`'s
+    choice), from TetherBounce-v0's arguments."""
+    from tether_gym.jax import host  # host builds on this module
+
+    return host.functional("TetherBounce", kernel, **kwargs)

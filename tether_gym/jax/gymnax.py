@@ -21,9 +21,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from tether_gym.jax import bounce, navigate
 from tether_gym.jax.base import KernelFuncEnv
-from tether_gym.jax.bounce import TetherBounceFunctional
-from tether_gym.jax.navigate import TetherNavigateFunctional
 
 
 class Box:
@@ -129,17 +128,19 @@ class GymnaxEnv:
 
 class TetherBounceGymnax(GymnaxEnv):
     """TetherBounce-v0's JAX kernel in the gymnax convention; the arguments are
-    TetherBounce-v0's (`dynamics` "impulse" or "hybrid")."""
+    TetherBounce-v0's (`dynamics` "impulse" or "hybrid") and `kernel` ("host", "xla", None:
+    `bounce.functional`)."""
 
-    def __init__(self, **kwargs):
-        super().__init__(TetherBounceFunctional(**kwargs))
+    def __init__(self, kernel: str | None = None, **kwargs):
+        super().__init__(bounce.functional(kernel, **kwargs))
 
 
 class TetherNavigateGymnax(GymnaxEnv):
     """TetherNavigate-v3's JAX kernel in the gymnax convention; the arguments are
     TetherNavigate-v3's (`dynamics` "impulse" or "hybrid", any `control`). The observation is
     the plain row (the goal dict's parts concatenated, `spaces.GOAL_KEYS`); `done` is the end
-    of the episode, terminated or truncated (`info` tells them apart)."""
+    of the episode, terminated or truncated (`info` tells them apart); `kernel` as
+    `navigate.functional`'s."""
 
-    def __init__(self, **kwargs):
-        super().__init__(TetherNavigateFunctional(**kwargs))
+    def __init__(self, kernel: str | None = None, **kwargs):
+        super().__init__(navigate.functional(kernel, **kwargs))

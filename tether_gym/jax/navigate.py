@@ -483,8 +483,8 @@ class TetherNavigateJaxEnv(GoalMixin, KernelJaxEnv):
 
     metadata = {"render_modes": [], "render_fps": 4, "jax": True}
 
-    def __init__(self, render_mode: str | None = None, **kwargs):
-        super().__init__(TetherNavigateFunctional(**kwargs), render_mode)
+    def __init__(self, render_mode: str | None = None, kernel: str | None = None, **kwargs):
+        super().__init__(functional(kernel, **kwargs), render_mode)
 
 
 class TetherNavigateJaxVectorEnv(GoalMixin, JaxVectorEnv):
@@ -492,8 +492,21 @@ class TetherNavigateJaxVectorEnv(GoalMixin, JaxVectorEnv):
     same-step autoreset (`jax.base.JaxVectorEnv`), numpy out: the goal dict, the numba vector
     env's info, `compute_reward` vectorized."""
 
-    def __init__(self, num_envs: int = 1, render_mode: str | None = None, **kwargs):
-        super().__init__(TetherNavigateFunctional(**kwargs), num_envs, render_mode)
+    def __init__(
+        self, num_envs: int = 1, render_mode: str | None = None, kernel: str | None = None,
+        **kwargs,
+    ):  # fmt: skip
+        super().__init__(functional(kernel, **kwargs), num_envs, render_mode)
+
+
+def functional(kernel: str | None = None, **kwargs) -> TetherNavigateFunctional:
+    """TetherNavigate's `FuncEnv` on a kernel ("host": the numba kernel called from the jitted
+    step, numba's speed on a CPU; "xla": this module's kernel, for accelerators and
+    `jax.grad`; None: "host" when jax's default device is a CPU, else "xla"), from
+    TetherNavigate-v3's arguments."""
+    from tether_gym.jax import host  # host builds on this module
+
+    return host.functional("TetherNavigate", kernel, **kwargs)
 
 
 __all__ = [
