@@ -10,7 +10,7 @@ import re
 
 import pytest
 
-from tests.helpers.training import imported_by_tether_train
+from tests.helpers.training import imported_by, imported_by_tether_train
 from tether_gym import arguments, training
 from tether_gym.envs import BounceConfig
 from tether_gym.evaluation import cli as evaluate
@@ -186,32 +186,6 @@ def test_a_bad_hyperparameter_is_one_line_naming_its_key(override, message, tmp_
 RUN_MODULES = ["torch", "stable_baselines3", "jax", "tether_gym.agents.planner_kernels"]
 """What a run imports (the planners' module compiles its numba kernels as it loads): none of
 it before a bad argument is answered."""
-
-
-def imported_by(target: str, argvs: list[list[str]], modules: list[str]):
-    """Run the console script `target` ("module:function") on each argv in a fresh
-    interpreter, each ending in SystemExit; the finished process and whether each of `modules`
-    was imported by then (`imported_by_tether_train` for any command)."""
-    import subprocess
-    import sys
-
-    from tests.helpers import ROOT
-
-    module, _, function = target.partition(":")
-    code = (
-        "import sys\n"
-        f"from {module} import {function} as main\n"
-        f"for argv in {argvs!r}:\n"
-        "    try:\n"
-        "        main(argv)\n"
-        "    except SystemExit:\n"
-        "        pass\n"
-        f"print(*(name in sys.modules for name in {modules!r}))\n"
-    )
-    done = subprocess.run(
-        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True
-    )
-    return done, [word == "True" for word in done.stdout.split()[-len(modules) :]]
 
 
 def test_tether_train_answers_an_unknown_env_or_argument_before_the_run_modules_import():

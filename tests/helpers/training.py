@@ -57,21 +57,22 @@ def jax_run_folder(run: Path, seeds: list[int], eval_episodes: int = 5) -> dict[
     return paths
 
 
-def imported_by_tether_train(argvs: list[list[str]], modules: list[str]):
-    """Run `tether-train` (`training.train.main`) on each argv in a fresh interpreter, each
-    ending in SystemExit (help, a refused option); the finished process (its stdout and stderr)
-    and whether each of `modules` was imported by then, in order."""
+def imported_by(target: str, argvs: list[list[str]], modules: list[str]):
+    """Run the console script `target` ("module:function") on each argv in a fresh
+    interpreter, each ending in SystemExit (help, a refused option); the finished process (its
+    stdout and stderr) and whether each of `modules` was imported by then, in order."""
     import subprocess
     import sys
 
     from tests.helpers import ROOT
 
+    module, _, function = target.partition(":")
     code = (
         "import sys\n"
-        "from tether_gym.training import train\n"
+        f"from {module} import {function} as main\n"
         f"for argv in {argvs!r}:\n"
         "    try:\n"
-        "        train.main(argv)\n"
+        "        main(argv)\n"
         "    except SystemExit:\n"
         "        pass\n"
         f"print(*(name in sys.modules for name in {modules!r}))\n"
@@ -80,3 +81,8 @@ def imported_by_tether_train(argvs: list[list[str]], modules: list[str]):
         [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True
     )
     return done, [word == "True" for word in done.stdout.split()[-len(modules) :]]
+
+
+def imported_by_tether_train(argvs: list[list[str]], modules: list[str]):
+    """`imported_by` for `tether-train` (`training.train.main`)."""
+    return imported_by("tether_gym.training.train:main", argvs, modules)
