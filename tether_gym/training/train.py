@@ -28,7 +28,8 @@ saves the last model before exiting, and so does every periodic evaluation (a ki
 resumes from its last evaluation); an existing run is never overwritten without `--overwrite`.
 
 `--backend jax` trains `--seeds N` seeds (from `--seed` on) of the same recipe at once with PPO
-compiled with the env's JAX kernel (`tether_gym.training.jax_run`; every env with a JAX backend:
+compiled with the env's JAX backend (`tether_gym.training.jax_run`; on a CPU the env steps the
+numba kernels from the compiled program, `tether_gym.jax.host`; every env with a JAX backend:
 TetherBounce-v0 and the TetherNavigate ids; PPO only, no variants; the `jax` extra): the run
 folder holds each seed's policy (`seed<k>.msgpack`, which `tether-evaluate --agents` plays) and
 the same final table, with the mean over seeds; `--resume` continues it from its last
