@@ -30,9 +30,9 @@ from tether_gym.envs.tether_bounce.kernel import (  # noqa: E402
 from tether_gym.jax.bounce import (  # noqa: E402
     EnvParams,
     TetherBounceFunctional,
-    TetherBounceJaxVectorEnv,
     step_episode,
 )
+from tether_gym.jax.envs import TetherBounceJaxVectorEnv  # noqa: E402
 from tether_gym.jax.gymnax import TetherBounceGymnax  # noqa: E402
 from tether_gym.tasks.bounce import REWARD_TERMS  # noqa: E402
 

@@ -2,17 +2,17 @@
 `EnvState`), jit-compiled, batched with `jax.vmap`, on a CPU or an accelerator.
 
 - `physics`: one bounce, impulse and hybrid dynamics, written for XLA (bounded loops).
-- `bounce`: TetherBounce-v0's kernel, its `FuncEnv` (`TetherBounceFunctional`), the Gymnasium
-  envs `TetherBounceJaxEnv` (`gym.make("tether_gym/TetherBounce-jax-v0")`) and
-  `TetherBounceJaxVectorEnv` (its `vector_entry_point`: one jitted step with a masked
-  same-step autoreset).
+- `bounce`: TetherBounce-v0's kernel and its `FuncEnv` (`TetherBounceFunctional`).
 - `navigate`, over `navigate_physics`, `navigate_velocity` and `navigate_hybrid`:
-  TetherNavigate-v3's kernel in every control mode and its envs, the same way
-  (`gym.make("tether_gym/TetherNavigate_PostsReach-jax-v3")`, every ladder id).
+  TetherNavigate-v3's kernel in every control mode and its `FuncEnv`, the same way.
 - `host`: the numba kernels of both families called from the jitted step (`jax.pure_callback`,
-  one call per batch): the default `kernel` of every env above on a CPU, where XLA steps the
+  one call per batch) and their `FuncEnv`s: the default `kernel` on a CPU, where XLA steps the
   kernels written for it far slower than numba; the XLA kernels are the default on an
   accelerator.
+- `envs`: the Gymnasium envs of both families on either kernel, `TetherBounceJaxEnv`
+  (`gym.make("tether_gym/TetherBounce-jax-v0")`), `TetherNavigateJaxEnv` (every ladder id,
+  `gym.make("tether_gym/TetherNavigate_PostsReach-jax-v3")`) and their vector envs (the
+  `vector_entry_point`s: one jitted step with a masked same-step autoreset).
 - `gymnax`: the gymnax 1.0 calling convention (`TetherBounceGymnax`, `TetherNavigateGymnax`),
   without gymnax.
 - `base`: what they share.

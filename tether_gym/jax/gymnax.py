@@ -21,7 +21,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from tether_gym.jax import bounce, navigate
+from tether_gym.jax import host
 from tether_gym.jax.base import KernelFuncEnv
 
 
@@ -129,10 +129,10 @@ class GymnaxEnv:
 class TetherBounceGymnax(GymnaxEnv):
     """TetherBounce-v0's JAX kernel in the gymnax convention; the arguments are
     TetherBounce-v0's (`dynamics` "impulse" or "hybrid") and `kernel` ("host", "xla", None:
-    `bounce.functional`)."""
+    `host.functional`)."""
 
     def __init__(self, kernel: str | None = None, **kwargs):
-        super().__init__(bounce.functional(kernel, **kwargs))
+        super().__init__(host.functional("TetherBounce", kernel, **kwargs))
 
 
 class TetherNavigateGymnax(GymnaxEnv):
@@ -140,7 +140,7 @@ class TetherNavigateGymnax(GymnaxEnv):
     TetherNavigate-v3's (`dynamics` "impulse" or "hybrid", any `control`). The observation is
     the plain row (the goal dict's parts concatenated, `spaces.GOAL_KEYS`); `done` is the end
     of the episode, terminated or truncated (`info` tells them apart); `kernel` as
-    `navigate.functional`'s."""
+    `host.functional`'s."""
 
     def __init__(self, kernel: str | None = None, **kwargs):
-        super().__init__(navigate.functional(kernel, **kwargs))
+        super().__init__(host.functional("TetherNavigate", kernel, **kwargs))

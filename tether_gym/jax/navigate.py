@@ -52,11 +52,10 @@ from tether_gym.envs.tether_navigate.config import (
 )
 from tether_gym.envs.tether_navigate.controls import control_mode
 from tether_gym.envs.tether_navigate.controls.setup import ACTION as SETUP_ACTION
-from tether_gym.envs.tether_navigate.env import GoalMixin
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION, OUTCOME, ROW_KEYS, SPIN_SCALE
 from tether_gym.jax import navigate_physics as nav
-from tether_gym.jax.base import JaxVectorEnv, KernelFuncEnv, KernelJaxEnv, float_dtype
+from tether_gym.jax.base import KernelFuncEnv, float_dtype
 from tether_gym.tasks import navigate as task
 
 JAX_DYNAMICS = {"impulse": IMPULSE, "hybrid": HYBRID}
@@ -473,49 +472,11 @@ class TetherNavigateFunctional(KernelFuncEnv):
         return jax.tree.map(lambda x: x[0], new) if single else new
 
 
-class TetherNavigateJaxEnv(GoalMixin, KernelJaxEnv):
-    """TetherNavigate-v3 on its JAX kernel through Gymnasium's functional API: the numba env's
-    goal dict (`observation`, `achieved_goal`, `desired_goal`, jax arrays), action, reward,
-    termination and truncation (Gymnasium's `FunctionalJaxEnv` reports a truncation as
-    terminated: split here), info, and `compute_reward` / `compute_terminated` /
-    `compute_truncated` for relabeling, vectorized (the numba env's, `GoalMixin`; the jitted
-    `compute_reward` of this module for callers on the device)."""
-
-    metadata = {"render_modes": [], "render_fps": 4, "jax": True}
-
-    def __init__(self, render_mode: str | None = None, kernel: str | None = None, **kwargs):
-        super().__init__(functional(kernel, **kwargs), render_mode)
-
-
-class TetherNavigateJaxVectorEnv(GoalMixin, JaxVectorEnv):
-    """`num_envs` copies of `TetherNavigateJaxEnv` stepped by one jitted call with a masked
-    same-step autoreset (`jax.base.JaxVectorEnv`), numpy out: the goal dict, the numba vector
-    env's info, `compute_reward` vectorized."""
-
-    def __init__(
-        self, num_envs: int = 1, render_mode: str | None = None, kernel: str | None = None,
-        **kwargs,
-    ):  # fmt: skip
-        super().__init__(functional(kernel, **kwargs), num_envs, render_mode)
-
-
-def functional(kernel: str | None = None, **kwargs) -> TetherNavigateFunctional:
-    """TetherNavigate's `FuncEnv` on a kernel ("host": the numba kernel called from the jitted
-    step, numba's speed on a CPU; "xla": this module's kernel, for accelerators and
-    `jax.grad`; None: "host" when jax's default device is a CPU, else "xla"), from
-    TetherNavigate-v3's arguments."""
-    from tether_gym.jax import host  # host builds on this module
-
-    return host.functional("TetherNavigate", kernel, **kwargs)
-
-
 __all__ = [
     "UNIFORMS",
     "EnvParams",
     "EnvState",
     "TetherNavigateFunctional",
-    "TetherNavigateJaxEnv",
-    "TetherNavigateJaxVectorEnv",
     "compute_reward",
     "control_mode",
     "observe",
