@@ -73,7 +73,7 @@ import gymnasium as gym
 import numpy as np
 
 import tether_gym
-from benchmarks.validation.fuzz_common import MARK_SHARE, Sweep, dumps, random_actions
+from benchmarks.common import MARK_SHARE, Sweep, dumps, random_actions
 from tether_gym.envs.kernels import PUCK_MASS, PUCK_RADIUS
 from tether_gym.envs.tether_bounce.kernel import (
     MAX_INERTIA_RATIO,

@@ -47,8 +47,17 @@ command on REV's package (a temporary git worktree first on the path, as
 
 from __future__ import annotations
 
-from benchmarks.common import one_core, output_arguments, package_of, refuse_existing, worktree
-from benchmarks.validation.fuzz_common import MARK_SHARE, Sweep, dumps, random_actions
+from benchmarks.common import (
+    MARK_SHARE,
+    Sweep,
+    dumps,
+    one_core,
+    output_arguments,
+    package_of,
+    random_actions,
+    refuse_existing,
+    worktree,
+)
 
 if __name__ == "__main__":  # one core (the machine's others are left free), before numba loads
     one_core()

@@ -1,5 +1,5 @@
 """The fuzz classes of `benchmarks.validation.fuzz_navigate` on TetherNavigate's JAX kernel: random
-maneuvers through the JAX vector entry point (`tether_gym.jax.navigate.TetherNavigateJaxVectorEnv`,
+maneuvers through the JAX vector entry point (`tether_gym.jax.envs.TetherNavigateJaxVectorEnv`,
 one jitted step, same-step autoreset), every transition checked by `fuzz_navigate`'s own
 `audit_vector_step` (off the table, inside a post, through a post, observation out of its space,
 non-finite, the post report, the freeze), the actions drawn by its `random_actions`.
@@ -23,8 +23,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
-from benchmarks.common import refuse_existing
-from benchmarks.validation.fuzz_common import random_actions
+from benchmarks.common import random_actions, refuse_existing
 from benchmarks.validation.fuzz_navigate import HOLES, NOTES, audit_vector_step
 from benchmarks.validation.jax_navigate_agreement import CONTROLS, configuration
 from tether_gym.evaluation import results_file
@@ -61,7 +60,8 @@ def cell(ids: list[str], dynamics: str, control: str, maneuvers: int, num_envs: 
          seed: int) -> Counter:  # fmt: skip
     """`fuzz` of each id in turn, `maneuvers` over them all, through one vector env of the
     dynamics and control mode: an id is its `EnvParams` (traced), so the step compiles once."""
-    from tether_gym.jax.navigate import EnvParams, TetherNavigateJaxVectorEnv
+    from tether_gym.jax.envs import TetherNavigateJaxVectorEnv
+    from tether_gym.jax.navigate import EnvParams
 
     configs = [configuration(env_id, dynamics, control) for env_id in ids]
     kwargs = {name: getattr(configs[0], name) for name in ("dynamics", "control", "coast")}

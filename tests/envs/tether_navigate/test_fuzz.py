@@ -15,7 +15,7 @@ import pytest
 
 import benchmarks.validation.fuzz_navigate as fz
 import tether_gym  # noqa: F401  (registers the env ids)
-from benchmarks.validation.fuzz_common import random_actions
+from benchmarks.common import random_actions
 from benchmarks.validation.fuzz_navigate import (
     CLASSES,
     HOLES,
