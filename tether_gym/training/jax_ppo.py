@@ -705,7 +705,8 @@ def describe_compile(config: PPOConfig, seeds: int, chunk: int, resume: bool) ->
     (`compile_record`) or that it was never compiled here."""
     programs = "" if resume else "the envs' reset and "
     what = (
-        f"compiling PPO on {config.env_id} for {seeds} seeds on {jax.devices()[0]}: "
+        f"compiling PPO on {config.env_id} for {seeds} seed{'s' if seeds != 1 else ''} on "
+        f"{jax.devices()[0]}: "
         f"{programs}one XLA program of {chunk} updates (each the rollout of {config.n_envs} "
         f"envs x {config.n_steps} steps, its advantages, {config.n_epochs} epochs of "
         f"{config.n_minibatches} minibatches; {config.n_updates} updates in all)"

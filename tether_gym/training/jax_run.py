@@ -203,6 +203,11 @@ class Interrupts:
             self.check()
 
 
+def _seeds(count: int) -> str:
+    """A count of seeds in words: 1 seed, 5 seeds."""
+    return f"{count} seed{'s' if count != 1 else ''}"
+
+
 def compilation_cache_dir() -> Path | None:
     """The folder of jax's persistent compilation cache a run uses: `JAX_COMPILATION_CACHE_DIR`
     if set (empty: none), else `$XDG_CACHE_HOME/tether_gym/jax` (`~/.cache/tether_gym/jax`)."""
@@ -453,7 +458,7 @@ def seeds_row(results: list[Result], label: str) -> tuple[str, dict[str, Any]]:
     low, high = t_interval(success)
     interval = "" if math.isnan(low) else f" [{100 * low:.1f}, {100 * high:.1f}]"
     cells = [
-        f"{label}, mean of {len(results)} seeds (t interval over seeds)",
+        f"{label}, mean of {_seeds(len(results))} (t interval over seeds)",
         f"{len(results)} x {results[0].episodes}",
         f"{100 * success.mean():.1f}%{interval}, worst {100 * success.min():.1f}%",
         *("-" for _ in type(results[0]).columns),
@@ -494,7 +499,7 @@ def train(
     rounded = "" if trained == config.timesteps else (
         f" ({config.timesteps:,} asked, rounded up to whole rollouts)"
     )  # fmt: skip
-    print(f"training {run.label()} ({len(seeds)} seeds: {', '.join(map(str, seeds))}) for "
+    print(f"training {run.label()} ({_seeds(len(seeds))}: {', '.join(map(str, seeds))}) for "
           f"{trained:,} timesteps each{rounded} into {run_dir}", flush=True)  # fmt: skip
     start = run_dir / CHECKPOINT if run.resume else None
     done = _checkpoint_updates(start) if start is not None else 0
@@ -525,7 +530,8 @@ def train(
     interrupts.check()
     best = evaluate.best if evaluate is not None else {}
     kept = " (the best as seed<k>_best.msgpack)" if best else ""
-    print(f"trained {len(seeds)} seeds x {out.timesteps:,} timesteps in {out.train_seconds:.1f} s "
+    print(f"trained {_seeds(len(seeds))} x {out.timesteps:,} timesteps in "
+          f"{out.train_seconds:.1f} s "
           f"({out.steps_per_second:,.0f} steps/s) after {out.compile_seconds:.1f} s compiling; "
           f"policies saved as {run_dir}/seed<k>.msgpack{kept}", flush=True)  # fmt: skip
     interrupts.stage("evaluate")
@@ -637,6 +643,6 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             return 130
     env = run.config.env_kwargs or "default env"
     print(f"\nTest episodes (seed {TEST_SEED}), {run.config.env_id} {env}:\n{summary['table']}")
-    print(f"\n{len(run.seeds)} seeds on {summary['device']}: {summary['steps_per_second']:,.0f} "
+    print(f"\n{_seeds(len(run.seeds))} on {summary['device']}: {summary['steps_per_second']:,.0f} "
           f"steps/s; {wall_line(summary)}")  # fmt: skip
     return 0
