@@ -88,11 +88,18 @@ def median_rate(run, n: int, steps: int, repeats: int) -> float:
     return n * steps / median_seconds(run, repeats, warm_up=False)
 
 
+def xla(env_id: str, kwargs: dict) -> dict:
+    """`kwargs`, with the XLA kernel asked for where `env_id` is a JAX id: this benchmark
+    measures the kernels written for XLA (`benchmarks/speed/jax_host.py` the host kernel)."""
+    return {**kwargs, "kernel": "xla"} if env_id.startswith("tether_gym/") else kwargs
+
+
 def scan_program(env_id: str, kwargs: dict, n: int):
     """`jax scan` (module docstring) compiled ahead: `(compiled, carry)`, where `compiled(carry,
     steps)` runs `steps` fused steps of `n` copies in one `fori_loop` (`steps` is an argument:
     one program for every block length) and returns the carry to go on from."""
-    env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+    env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point",
+                       **xla(env_id, kwargs))  # fmt: skip
     state, key = env.reset_batch(jax.random.PRNGKey(0), env.params)[:2]
     width = env.single_action_space.shape[0]
 
@@ -145,7 +152,8 @@ def jax_scan_rate(compiled, carry, n: int, repeats: int) -> float:
 
 def vector_rate(env_id: str, kwargs: dict, n: int, repeats: int) -> float:
     """`jax vec` or `numba vec` (module docstring): Gymnasium's `step` in a Python loop."""
-    env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+    env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point",
+                       **xla(env_id, kwargs))  # fmt: skip
     env.reset(seed=0)
     rng = np.random.default_rng(0)
     width = env.single_action_space.shape[0]
@@ -168,7 +176,8 @@ def compile_once(env_id: str, kwargs: dict, n: int, precision: str) -> dict:
     """In this process: seconds to trace, lower and compile the fused step, and of the first
     call of the compiled step (`jit` with jax's configuration as the caller set it)."""
     jax.config.update("jax_enable_x64", precision == "float64")
-    env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+    env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point",
+                       **xla(env_id, kwargs))  # fmt: skip
     state, key, _ = jax.block_until_ready(env.reset_batch(jax.random.PRNGKey(0), env.params))
     actions = np.zeros((n, env.single_action_space.shape[0]))
     start = time.perf_counter()

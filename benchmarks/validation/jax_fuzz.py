@@ -65,7 +65,9 @@ def cell(ids: list[str], dynamics: str, control: str, maneuvers: int, num_envs: 
 
     configs = [configuration(env_id, dynamics, control) for env_id in ids]
     kwargs = {name: getattr(configs[0], name) for name in ("dynamics", "control", "coast")}
-    env = TetherNavigateJaxVectorEnv(num_envs, **configuration_kwargs(ids[0]), **kwargs)
+    env = TetherNavigateJaxVectorEnv(
+        num_envs, kernel="xla", **configuration_kwargs(ids[0]), **kwargs
+    )
     total, share = Counter(), -(-maneuvers // len(ids))
     for k, config in enumerate(configs):
         env.params = EnvParams.from_config(config)

@@ -617,12 +617,12 @@ def jax_navigate_agreement_table(
     (`benchmarks.validation.jax_navigate_agreement`): per dynamics x control over its ids, the
     cases, the worst difference of the outcome and of the observation where the outcome agrees,
     and the changed outcomes with their classes; the range ends (`variant`) in rows of their
-    own."""
+    own, named in the control's cell."""
     _check_sources(sources)
     lines = [
-        "| dynamics | control | arguments | ids | cases | worst outcome difference | worst "
-        "observation difference | changed outcomes | fused multiply-adds |",
-        "|---|---|---|---:|---:|---:|---:|---:|---|",
+        "| dynamics | control | ids | cases | worst outcome difference | worst observation "
+        "difference | changed outcomes | fused multiply-adds |",
+        "|---|---|---:|---:|---:|---:|---:|---|",
     ]
     notes = []
     for path in (path for p in sources for path in files_of(p, root)):
@@ -635,8 +635,9 @@ def jax_navigate_agreement_table(
         for (dynamics, control, variant, precision, fma), rows in cells.items():
             cases = sum(row["cases"] for row in rows)
             changed = sum(row["changed"] for row in rows)
+            at = "" if variant == "defaults" else " at " + variant.replace(",", ", ")
             lines.append(
-                f"| {dynamics} | {control} ({precision}) | {variant} | {len(rows)} | {cases:,} | "
+                f"| {dynamics} | {control} ({precision}){at} | {len(rows)} | {cases:,} | "
                 f"{max(row['worst_outcome'] for row in rows):.1e} | "
                 f"{max(row['worst_observation'] for row in rows):.1e} | {changed:,} "
                 f"({100 * changed / cases:.2f}%) | {'on' if fma else 'off'} |"

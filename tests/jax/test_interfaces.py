@@ -46,7 +46,7 @@ def test_importing_tether_gym_imports_no_jax():
 
 @pytest.mark.parametrize("dynamics", ["hybrid", "impulse"])
 def test_gym_make_gives_a_functional_jax_env_that_passes_check_env(dynamics):
-    env = gym.make(ENV_ID, dynamics=dynamics, disable_env_checker=True)
+    env = gym.make(ENV_ID, dynamics=dynamics, kernel="xla", disable_env_checker=True)
     assert isinstance(env.unwrapped, FunctionalJaxEnv)
     check_env(env.unwrapped, skip_render_check=True)
     obs, _ = env.reset(seed=3)
@@ -69,7 +69,7 @@ def test_the_single_env_refuses_what_the_numba_env_refuses():
         gym.make(ENV_ID, spin_disturbance=-1.0)
     with pytest.raises(ValueError, match="dynamics"):
         gym.make(ENV_ID, dynamics="pymunk")
-    env = gym.make(ENV_ID, dynamics="impulse", disable_env_checker=True)
+    env = gym.make(ENV_ID, dynamics="impulse", kernel="xla", disable_env_checker=True)
     with pytest.raises(ValueError, match="target_heading"):
         env.reset(options={"target_heading": 0.0})
     obs, _ = env.reset(seed=0, options={"task": "velocity", "target_speed": 2.0})
@@ -103,7 +103,7 @@ def test_the_vector_entry_point_steps_with_a_same_step_autoreset_like_the_numba_
     outcome of the same episodes (impulse dynamics: the hybrid contact under `vmap` is
     test_agreement's)."""
     env = gym.make_vec(ENV_ID, num_envs=8, vectorization_mode="vector_entry_point",
-                       dynamics="impulse")  # fmt: skip
+                       dynamics="impulse", kernel="xla")  # fmt: skip
     assert isinstance(env, TetherBounceJaxVectorEnv)
     obs, _ = env.reset(seed=0)
     assert isinstance(obs, np.ndarray) and env.observation_space.contains(obs)
@@ -133,7 +133,7 @@ def test_the_vector_entry_point_steps_with_a_same_step_autoreset_like_the_numba_
 
 
 def test_a_gymnax_convention_rollout_runs_under_vmap_and_jit():
-    env = TetherBounceGymnax(dynamics="impulse")  # the hybrid loop under vmap: test_agreement
+    env = TetherBounceGymnax(dynamics="impulse", kernel="xla")  # hybrid under vmap: test_agreement
     params = env.default_params
     n, steps = 16, 3
 

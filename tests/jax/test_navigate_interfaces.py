@@ -24,6 +24,8 @@ from tether_gym.jax.gymnax import TetherNavigateGymnax
 
 ENV_ID = "tether_gym/TetherNavigate_PostsReach-jax-v3"
 KWARGS = {"dynamics": "impulse", "max_maneuvers": 3}
+JAX_KWARGS = {**KWARGS, "kernel": "xla"}
+"""The XLA kernel's interfaces (`test_host.py` holds the host kernel to numba)."""
 
 
 def test_every_navigation_id_has_a_jax_id_from_the_family_record():
@@ -37,7 +39,7 @@ def test_every_navigation_id_has_a_jax_id_from_the_family_record():
 
 
 def test_check_env_passes_and_a_truncation_is_reported_as_the_numba_env_does():
-    env = gym.make(ENV_ID, **KWARGS, disable_env_checker=True)
+    env = gym.make(ENV_ID, **JAX_KWARGS, disable_env_checker=True)
     check_env(env.unwrapped, skip_render_check=True)
     numba_env = gym.make("TetherNavigate_PostsReach-v3", **KWARGS)
     assert env.observation_space == numba_env.observation_space  # the goal dict
@@ -61,7 +63,7 @@ def test_check_env_passes_and_a_truncation_is_reported_as_the_numba_env_does():
 
 
 def test_the_vector_entry_point_returns_numpy_goal_dicts_with_a_same_step_autoreset():
-    env = gym.make_vec(ENV_ID, num_envs=6, vectorization_mode="vector_entry_point", **KWARGS)
+    env = gym.make_vec(ENV_ID, num_envs=6, vectorization_mode="vector_entry_point", **JAX_KWARGS)
     obs, _ = env.reset(seed=0)
     assert isinstance(obs["observation"], np.ndarray) and obs["desired_goal"].shape == (6, 2)
     for _ in range(4):
@@ -75,7 +77,7 @@ def test_the_vector_entry_point_returns_numpy_goal_dicts_with_a_same_step_autore
 
 
 def test_a_gymnax_convention_navigation_rollout_runs_under_vmap_and_jit():
-    env = TetherNavigateGymnax(**KWARGS)
+    env = TetherNavigateGymnax(**JAX_KWARGS)
     params = env.default_params
     n, steps = 8, 4
 
