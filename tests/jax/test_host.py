@@ -263,3 +263,41 @@ def test_float32_rounds_the_numba_result():
         kernel = TetherBounceKernel(BounceConfig())
         expected, _ = kernel.reset(bounce_u[:, : kernel.n_uniforms].astype(np.float64))
         assert_same(episodes, expected.astype(np.float32), "bounce")
+
+
+@pytest.mark.parametrize(
+    ("env_id", "kwargs"),
+    [("tether_gym/TetherBounce-jax-v0", {"dynamics": "hybrid"}),
+     ("tether_gym/TetherNavigate_PostsReach-jax-v3", {"dynamics": "impulse", "control": "aim"})],
+)  # fmt: skip
+def test_the_host_vector_env_steps_in_one_call_as_the_generic_step_would(env_id, kwargs):
+    """The Gymnasium vector env on the host kernel steps through the host FuncEnv's fused
+    `step_autoreset` (one numba call a step), with the outputs of the generic step (`step`,
+    reset, select and two observations, each a callback) from the same key."""
+    from tether_gym.jax.base import KernelFuncEnv
+
+    env = gym.make_vec(env_id, num_envs=N, vectorization_mode="vector_entry_point",
+                       kernel="host", **kwargs)  # fmt: skip
+    func = env.unwrapped.func_env if hasattr(env, "unwrapped") else env.func_env
+    assert type(func).step_autoreset is not KernelFuncEnv.step_autoreset
+    env.reset(seed=SEED)
+    generic = jax.jit(
+        jax.vmap(lambda *a: KernelFuncEnv.step_autoreset(func, *a), in_axes=(0, 0, 0, None))
+    )
+    rng = np.random.default_rng(SEED)
+    for _ in range(3):
+        actions = rng.uniform(-1.0, 1.0, (N, env.single_action_space.shape[0]))
+        key, draw = jax.random.split(env._key)
+        uniforms = jax.random.uniform(draw, (N, func.n_uniforms), dtype=jax.numpy.float64)
+        expected = generic(env.state, actions, uniforms, env.params)
+        state, new_key, obs, final_obs, outcome = env.step_batch(
+            env.state, actions, env._key, env.params
+        )
+        for ours, theirs in zip(
+            (*jax.tree.leaves(state), obs, final_obs, outcome),
+            (*jax.tree.leaves(expected[0]), *expected[1:]),
+            strict=True,
+        ):
+            np.testing.assert_array_equal(np.asarray(ours), np.asarray(theirs))
+        assert np.array_equal(np.asarray(new_key), np.asarray(key))
+        env.step(actions)

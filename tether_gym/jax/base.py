@@ -96,6 +96,17 @@ class KernelFuncEnv(FuncEnv):
             state.outcome[..., index["truncated"]] != 0.0
         )
 
+    def step_autoreset(self, state, action: jax.Array, uniforms: jax.Array, params):
+        """One copy's step and, where its episode ended, a new episode from `uniforms`: (next
+        state, its observation, the observation the step ended on, the step's outcome); the
+        vector env's step under `vmap`. The host kernels do it in one numba call."""
+        stepped = self.transition(state, action, None, params)
+        fresh = self.initial_from_uniforms(uniforms, params)
+        ended = self.terminal(stepped, None, params)
+        state = jax.tree.map(lambda new, old: jnp.where(ended, new, old), fresh, stepped)
+        observe = self.observation
+        return state, observe(state, None, params), observe(stepped, None, params), stepped.outcome
+
     def transition_info(self, state, action, next_state, params=None) -> dict[str, Any]:
         """The numba env's `info` of the step, from `next_state`'s outcome."""
         return outcome_info(self.kernel.outcome, next_state.outcome)
@@ -223,26 +234,16 @@ class JaxVectorEnv(VectorEnv):
 
     def _step_batch(self, state, actions: jax.Array, key: jax.Array, params):
         """(state, key, obs, final obs, outcome): step every copy, then start anew those whose
-        episode ended, each from its own uniforms (`final obs` the observations they ended on)."""
-        func = self.func_env
-        stepped = jax.vmap(func.transition, in_axes=(0, 0, None, None))(
-            state, actions, None, params
+        episode ended, each from its own uniforms (`final obs` the observations they ended on):
+        the FuncEnv's `step_autoreset` under `vmap`, the uniforms drawn as `_reset_batch`
+        draws them."""
+        key, draw = jax.random.split(key)
+        uniforms = jax.random.uniform(
+            draw, (self.num_envs, self.func_env.n_uniforms), dtype=float_dtype()
         )
-        fresh, key, _ = self._reset_batch(key, params)
-        ended = jax.vmap(func.terminal, in_axes=(0, None, None))(stepped, None, params)
-
-        def pick(new, old):
-            return jnp.where(ended.reshape(ended.shape + (1,) * (new.ndim - 1)), new, old)
-
-        state = jax.tree.map(pick, fresh, stepped)
-        observe = jax.vmap(func.observation, in_axes=(0, None, None))
-        return (
-            state,
-            key,
-            observe(state, None, params),
-            observe(stepped, None, params),
-            (stepped.outcome),
-        )
+        step = jax.vmap(self.func_env.step_autoreset, in_axes=(0, 0, 0, None))
+        state, obs, final_obs, outcome = step(state, actions, uniforms, params)
+        return state, key, obs, final_obs, outcome
 
     def reset(
         self,

@@ -415,6 +415,13 @@ class HostBounceFunctional(bounce.TetherBounceFunctional):
     def observation(self, state, rng=None, params=None) -> jax.Array:
         return BOUNCE.host_observe(state.episode)
 
+    def step_autoreset(self, state, action, uniforms, params):
+        """`KernelFuncEnv.step_autoreset` in one numba call (every episode ends at its step)."""
+        episode, obs, final_obs, outcome = BOUNCE.host_step_autoreset(
+            state.episode, action, uniforms, params
+        )
+        return bounce.EnvState(episode, jnp.zeros_like(outcome)), obs, final_obs, outcome
+
 
 class HostNavigateFunctional(navigate.TetherNavigateFunctional):
     """`TetherNavigateFunctional` on the numba kernel (`NAVIGATE`: reset, step,
@@ -430,6 +437,10 @@ class HostNavigateFunctional(navigate.TetherNavigateFunctional):
     def observation(self, state, rng=None, params=None) -> jax.Array:
         params = self.default_params if params is None else params
         return NAVIGATE.host_observe(state, params)
+
+    def step_autoreset(self, state, action, uniforms, params):
+        """`KernelFuncEnv.step_autoreset` in one numba call."""
+        return NAVIGATE.host_step_autoreset(state, action, uniforms, params)
 
 
 FUNCTIONALS = {
