@@ -129,6 +129,7 @@ def host_call(
     results, start = [], 0
     for lane_shape, lane_dtype in out:
         size = math.prod(lane_shape)
+        lane_dtype = jax.dtypes.canonicalize_dtype(lane_dtype)  # float64 is float32 without x64
         results.append(packed[start : start + size].reshape(lane_shape).astype(lane_dtype))
         start += size
     return results

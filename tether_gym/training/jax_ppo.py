@@ -78,6 +78,7 @@ from tether_gym.agents.jax_policy import (
     save_policy,
 )
 from tether_gym.families import config_arguments, family, load
+from tether_gym.jax.base import float_dtype
 
 SUPPORTED_KWARGS = {
     "learning_rate", "n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "clip_range",
@@ -389,8 +390,11 @@ def make_stages(config: PPOConfig):
     tx = optax.chain(optax.clip_by_global_norm(config.max_grad_norm), optax.scale_by_adam(eps=1e-5))
     n_envs, n_steps, n_mb = config.n_envs, config.n_steps, config.n_minibatches
     total_mb = config.n_epochs * n_mb
-    vstep = jax.vmap(env.step_env, in_axes=(0, 0, 0, None))
+    func = env.func_env
+    vstep = jax.vmap(func.step_autoreset, in_axes=(0, 0, 0, None))
     vreset = jax.vmap(env.reset_env, in_axes=(0, None))
+    column = func.kernel.outcome.index
+    success_column = column.get("is_success")
 
     def init(key: jax.Array) -> RunnerState:
         key, k_net, k_env = jax.random.split(key, 3)
@@ -403,18 +407,17 @@ def make_stages(config: PPOConfig):
         mean, log_std, value = net.apply(state.params, state.obs)
         action = mean + jnp.exp(log_std) * jax.random.normal(k_act, mean.shape)
         log_prob = gaussian_log_prob(action, mean, log_std)
-        keys = jax.vmap(jax.random.split)(jax.random.split(k_step, n_envs))  # as env.step's
-        obs, env_state, reward, done, info = vstep(
-            keys[:, 0], state.env_state, jnp.clip(action, low, high), env_params
+        # the step and the finished episodes' next ones, in one call (one numba call on a CPU)
+        uniforms = jax.random.uniform(k_step, (n_envs, func.n_uniforms), dtype=float_dtype())
+        env_state, obs, final_obs, outcome = vstep(
+            state.env_state, jnp.clip(action, low, high), uniforms, env_params
         )
+        reward, truncated = outcome[:, column["reward"]], outcome[:, column["truncated"]] != 0.0
+        done = (outcome[:, column["terminated"]] != 0.0) | truncated
         if config.gamma > 0.0:  # SB3: a truncated episode's last reward + gamma V(its last obs)
-            _, _, last_value = net.apply(state.params, obs)
-            reward = reward + config.gamma * last_value * info["truncated"]
-        new_obs, new_state = vreset(keys[:, 1], env_params)  # the finished episodes' next
-        env_state = jax.tree.map(lambda a, b: jnp.where(_lanes(done, a), a, b), new_state,
-                                 env_state)  # fmt: skip
-        obs = jnp.where(done[:, None], new_obs, obs)
-        success = info.get("is_success", jnp.zeros_like(reward))
+            _, _, last_value = net.apply(state.params, final_obs)
+            reward = reward + config.gamma * last_value * truncated
+        success = jnp.zeros_like(reward) if success_column is None else outcome[:, success_column]
         transition = Transition(
             state.obs, action, log_prob, value, reward.astype(jnp.float32),
             done.astype(jnp.float32), success.astype(jnp.float32),
@@ -520,11 +523,6 @@ def make_stages(config: PPOConfig):
         return lax.scan(step, state, jnp.arange(count))
 
     return init, update
-
-
-def _lanes(done: jax.Array, leaf: jax.Array) -> jax.Array:
-    """`done` (n,) broadcast against a state leaf (n, ...)."""
-    return done.reshape(done.shape + (1,) * (leaf.ndim - 1))
 
 
 def policy_config(config: PPOConfig) -> PolicyConfig:
