@@ -216,9 +216,9 @@ def test_the_compile_step_says_what_it_compiles_and_how_long_it_took_last_time(
         ": the envs' reset and one XLA program of 10 updates (each the rollout of 64 envs x 2 "
         "steps, its advantages, 10 epochs of 2 minibatches; 30 updates in all);" in said
     )
-    assert said.endswith("; not compiled here before (minutes on a loaded CPU) ...")
+    assert said.endswith("; not compiled here before ...")
     jax_ppo._record_compile(config, 2, 10, 61.04, hit=False)
-    assert said.replace("not compiled here before (minutes on a loaded CPU)", "61.0 s last time") \
+    assert said.replace("not compiled here before", "61.0 s last time") \
         == jax_ppo.describe_compile(config, 2, 10, resume=False)  # fmt: skip
     jax_ppo._record_compile(config, 2, 10, 3.0, hit=True)
     assert jax_ppo.describe_compile(config, 2, 10, resume=True).endswith(

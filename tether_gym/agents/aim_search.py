@@ -74,15 +74,20 @@ class AimSearch:
 
     def scores(self, states: np.ndarray) -> np.ndarray:
         """Every candidate's score (n, waypoints x speeds), waypoint-major in the order tried:
-        2 if its maneuver meets the goal, 1 if the direct shot after it does, else 0."""
+        `score_actions` of each."""
         n, k, s = len(states), len(self.offsets), len(self.speeds)
         candidates = np.broadcast_to(np.arange(k * s), (n, k * s))
-        after, _, first = self.kernel.step(
-            np.repeat(states, k * s), self.actions(states, candidates).reshape(-1, 3)
-        )
+        actions = self.actions(states, candidates).reshape(-1, 3)
+        return self.score_actions(np.repeat(states, k * s), actions).reshape(n, k * s)
+
+    def score_actions(self, states: np.ndarray, actions: np.ndarray) -> np.ndarray:
+        """The score (n,) of normalized aim actions (n, 3) from `STATE` records (n,): 2 if the
+        maneuver meets the goal, 1 if the direct shot after it does, else 0 (how the search
+        ranks its candidates, and how any aim-control policy's action can be ranked beside
+        them)."""
+        after, _, first = self.kernel.step(states, actions)
         ended = (first[:, OUT.terminated] != 0) | (first[:, OUT.truncated] != 0)
         goal_after = np.stack([after["goal_x"], after["goal_y"]], axis=-1)
         final = np.full(len(after), self.final_speed)
         _, _, second = self.kernel.step(after, aim_actions(goal_after, final))
-        score = 2.0 * (first[:, OUT.is_success] != 0) + ((second[:, OUT.is_success] != 0) & ~ended)
-        return score.reshape(n, k * s)
+        return 2.0 * (first[:, OUT.is_success] != 0) + ((second[:, OUT.is_success] != 0) & ~ended)

@@ -714,7 +714,7 @@ def describe_compile(config: PPOConfig, seeds: int, chunk: int, resume: bool) ->
     if path is None:
         return f"{what}; jax's compilation cache is off ..."
     if last is None:
-        return f"{what}; not compiled here before (minutes on a loaded CPU) ..."
+        return f"{what}; not compiled here before ..."
     if not last.get("from_cache"):
         return f"{what}; {last['seconds']:.1f} s last time ..."
     compiled = last.get("compiled_seconds")
