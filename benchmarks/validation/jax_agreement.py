@@ -5,8 +5,8 @@ A case is a configuration of TetherBounce-v0 (a task, a dynamics, the defaults o
 documented range randomized: `WIDE`) with uniforms and actions drawn from a seeded generator,
 some actions beyond [-1, 1] (clipped by both). The numba side is the env's kernel through its
 public functions (`TetherBounceKernel.reset(uniforms)`, `.step(state, actions)`); the JAX side is
-`tether_gym.jax.bounce` under `jit` and `vmap`, fed the same uniforms (the numba kernel reads the
-first `n_uniforms` of the `UNIFORMS` the JAX kernel takes, in the same order).
+`tether_gym.jax.tether_bounce.kernel` under `jit` and `vmap`, fed the same uniforms (the numba
+kernel reads the first `n_uniforms` of the `UNIFORMS` the JAX kernel takes, in the same order).
 
 Differences are |jax - numba| / max(1, |numba|) (relative, or absolute for values under 1: m/s,
 rad, reward), angles (`deflection`, `heading_error`) folded into (-pi, pi]; flags and the task
@@ -40,7 +40,13 @@ from tether_gym.envs.tether_bounce.kernel import (
     TetherBounceKernel,
 )
 from tether_gym.evaluation import results_file
-from tether_gym.jax.bounce import UNIFORMS, EnvParams, observe, sample_episode, step_episode
+from tether_gym.jax.tether_bounce.kernel import (
+    UNIFORMS,
+    EnvParams,
+    observe,
+    sample_episode,
+    step_episode,
+)
 
 TASKS = ("heading", "velocity", "deadspin", "mixed")
 DYNAMICS = ("impulse", "hybrid")

@@ -8,12 +8,12 @@ same uniforms and actions, played to each side's end, and the outcomes compared
 
 A cell is a ladder id, a dynamics and a control mode (the id's own, `setup`, by default;
 `jax_navigate_agreement.CONTROLS`). Its episodes start from seeded uniforms, the numba kernel's
-(`NavigateKernel.reset`) and `tether_gym.jax.navigate.sample_episode` from the same rows (the
-JAX side consumes them in the numba order: the starts must be equal, `start_difference`), and
-each side plays the same seeded random actions, maneuver by maneuver, from its own state until
+(`NavigateKernel.reset`) and `tether_gym.jax.tether_navigate.kernel.sample_episode` from the same
+rows (the JAX side consumes them in the numba order: the starts must be equal, `start_difference`),
+and each side plays the same seeded random actions, maneuver by maneuver, from its own state until
 its episode ends (terminated or truncated; no autoreset). An episode's outcome is its last
-maneuver's `is_success`, `hit_post`, `at_rest` and `truncated` and its count of maneuvers
-(`ENDS`); the two sides' outcomes are the same or the episode is changed.
+maneuver's `is_success`, `hit_post`, `at_rest` and `truncated` and its count of maneuvers (`ENDS`);
+the two sides' outcomes are the same or the episode is changed.
 
 A changed episode is explained at its first maneuver where the two sides part: their flags or
 counts differ, they hooked other pegs (`jax_navigate_agreement.SAME_PEG`), or a continuous
@@ -113,7 +113,7 @@ def numba_step(config: NavigateConfig):
 
 def after(states: np.ndarray, out: np.ndarray) -> np.ndarray:
     """The states after maneuvers whose outcome rows are `out`: the puck and the maneuvers left
-    from the row (`jax.navigate.step_episode` sets those and nothing else)."""
+    from the row (`jax.tether_navigate.kernel.step_episode` sets those and nothing else)."""
     new = states.copy()
     new["x"], new["y"] = out[:, _column("position")].T
     new["vx"], new["vy"] = out[:, _column("velocity")].T
@@ -151,7 +151,7 @@ def starts(config: NavigateConfig, uniforms: np.ndarray) -> tuple[np.ndarray, np
     """(numba's, JAX's) first states of the episodes drawn from `uniforms` (n, `UNIFORMS`)."""
     import jax
 
-    from tether_gym.jax import navigate as jn
+    from tether_gym.jax.tether_navigate import kernel as jn
 
     kernel = NavigateKernel(config)
     numba_states, _ = kernel.reset(np.ascontiguousarray(uniforms[:, : kernel.n_uniforms]))
@@ -396,7 +396,7 @@ def draws(config: NavigateConfig, seed: int, episodes) -> tuple[np.ndarray, np.n
     """(uniforms (n, `UNIFORMS`), actions (n, max_maneuvers, width) in [-1, 1]) of the given
     episodes, episode i's from its own generator `default_rng((seed, i))`: a cell's first n
     episodes are those of any larger run, and (seed, i) replays one."""
-    from tether_gym.jax import navigate as jn
+    from tether_gym.jax.tether_navigate import kernel as jn
 
     width = len(NavigateKernel(config).action)
     uniforms = np.empty((len(episodes), jn.UNIFORMS))

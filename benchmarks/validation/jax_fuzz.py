@@ -61,7 +61,7 @@ def cell(ids: list[str], dynamics: str, control: str, maneuvers: int, num_envs: 
     """`fuzz` of each id in turn, `maneuvers` over them all, through one vector env of the
     dynamics and control mode: an id is its `EnvParams` (traced), so the step compiles once."""
     from tether_gym.jax.envs import TetherNavigateJaxVectorEnv
-    from tether_gym.jax.navigate import EnvParams
+    from tether_gym.jax.tether_navigate.kernel import EnvParams
 
     configs = [configuration(env_id, dynamics, control) for env_id in ids]
     kwargs = {name: getattr(configs[0], name) for name in ("dynamics", "control", "coast")}

@@ -7,7 +7,7 @@ uniforms (`NavigateKernel.reset`), then played on by up to `WARMUP` maneuvers of
 (an ended episode starts anew), so that the puck starts spinning, near walls and posts, late in
 its episode; each case is the state after a random number of those maneuvers. Both kernels then
 play one maneuver from it with the same action: the numba kernel's `step`, and
-`tether_gym.jax.navigate.step_episode` under `jit` and `vmap` (float64).
+`tether_gym.jax.tether_navigate.kernel.step_episode` under `jit` and `vmap` (float64).
 
 Differences are |jax - numba| / max(1, |numba|) per outcome column (m, m/s, rad, reward:
 absolute below 1), the folded angles (`tether_angle`, `offset_angle`, `wheel_target`) folded
@@ -126,7 +126,7 @@ _STEPS: dict = {}
 
 
 def _jax_step(dynamics: str):
-    from tether_gym.jax import navigate as jn
+    from tether_gym.jax.tether_navigate import kernel as jn
 
     if dynamics not in _STEPS:
 
@@ -144,7 +144,7 @@ def _jax_step(dynamics: str):
 
 def jax_side(config: NavigateConfig, states, actions):
     """(observation, outcome) of the JAX kernel, numpy float64."""
-    from tether_gym.jax import navigate as jn
+    from tether_gym.jax.tether_navigate import kernel as jn
 
     params = jn.EnvParams.from_config(config)
     obs, out = _jax_step(config.dynamics)(

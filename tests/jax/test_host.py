@@ -23,9 +23,9 @@ from tether_gym.envs.fields import InfoLayout  # noqa: E402
 from tether_gym.envs.tether_bounce.kernel import BounceConfig, TetherBounceKernel  # noqa: E402
 from tether_gym.envs.tether_navigate.arguments import NavigateConfig  # noqa: E402
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel  # noqa: E402
-from tether_gym.jax import bounce as jb  # noqa: E402
 from tether_gym.jax import host  # noqa: E402
-from tether_gym.jax import navigate as jn  # noqa: E402
+from tether_gym.jax.tether_bounce import kernel as jb  # noqa: E402
+from tether_gym.jax.tether_navigate import kernel as jn  # noqa: E402
 
 N, STEPS, SEED = 6, 5, 3
 CASES = [

@@ -27,13 +27,13 @@ from tether_gym.envs.tether_bounce.kernel import (  # noqa: E402
     BounceConfig,
     TetherBounceKernel,
 )
-from tether_gym.jax.bounce import (  # noqa: E402
+from tether_gym.jax.envs import TetherBounceJaxVectorEnv  # noqa: E402
+from tether_gym.jax.gymnax import TetherBounceGymnax  # noqa: E402
+from tether_gym.jax.tether_bounce.kernel import (  # noqa: E402
     EnvParams,
     TetherBounceFunctional,
     step_episode,
 )
-from tether_gym.jax.envs import TetherBounceJaxVectorEnv  # noqa: E402
-from tether_gym.jax.gymnax import TetherBounceGymnax  # noqa: E402
 from tether_gym.tasks.bounce import REWARD_TERMS  # noqa: E402
 
 ENV_ID = "tether_gym/TetherBounce-jax-v0"

@@ -20,15 +20,15 @@ differ by rounding only, which the stiff spring amplifies over a contact's hundr
 stays a hundred times below the accuracy the numba integrator is held to against the scipy
 reference (1e-6, `tests/physics/test_hybrid.py`).
 
-Velocity and aim control (`controls.velocity`), with and without `coast`: the set-up search is
-the numba one, every score computed in full (`jax.navigate_velocity`). Its golden-section
-steps compare scores that are equal in exact arithmetic where the score is flat (a clipped
-moment arm, a miss set by a wall), and the wheel's bisection and the flight's tautening compare
-against thresholds that a set-up at a right angle (offset +-pi/2) meets exactly: rounding
-decides those, and the set-up moves within the last bracket. The cases whose continuous
-outcome differs by more than `benchmarks.validation.jax_navigate_agreement.DIVERGED` count as
-changed (classed there); the others agree within `AIMED_TOLERANCE` (measured: 1e-6 at worst, spin
-after a set-up a golden-section step apart).
+Velocity and aim control (`controls.velocity`), with and without `coast`: the set-up search is the
+numba one, every score computed in full (`jax.tether_navigate.controls.velocity`). Its
+golden-section steps compare scores that are equal in exact arithmetic where the score is flat (a
+clipped moment arm, a miss set by a wall), and the wheel's bisection and the flight's tautening
+compare against thresholds that a set-up at a right angle (offset +-pi/2) meets exactly: rounding
+decides those, and the set-up moves within the last bracket. The cases whose continuous outcome
+differs by more than `benchmarks.validation.jax_navigate_agreement.DIVERGED` count as changed
+(classed there); the others agree within `AIMED_TOLERANCE` (measured: 1e-6 at worst, spin after a
+set-up a golden-section step apart).
 """
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ def test_hybrid_maneuvers_agree_with_the_numba_kernel(env_id):
 
 @pytest.mark.parametrize("env_id", IDS[::4])
 def test_the_reset_draws_the_numba_episode(env_id):
-    from tether_gym.jax import navigate as jn
+    from tether_gym.jax.tether_navigate import kernel as jn
 
     config = configuration(env_id, "impulse")
     kernel = NavigateKernel(config)
@@ -110,7 +110,7 @@ def test_the_reset_draws_the_numba_episode(env_id):
 
 
 def test_compute_reward_relabels_as_the_numba_task():
-    from tether_gym.jax import navigate as jn
+    from tether_gym.jax.tether_navigate import kernel as jn
 
     config = configuration("TetherNavigate_PostsReach-v3", "impulse")
     states, actions = cases(config, 64, 3)
@@ -139,11 +139,11 @@ def test_compute_reward_relabels_as_the_numba_task():
 
 AIMED_TOLERANCE = DIVERGED
 AIMED = (("TetherNavigate_WallStop-v3", "impulse", "aim+coast", 12),)
-"""(id, dynamics, control, cases): a sample of the aimed controls, impulse dynamics: aim with
-coast runs the set-up search that velocity control runs (`jax.navigate_velocity`) and the
-coast after it. The hybrid contact is held to numba's by the set-up tests above; the other
-aimed cells, whose programs take the longest to compile, are measured by the benchmark (1,000
-to 10,000 cases per id) and fuzzed by `benchmarks.validation.jax_fuzz`."""
+"""(id, dynamics, control, cases): a sample of the aimed controls, impulse dynamics: aim with coast
+runs the set-up search that velocity control runs (`jax.tether_navigate.controls.velocity`) and the
+coast after it. The hybrid contact is held to numba's by the set-up tests above; the other aimed
+cells, whose programs take the longest to compile, are measured by the benchmark (1,000 to 10,000
+cases per id) and fuzzed by `benchmarks.validation.jax_fuzz`."""
 MAX_AIMED_CHANGED = 2
 """Changed outcomes allowed per aimed cell (measured: about 1 in 150, in the classes of the
 module docstring)."""
@@ -166,12 +166,14 @@ def test_the_flights_event_times_are_the_numba_ones_bit_for_bit():
     lane's puck against all its posts or angles at once, are numba's to the last bit: XLA's
     algebraic simplifier turns a division by a value broadcast over an array (or by a
     constant) into a multiplication by its reciprocal, an ulp off in about one case in three
-    (`navigate_physics.divide` keeps it a division). The aim search puts many tautenings at
-    the end of their stretch, a post's touch, where the flight's `t <= t_end` then decided the
-    other way and the maneuver ended otherwise."""
+    (`jax.tether_navigate.flight.divide` keeps it a division). The aim search puts many
+    tautenings at the end of their stretch, a post's touch, where the flight's `t <= t_end` then
+    decided the other way and the maneuver ended otherwise. The JAX functions are the numba
+    ones' twins in the registry (`jax.twins`)."""
     from tether_gym.envs.tether_navigate import flight, geometry
-    from tether_gym.jax import navigate as jn
-    from tether_gym.jax import navigate_physics as nav
+    from tether_gym.jax.tether_navigate import flight as nav
+    from tether_gym.jax.tether_navigate import kernel as jn
+    from tether_gym.jax.twins import jax_twin
     from tether_gym.physics.state import PuckState
 
     config = configuration("TetherNavigate_PostsReach-v3", "impulse", "setup", "wheel_rate=1e4")
@@ -182,9 +184,12 @@ def test_the_flights_event_times_are_the_numba_ones_bit_for_bit():
     length = 0.5 * (1.0 + np.random.default_rng(6).random(CASES))
     grid = -0.5 * np.pi + np.arange(flight.WHEEL_GRID) * np.pi / (flight.WHEEL_GRID - 1)
 
+    first_post_hit, wheel_crossing = (jax_twin(f) for f in (geometry.first_post_hit,
+                                                            flight.wheel_crossing))  # fmt: skip
+
     def events(p, posts, n_posts, ax, ay, tether):
-        touch = nav.first_post_hit(p, posts, n_posts, 10.0, True)
-        crossing, _ = nav.wheel_crossing(p, ax, ay, tether, grid, 0.0, 10.0, 1e4, 0.0)
+        touch = first_post_hit(p, posts, n_posts, 10.0, True)
+        crossing, _ = wheel_crossing(p, ax, ay, tether, grid, 0.0, 10.0, 1e4, 0.0)
         return touch, crossing
 
     touch, crossing = jax.jit(jax.vmap(events))(

@@ -1,7 +1,7 @@
 """The Gymnasium envs of the JAX backend: TetherBounce-v0's and TetherNavigate-v3's, single and
 vector, on either kernel (`kernel`: "host", the numba kernels called from the jitted step,
-`jax.host`; "xla", the kernels of `jax.bounce` and `jax.navigate`; None: host on a CPU, XLA on an
-accelerator). They sit above both kernels, so that neither imports the other."""
+`jax.host`; "xla", the kernels of `jax.tether_bounce` and `jax.tether_navigate`; None: host on a
+CPU, XLA on an accelerator). They sit above both kernels, so that neither imports the other."""
 
 from __future__ import annotations
 

@@ -2,15 +2,14 @@
 
 `host_sample_episode`, `host_step_episode`, `host_observe` and `host_step_autoreset` of each
 family (`BounceHost`, `NavigateHost`, instances `BOUNCE` and `NAVIGATE`) take and return what
-the XLA kernels' `sample_episode`, `step_episode` and `observe` do (`jax.bounce`,
-`jax.navigate`), but compute it
-with the numba kernels (`envs.tether_bounce.kernel`, `envs.tether_navigate.kernel`: reset,
-step, the fused step with its autoreset, the aimed controls' searches) through
-`jax.pure_callback(..., vmap_method="expand_dims")`: under `jax.vmap` the callback receives
-the whole batch and runs one numba call over it, not one per lane; under `jit` it is one node
-of the compiled program. They are the numba envs: in float64 (`jax_enable_x64`) the outputs
-equal the numba env's bit for bit; in float32 the inputs are widened to float64 for the kernel
-and its outputs rounded back.
+the XLA kernels' `sample_episode`, `step_episode` and `observe` do
+(`jax.tether_bounce.kernel`, `jax.tether_navigate.kernel`), but compute it with the numba kernels
+(`envs.tether_bounce.kernel`, `envs.tether_navigate.kernel`: reset, step, the fused step with its
+autoreset, the aimed controls' searches) through `jax.pure_callback(...,
+vmap_method="expand_dims")`: under `jax.vmap` the callback receives the whole batch and runs one
+numba call over it, not one per lane; under `jit` it is one node of the compiled program. They
+are the numba envs: in float64 (`jax_enable_x64`) the outputs equal the numba env's bit for bit;
+in float32 the inputs are widened to float64 for the kernel and its outputs rounded back.
 
 Why: XLA's CPU runtime dispatches every fusion of the XLA kernels separately and runs each
 lane's loops at the width of the longest one, so on a CPU they step TetherNavigate 25-240 times
@@ -48,8 +47,9 @@ from tether_gym.envs.tether_navigate.sampling import reset_rows
 from tether_gym.envs.tether_navigate.spaces import OBSERVATION as NAVIGATE_OBSERVATION
 from tether_gym.envs.tether_navigate.spaces import OUTCOME as NAVIGATE_OUTCOME
 from tether_gym.envs.tether_navigate.spaces import observe_all
-from tether_gym.jax import bounce, navigate
 from tether_gym.jax.base import KernelFuncEnv, float_dtype
+from tether_gym.jax.tether_bounce import kernel as bounce
+from tether_gym.jax.tether_navigate import kernel as navigate
 from tether_gym.physics.models import DYNAMICS
 
 KERNELS = ("host", "xla")
@@ -165,7 +165,8 @@ def _param_values(params, leaves: Sequence[np.ndarray]) -> dict[str, np.ndarray]
 
 
 class BounceHost:
-    """TetherBounce's numba kernel behind the XLA kernel's functions (`jax.bounce`)."""
+    """TetherBounce's numba kernel behind the XLA kernel's functions
+    (`jax.tether_bounce.kernel`)."""
 
     @staticmethod
     @_cached
@@ -255,7 +256,8 @@ class BounceHost:
 
 
 class NavigateHost:
-    """TetherNavigate's numba kernel behind the XLA kernel's functions (`jax.navigate`)."""
+    """TetherNavigate's numba kernel behind the XLA kernel's functions
+    (`jax.tether_navigate.kernel`)."""
 
     @staticmethod
     @_cached
@@ -426,7 +428,12 @@ class HostBounceFunctional(bounce.TetherBounceFunctional):
 
 class HostNavigateFunctional(navigate.TetherNavigateFunctional):
     """`TetherNavigateFunctional` on the numba kernel (`NAVIGATE`: reset, step,
-    observation): the same arguments, states, params and outputs."""
+    observation): the same arguments, states, params and outputs, in every control mode."""
+
+    @staticmethod
+    def check_control(control: str) -> None:
+        """Every control mode: the numba kernel plays them all (`NavigateConfig` has checked
+        the name)."""
 
     def initial_from_uniforms(self, uniforms: jax.Array, params) -> navigate.EnvState:
         return NAVIGATE.host_sample_episode(uniforms, params)

@@ -42,7 +42,7 @@ from tether_gym.envs.tether_navigate.config import (
     TABLE_WIDTH,
 )
 from tether_gym.jax import physics
-from tether_gym.jax.navigate_physics import Puck, select
+from tether_gym.jax.tether_navigate.flight import Puck, select
 from tether_gym.physics.hybrid import MAX_STEPS, RK4_STEPS_PER_HALF_PERIOD
 from tether_gym.physics.obstacles import (
     MAX_HALVINGS,

@@ -5,8 +5,9 @@ The same episode, observation, action, reward and info as the numba kernel, from
 declarations: the configuration and its checks (`NavigateConfig`, `PARAMS`), the fields
 (`OBSERVATION`, `OUTCOME`, the control mode's action), the table and the puck
 (`tether_navigate.config`), the task's constants (`tasks.navigate`). The physics is
-`jax.navigate_physics` (flight, wheel, walls, posts, coast, the impulse contact) and
-`jax.navigate_hybrid` (the hybrid contact among the walls and posts).
+`jax.tether_navigate.flight` (flight, wheel, walls, posts, coast, the impulse contact) and
+`jax.tether_navigate.hybrid` (the hybrid contact among the walls and posts); the set-up of each
+control mode is its `ControlMode` record's solver in JAX (`jax.tether_navigate.controls`).
 
 - `sample_episode(uniforms, params)`: an episode from `UNIFORMS` uniforms, consumed in the
   numba kernel's order (`sampling.sample`): the first `NavigateConfig.n_uniforms()` are those the
@@ -17,7 +18,7 @@ declarations: the configuration and its checks (`NavigateConfig`, `PARAMS`), the
 Written for XLA: `EnvParams.dynamics` and `EnvParams.control` are static (they pick the code
 that is traced); everything else (the task, the reward type, the table, the wheel, `coast`) is
 traced, both sides computed and selected, so a stack of `EnvParams` of one dynamics and control
-is a sweep that `jax.vmap` runs. The loops' caps are stated in `jax.navigate_physics`.
+is a sweep that `jax.vmap` runs. The loops' caps are stated in `jax.tether_navigate.flight`.
 
 A NaN action gives NaN set-ups and outcomes (the numba kernel leaves such a row untouched and
 the Gymnasium envs refuse it before the step); an out-of-range one is clipped, as in the numba
@@ -51,17 +52,15 @@ from tether_gym.envs.tether_navigate.config import (
     STATE,
 )
 from tether_gym.envs.tether_navigate.controls import control_mode
-from tether_gym.envs.tether_navigate.controls.setup import ACTION as SETUP_ACTION
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION, OUTCOME, ROW_KEYS, SPIN_SCALE
-from tether_gym.jax import navigate_physics as nav
 from tether_gym.jax.base import KernelFuncEnv, float_dtype
+from tether_gym.jax.tether_navigate import controls
+from tether_gym.jax.tether_navigate import flight as nav
 from tether_gym.tasks import navigate as task
 
 JAX_DYNAMICS = {"impulse": IMPULSE, "hybrid": HYBRID}
 """The dynamics of the JAX kernel, by name, and their codes (not pymunk's engine)."""
-JAX_CONTROLS = ("setup", "velocity", "aim")
-"""The control modes the JAX kernel plays: every one (`controls.CONTROL_MODES`)."""
 CELLS = GRID[0] * GRID[1]
 UNIFORMS = 3 * (MAX_ANCHORS + MAX_POSTS + 2) + 3
 """Uniforms an episode may draw: the most any configuration draws (`NavigateConfig.n_uniforms`:
@@ -72,8 +71,9 @@ and orientation); a configuration uses the first `n_uniforms()` of them."""
 @dataclasses.dataclass(frozen=True)
 class EnvParams:
     """TetherNavigate's arguments as the kernels read them: the numba kernel's `PARAMS` record
-    by name (a pytree of arrays), with `dynamics` ("impulse" or "hybrid") and `control` static.
-    Build it with `make(**env_arguments)`, validated by `NavigateConfig`."""
+    by name (a pytree of arrays), with `dynamics` ("impulse" or "hybrid") and `control` (any
+    mode: the XLA kernel refuses one without a JAX solver when it steps, `controls.solver`)
+    static. Build it with `make(**env_arguments)`, validated by `NavigateConfig`."""
 
     dynamics: str
     control: str
@@ -101,11 +101,6 @@ class EnvParams:
             raise ValueError(
                 f"dynamics must be one of {tuple(JAX_DYNAMICS)} for the JAX kernel, got "
                 f"{config.dynamics!r}"
-            )
-        if config.control not in JAX_CONTROLS:
-            raise ValueError(
-                f"control must be one of {JAX_CONTROLS} for the JAX kernel (so far), got "
-                f"{config.control!r}"
             )
         record = config.params()[0]
         values = {}
@@ -278,28 +273,6 @@ def observe(s: EnvState, params: EnvParams) -> jax.Array:
     return obs
 
 
-def hook(s: EnvState, bearing):
-    """`controls.setup.hook`: the peg nearest `bearing` from the puck's velocity (the first on
-    a tie)."""
-    moving = (s.vx != 0.0) | (s.vy != 0.0)
-    heading = jnp.where(moving, jnp.arctan2(s.vy, s.vx), 0.0)
-    b = jnp.arctan2(s.anchors[:, 1] - s.y, s.anchors[:, 0] - s.x) - heading
-    gap = jnp.abs(nav.fold_angle(b - bearing))
-    present = jnp.arange(MAX_ANCHORS) < s.n_anchors
-    return jnp.argmin(jnp.where(present, gap, jnp.inf))
-
-
-def solve_setup(action, s: EnvState):
-    """`controls.setup.solve`: (peg, length, alpha, e, aim x, aim y, command met, error)."""
-    dtype = float_dtype()
-    low, high = jnp.asarray(SETUP_ACTION.low, dtype), jnp.asarray(SETUP_ACTION.high, dtype)
-    a = low + 0.5 * (jnp.minimum(jnp.maximum(jnp.asarray(action, dtype), -1.0), 1.0) + 1.0) * (
-        high - low
-    )
-    nan = jnp.asarray(jnp.nan, dtype)
-    return hook(s, a[0]), a[1], a[2], a[3], nan, nan, jnp.asarray(1.0, dtype), 0.0 * a[0]
-
-
 def _contact(dynamics: int):
     """The contact of a dynamics: (puck, s, params, ax, ay, length, e, path, n) -> (puck,
     bounced, completed, hit_post, wall hits, path, n)."""
@@ -310,23 +283,18 @@ def _contact(dynamics: int):
             return after, bounced, jnp.asarray(True), jnp.asarray(False), 0, path, n
 
         return impulse
-    from tether_gym.jax import navigate_hybrid
+    from tether_gym.jax.tether_navigate import hybrid
 
-    return navigate_hybrid.contact
+    return hybrid.contact
 
 
 def step_episode(s: EnvState, action: jax.Array, params: EnvParams) -> EnvState:
     """The episode after one maneuver (`maneuver.maneuver` after the control mode's set-up),
-    its outcome row in `outcome`."""
+    its outcome row in `outcome`. A control mode without a JAX solver is refused
+    (`controls.solver`'s ValueError)."""
     dynamics = JAX_DYNAMICS[params.dynamics]
-    if params.control == "setup":
-        solved = solve_setup(action, s)
-    else:
-        from tether_gym.jax import navigate_velocity
-
-        clearance = nav.contact_clearance(s, dynamics, params.stiffness)
-        solved = navigate_velocity.solve(action, s, params, clearance)
-    anchor, length, alpha, e, aim_x, aim_y, command_met, command_error = solved
+    solve = controls.solver(params.control)
+    anchor, length, alpha, e, aim_x, aim_y, command_met, command_error = solve(action, s, params)
     ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
     reach = nav.hypot(s.x + ARM * jnp.cos(s.angle) - ax, s.y + ARM * jnp.sin(s.angle) - ay)
     length = jnp.maximum(length, reach)
@@ -419,21 +387,28 @@ def compute_reward(params: EnvParams, desired_goal, path, at_rest, hit_post):
 
 class TetherNavigateFunctional(KernelFuncEnv):
     """TetherNavigate-v3 as a Gymnasium `FuncEnv`: the arguments of `TetherNavigateEnv`
-    (`dynamics` "impulse" or "hybrid", `control` any mode), validated by `NavigateConfig`; the
-    state an `EnvState`, the params an `EnvParams`. The observation is the numba kernel's
-    plain row (the goal dict's parts concatenated: `spaces.GOAL_KEYS` splits it, as the
-    Gymnasium envs do)."""
+    (`dynamics` "impulse" or "hybrid", `control` any mode with a JAX solver), validated by
+    `NavigateConfig`; the state an `EnvState`, the params an `EnvParams`. The observation is
+    the numba kernel's plain row (the goal dict's parts concatenated: `spaces.GOAL_KEYS`
+    splits it, as the Gymnasium envs do)."""
 
     n_uniforms = UNIFORMS
     row_keys = ROW_KEYS
 
     def __init__(self, **kwargs):
         self.config = NavigateConfig(**kwargs)
-        EnvParams.from_config(self.config)  # refuses what JAX lacks
+        EnvParams.from_config(self.config)  # refuses the dynamics JAX lacks
+        self.check_control(self.config.control)
         self.kernel = NavigateKernel(self.config)
         self.observation_space = OBSERVATION.box()
         self.action_space = self.kernel.action_space()
         super().__init__()
+
+    @staticmethod
+    def check_control(control: str) -> None:
+        """Refuse a control mode that the kernel does not play: here one without a JAX solver
+        (`controls.solver`'s ValueError)."""
+        controls.solver(control)
 
     def get_default_params(self, **kwargs) -> EnvParams:
         return EnvParams.from_config(self.config)

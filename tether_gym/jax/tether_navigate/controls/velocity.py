@@ -1,13 +1,14 @@
-"""TetherNavigate's velocity and aim controls in JAX: `envs.tether_navigate.controls.velocity`'s
-set-up search over pytrees, one episode at a time (`jax.vmap` it for a batch).
+"""TetherNavigate's velocity and aim controls in JAX: the JAX twin of
+`envs.tether_navigate.controls.velocity`'s set-up search (`solve`), over pytrees, one episode at a
+time (`jax.vmap` it for a batch).
 
 The same search as the numba solver, step for step, with its constants imported from it: the
 flight's first `SEGMENTS` straight stretches (`_flight`), its closest approach to the aim, the
 grid of `SAMPLES` tautening points per stretch's window (`_search`), the impulse inverse at each
 (`_bounce_at`: the `TARGETS` + 4 candidate changes along the tether, each scored over the
 `COAST_STRETCHES` stretches of its path, `_miss`), the reaction wheel's check
-(`navigate_physics.wheel_crossing`), `REFINEMENTS` golden-section steps about the best grid point
-(`_golden`), and under `control="aim"` every peg searched and the two best refined.
+(`jax.tether_navigate.flight.wheel_crossing`), `REFINEMENTS` golden-section steps about the best
+grid point (`_golden`), and under `control="aim"` every peg searched and the two best refined.
 
 Written for XLA, every loop bounded by the numba solver's own caps (the stretches, the grid, the
 candidates and the golden-section steps are fixed counts there too), all unrolled or `vmap`ped:
@@ -32,6 +33,7 @@ import jax
 import jax.numpy as jnp
 from jax import lax
 
+from tether_gym.envs.kernels import DYNAMICS
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     COAST_STRETCHES,
@@ -65,8 +67,8 @@ from tether_gym.envs.tether_navigate.controls.velocity import (
 from tether_gym.envs.tether_navigate.controls.velocity import (
     speed_weight as _speed_weight,
 )
-from tether_gym.jax import navigate_physics as nav
-from tether_gym.jax.navigate_physics import Puck
+from tether_gym.jax.tether_navigate import flight as nav
+from tether_gym.jax.tether_navigate.flight import Puck
 
 speed_weight = _speed_weight.py_func
 """`velocity.speed_weight` (its Python body, traced)."""
@@ -450,10 +452,12 @@ def refine(found: Found, aim: Aim, table: Table):
     return nav.select(r1[0] <= r2[0], r1, r2)
 
 
-def solve(action, s, params, clearance):
+def solve(action, s, params):
     """`velocity.solve`: (peg, tether length, offset angle, brake, aim x, aim y, command met,
     command error) for a normalized `ACTION` (4 entries, the peg by rank) or `AIM_ACTION` (3,
-    every peg searched); `clearance` the contact's (`navigate_physics.contact_clearance`)."""
+    every peg searched); the wheel's check keeps the clearance of the contact of `params`'s
+    dynamics (`jax.tether_navigate.flight.contact_clearance`)."""
+    clearance = nav.contact_clearance(s, DYNAMICS.index(params.dynamics), params.stiffness)
     action = jnp.asarray(action)
     pick = action.shape[-1] == PEG_ACTION
     aim = command(action)
