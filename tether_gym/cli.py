@@ -41,6 +41,9 @@ COMMANDS = {
     "export": Command(
         "tether_gym.evaluation.export:main", "a run's best policy and its model card, to a folder"
     ),
+    "dataset": Command(
+        "tether_gym.datasets.create:main", "make the planners' episodes a Minari dataset, list them"
+    ),
     "compile": Command(
         "tether_gym.agents.warm:main", "compile every numba kernel ahead of time (first run)"
     ),

@@ -3,9 +3,10 @@
 An evaluation with seed `s` (`tether_gym.evaluation.runner`) seeds copy i of its batch with
 `EVALUATION_BATCH * s + i`; a training run with seed `s` seeds its env copy i with `s + i`
 (SB3's convention, `tether_gym.training.sb3`), and so do a planner's demonstrations from
-`PRETRAIN_SEED`. `ENV_SEEDS` lists the env seeds of each named set, and `overlaps` finds two
-sets that share one (the test suite asserts there are none), so that a model is never picked
-or reported on the episodes it was trained or cloned on.
+`PRETRAIN_SEED`; an offline dataset with seed `s` seeds its episode k with `DATASET_SEED +
+DATASET_EPISODES * s + k` (`tether_gym.datasets`). `ENV_SEEDS` lists the env seeds of each
+named set, and `overlaps` finds two sets that share one (the test suite asserts there are
+none), so that a model is never picked or reported on the episodes it was trained or cloned on.
 """
 
 from __future__ import annotations
@@ -26,6 +27,13 @@ and the best seed of a sweep."""
 PRETRAIN_SEED = 3_000_000
 """The env seed of a planner's demonstrations (`tether_gym.training.pretrain`): a training
 seed, not an evaluation seed, so it shares no env seed with `HELD_OUT_SEED`'s episodes."""
+DATASET_SEED = 4_000_000
+"""The env seed of an offline dataset's first episode (`tether_gym.datasets`): training seeds,
+apart from every evaluation's episodes."""
+DATASET_EPISODES = 1_000_000
+"""Env seeds per dataset seed: the most episodes (hence maneuvers) one dataset holds."""
+MAX_DATASET_SEED = 9
+"""The largest dataset seed (`tether dataset create --seed`)."""
 MAX_RUN_SEED = 999_999
 """The largest seed of a training run (a sweep's seeds are small counts)."""
 MAX_ENVS = 1024
@@ -37,9 +45,16 @@ def evaluation_env_seeds(seed: int) -> range:
     return range(EVALUATION_BATCH * seed, EVALUATION_BATCH * (seed + 1))
 
 
+def dataset_env_seeds(seed: int) -> range:
+    """The env seeds the episodes of a dataset with `seed` play, one each, in order."""
+    first = DATASET_SEED + DATASET_EPISODES * seed
+    return range(first, first + DATASET_EPISODES)
+
+
 ENV_SEEDS: dict[str, range] = {
     "training": range(0, MAX_RUN_SEED + MAX_ENVS),
     "pretrain": range(PRETRAIN_SEED, PRETRAIN_SEED + MAX_ENVS),
+    "datasets": range(DATASET_SEED, dataset_env_seeds(MAX_DATASET_SEED).stop),
     "eval": evaluation_env_seeds(EVAL_SEED),
     "test": evaluation_env_seeds(TEST_SEED),
     "held_out": evaluation_env_seeds(HELD_OUT_SEED),

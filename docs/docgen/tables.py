@@ -700,9 +700,9 @@ def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
     policies on the same test episodes (mean [95% CI], worst seed)."""
     _check_sources(sources)
     lines = [
-        "| trainer | seeds x timesteps | wall time | steps/s | best policy [95% CI] | "
+        "| env | trainer | seeds x timesteps | wall time | steps/s | best policy [95% CI] | "
         "worst seed | last policy [95% CI] |",
-        "|---|---|---:|---:|---|---:|---|",
+        "|---|---|---|---:|---:|---|---:|---|",
     ]
     notes = []
     for path in (path for p in sources for path in files_of(p, root)):
@@ -714,6 +714,7 @@ def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
                 f"{100 * best['worst']:.1f}%",
             ]  # fmt: skip
             cells = [
+                f"`{data['setup']['env_id']}`",
                 row["trainer"],
                 f"{row['seeds']} x {row['timesteps']:,}",
                 f"{row['wall_seconds']:,.0f} s",
@@ -725,13 +726,19 @@ def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
         jax, sb3 = data["rows"]
         details, setup = data["details"], data["setup"]
         notes.append(
-            f"{jax['trainer']} is `{jax['command']}`, its {count(jax['seeds'], 'seed')} in one "
-            "process; "
+            f"`{setup['env_id']}`: {jax['trainer']} is `{jax['command']}`, its "
+            f"{count(jax['seeds'], 'seed')} in one process; "
             f"{sb3['trainer']} is `{sb3['command']}` for k = 0 .. {sb3['seeds'] - 1}, one seed "
             f"per process, one after another. Wall time is each command's, "
             f"start to exit (start-up, compiling, training, periodic evaluations, final table): "
             f"the JAX command's is {100 * details['wall_ratio']:.0f}% of the "
-            f"{sb3['seeds']} SB3 commands'. The JAX run compiled for "
+            f"{sb3['seeds']} SB3 commands'"
+            + (
+                f" ({sum(sb3['wall_seconds_per_seed'][:2]):,.0f} s for the first two)"
+                if len(sb3.get("wall_seconds_per_seed", [])) > 2
+                else ""
+            )
+            + f". The JAX run compiled for "
             f"{jax['compile_seconds']:.0f} s and peaked at {jax['peak_rss_mb']:,} MB of RSS. "
             f"Each policy played the final table's test episodes (seed "
             f"{setup['test_seed']:,}) on the numba env. Load average "
@@ -754,12 +761,85 @@ def _run_line(data: dict[str, Any], shown: dict[str, str] | None = None) -> str:
     return "Run: " + ", ".join(parts) + "."
 
 
+def open_challenge_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """An aim recipe trained several times longer on the JAX backend
+    (`benchmarks/experiments/open_challenge.py`): per agent, the success on the test episodes and
+    how its actions rank on the aim search's states (aims off the goal, actions among the
+    search's best, and among the best where a detour is needed), PPO's over seeds (mean [95%
+    CI], worst seed)."""
+    _check_sources(sources)
+    lines = [
+        "| env | agent | seeds x timesteps | success [95% CI] | worst seed | aims off the goal "
+        "| among the best | where a detour is needed |",
+        "|---|---|---|---|---:|---:|---:|---:|",
+    ]
+    notes = []
+    for path in (path for p in sources for path in files_of(p, root)):
+        data = read_file(path)
+        setup, details = data["setup"], data["details"]
+        for row in data["rows"]:
+            measures = [_rate_cell(row[m]) for m in ("off_goal", "in_best", "in_best_detour")]
+            if "success" in row:
+                success = row["success"]
+                trained = [
+                    f"{row['seeds']} x {row['timesteps']:,}",
+                    _rate_cell({"mean": success["success_mean"], "ci": success["success_ci"]}),
+                    f"{100 * success['worst']:.1f}%",
+                ]
+            else:
+                trained = ["-", "-", "-"]
+            lines.append(f"| `{setup['env_id']}` | {row['agent']} | " + " | ".join(
+                [*trained, *measures]) + " |")  # fmt: skip
+        wall = details["train_wall_seconds"]
+        notes.append(
+            f"`{setup['env_id']}`: {setup['times']:g} times the recipe's "
+            f"{setup['recipe_timesteps']:,} timesteps per seed, "
+            + ("" if wall is None else f"trained in {wall:,.0f} s of wall time ")
+            + f"({details['steps_per_second']:,.0f} maneuvers/s over the seeds); the actions "
+            f"ranked on {setup['states']:,} states the aim search meets (seed "
+            f"{setup['states_seed']:,}), {100 * details['detour_share']:.1f}% of them needing a "
+            f"detour; an aim is off the goal beyond {setup['off_goal_m']} m."
+        )
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
+
+
 def _rate_cell(rate: float | dict[str, Any]) -> str:
     """A rate as a percentage, or a mean over seeds with its 95% interval."""
     if not isinstance(rate, dict):
         return f"{100 * rate:.1f}%"
     low, high = rate["ci"]
     return f"{100 * rate['mean']:.1f}% [{100 * low:.1f}, {100 * high:.1f}]"
+
+
+def datasets_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """The offline datasets (`benchmarks/experiments/datasets.py`): per dataset, its collector,
+    episodes, maneuvers, the collector's success on the test episodes, its size on disk and the
+    seconds it took to make (wall, and the CPU's)."""
+    _check_sources(sources)
+    lines = [
+        "| dataset | collector | episodes | maneuvers | collector's success [95% CI] | "
+        "disk | seconds (CPU) |",
+        "|---|---|---:|---:|---|---:|---:|",
+    ]
+    notes = []
+    for path in (path for p in sources for path in files_of(p, root)):
+        data = read_file(path)
+        setup = data["setup"]
+        for row in data["rows"]:
+            lines.append(
+                f"| `{row['dataset_id']}` | {row['collector']} | {row['episodes']:,} | "
+                f"{row['maneuvers']:,} | {percent(row)} | {row['disk_mb']:,.1f} MB | "
+                f"{row['seconds']:,.0f} ({row['cpu_seconds']:,.0f}) |"
+            )
+        start, end = setup["load_average_at_start"][0], setup["load_average_at_end"][0]
+        notes.append(
+            f"At least {setup['maneuvers']:,} maneuvers of whole episodes per dataset; the "
+            f"collector's success on the {setup['test_episodes']:,} test episodes (seed "
+            f"{setup['test_seed']:,}) of the tables above. Load average {start:.1f} at the "
+            f"start and {end:.1f} at the end on {setup['cpus']} CPUs (the wall time is a shared "
+            f"machine's). " + _run_line(data)
+        )
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
 
 
 def ladder_ids() -> str:

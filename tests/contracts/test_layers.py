@@ -16,7 +16,7 @@ from tests.helpers import ROOT
 PACKAGE = ROOT / "tether_gym"
 LAYERS = (
     "seeds", "physics", "tasks", "envs", "jax", "families", "arguments", "agents",
-    "evaluation", "training", "cli",
+    "evaluation", "datasets", "training", "cli",
 )  # fmt: skip
 """Lowest first: a module may import its own layer and those before it."""
 
