@@ -178,8 +178,9 @@ def main(argv: list[str] | None = None) -> int:
         "compile_seconds": run["compile_seconds"], "steps_per_second": run["steps_per_second"],
         "yardsticks": [row for row in run["results"] if not row["name"].startswith("PPO")],
     }  # fmt: skip
-    setup = {"env_id": args.env, "env_kwargs": run["env_kwargs"], "times": args.times,
-             "recipe_timesteps": recipe_timesteps(args.env), "states": args.states,
+    recipe = recipe_timesteps(args.env)
+    setup = {"env_id": args.env, "env_kwargs": run["env_kwargs"],
+             "times": run["timesteps"] / recipe, "recipe_timesteps": recipe, "states": args.states,
              "states_seed": args.seed, "off_goal_m": OFF_GOAL, "test_seed": TEST_SEED}  # fmt: skip
     for row in yardsticks + rows:
         cells = [
