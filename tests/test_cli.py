@@ -64,13 +64,17 @@ def hide(monkeypatch, *names: str) -> None:
     )
 
 
-def test_tether_train_without_the_extra_says_how_to_install(monkeypatch):
+def test_tether_train_without_the_extra_says_how_to_install(monkeypatch, tmp_path, capsys):
+    """An SB3 run needs the "train" extra, checked once the command line is read: `--help`
+    (and `--backend jax`: tests/training/test_jax_without_torch.py) answer without it."""
     hide(monkeypatch, "torch", "stable_baselines3")
-    with pytest.raises(SystemExit) as exit_info:
-        training.main(["--help"])
-    message = str(exit_info.value.code)
+    assert "usage: tether-train" in help_text(training.main, [], capsys)
+    with pytest.raises(SystemExit):
+        training.main(["--runs-dir", str(tmp_path / "runs")])
+    message = capsys.readouterr().err
     assert 'pip install "tether-gym[train]"' in message
     assert "stable_baselines3, torch not installed" in message
+    assert not (tmp_path / "runs").exists()
 
 
 def test_tether_evaluate_needs_the_extra_only_for_a_model(monkeypatch, tmp_path, capsys):
@@ -226,10 +230,10 @@ def test_train_help_names_every_env_family_the_jax_backend_trains(capsys):
     """`tether-train --help` on `--backend jax` names each family it trains (`jax_env_ids`)."""
     pytest.importorskip("stable_baselines3")
     from tether_gym.families import family
-    from tether_gym.training import jax_run
+    from tether_gym.training.jax import run
 
     out = " ".join(help_text(training.main, [], capsys).split())
     start = out.index("`--backend jax` trains")
     paragraph = out[start : out.index("--resume", start)]
-    for name in {family(env_id).name for env_id in jax_run.jax_env_ids()}:
+    for name in {family(env_id).name for env_id in run.jax_env_ids()}:
         assert name in paragraph

@@ -5,7 +5,7 @@
         [--overwrite]
 
 Trains `--seeds` seeds (0 .. N-1) of the env's zoo recipe (`hyperparams/ppo.yml`, the entry
-`make train` uses; `--timesteps` for a shorter run) with `tether_gym.training.jax_ppo` (the
+`make train` uses; `--timesteps` for a shorter run) with `tether_gym.training.jax` (the
 seeds under `jax.vmap`, one compiled program), prints the device, the compile seconds, the
 steps/s (all seeds' env steps per second of training), the wall time and the peak RSS, then
 plays each seed's deterministic policy on the numba env's `--episodes` test episodes
@@ -36,13 +36,8 @@ from tether_gym.evaluation import results_file
 from tether_gym.evaluation.results_file import script_command
 from tether_gym.evaluation.statistics import t_interval
 from tether_gym.seeds import TEST_SEED
-from tether_gym.training.jax_ppo import (
-    PPOConfig,
-    evaluate_seeds,
-    save_trained,
-    train_seeds,
-    unstack,
-)
+from tether_gym.training.jax.recipe import PPOConfig
+from tether_gym.training.jax.trainer import evaluate_seeds, save_trained, train_seeds, unstack
 from tether_gym.training.zoo import parse_overrides
 
 

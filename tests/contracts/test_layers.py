@@ -15,7 +15,7 @@ from tests.helpers import ROOT
 
 PACKAGE = ROOT / "tether_gym"
 LAYERS = (
-    "seeds", "physics", "tasks", "envs", "jax", "families", "arguments", "agents",
+    "seeds", "physics", "tasks", "envs", "jax", "families", "arguments", "algorithms", "agents",
     "evaluation", "datasets", "training", "cli",
 )  # fmt: skip
 """Lowest first: a module may import its own layer and those before it."""

@@ -159,12 +159,13 @@ def test_an_existing_run_folder_is_not_overwritten(jax_run, capsys):
             "start_speed must be in [0, 1], got 2.0",
         ),
         (["--hyperparams", "use_sde:True"], "gSDE (use_sde)"),
+        (["--hyperparams", "n_step:8"], "does not take ['n_step'] (did you mean 'n_steps'?)"),
         (["--seeds", "0"], "--seeds must be at least 1, got 0"),
         (["--rho", "0.5"], "rho must be"),
     ],
 )
 def test_what_the_jax_path_does_not_train_is_refused_up_front(tmp_path, capsys, args, message):
-    if any(word in " ".join(args) for word in ("use_sde", "CnnPolicy", "start_speed")):
+    if any(word in " ".join(args) for word in ("use_sde", "CnnPolicy", "start_speed", "n_step")):
         pytest.importorskip("jax")  # the trainer's own refusals: after the jax import
     with pytest.raises(SystemExit):
         train.main(["--backend", "jax", *args, "--runs-dir", str(tmp_path / "runs")])
@@ -178,12 +179,14 @@ def test_an_env_without_a_jax_backend_is_refused_before_jax_is_imported(
     import dataclasses
 
     from tether_gym import families
-    from tether_gym.training import jax_run
+    from tether_gym.training import jax as jax_training
+    from tether_gym.training.jax import run
 
     def without_backends(env_id):
         return dataclasses.replace(families.family(env_id), backends=())
 
-    monkeypatch.setattr(jax_run, "family", without_backends)
+    monkeypatch.setattr(jax_training, "family", without_backends)
+    monkeypatch.setattr(run, "family", without_backends)
     with pytest.raises(SystemExit):
         train.main(["--backend", "jax", "--env", "TetherNavigate-v3", "--runs-dir", str(tmp_path)])
     error = capsys.readouterr().err
@@ -236,19 +239,19 @@ def test_an_interrupted_run_resumes_to_the_policies_of_an_uninterrupted_one(
     0 under the linear schedule); the run stopped by Ctrl-C while the first chunk's checkpoint
     is saved (before its evaluation), then `--resume`d, ends with the same policies, bit for
     bit, and the same evaluations as the run that was never stopped."""
-    from tether_gym.training import jax_ppo
+    from tether_gym.training.jax.trainer import Checkpoint
 
     args = [*TINY, "--seeds", "1", "--timesteps", "6144", "--eval-freq", "2048"]
     whole, parts = tmp_path / "whole", tmp_path / "parts"
     with contextlib.redirect_stdout(io.StringIO()):
         assert train.main([*args, "--runs-dir", str(whole)]) == 0
-    save = jax_ppo.Checkpoint.save
+    save = Checkpoint.save
 
     def save_then_interrupt(checkpoint, path):
         save(checkpoint, path)
         os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C while the checkpoint is saved
 
-    monkeypatch.setattr(jax_ppo.Checkpoint, "save", save_then_interrupt)
+    monkeypatch.setattr(Checkpoint, "save", save_then_interrupt)
     with contextlib.redirect_stdout(io.StringIO()):
         assert train.main([*args, "--runs-dir", str(parts)]) == 130
     (run_dir,) = parts.iterdir()
@@ -258,7 +261,7 @@ def test_an_interrupted_run_resumes_to_the_policies_of_an_uninterrupted_one(
     )
     assert not (run_dir / "seed0.msgpack").exists()
     assert not (run_dir / "evaluations.csv").exists()  # stopped before the chunk's evaluation
-    monkeypatch.setattr(jax_ppo.Checkpoint, "save", save)
+    monkeypatch.setattr(Checkpoint, "save", save)
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         assert train.main(["--resume", str(run_dir)]) == 0
@@ -289,7 +292,7 @@ def test_a_missing_jax_names_the_extra(tmp_path, capsys, monkeypatch):
 
 def test_help_and_the_sb3_path_do_not_import_jax():
     out, imported = imported_by_tether_train(
-        [["--help"], ["--seeds", "2"]], ["jax", "tether_gym.training.jax_run"]
+        [["--help"], ["--seeds", "2"]], ["jax", "tether_gym.training.jax.run"]
     )
     assert "usage: tether-train" in out.stdout and "--seeds is for --backend jax" in out.stderr
     assert imported == [False, False]
@@ -338,7 +341,7 @@ def test_resuming_a_finished_run_says_so_and_writes_nothing(tmp_path, capsys):
 
 
 def test_the_compilation_cache_folder(monkeypatch, tmp_path):
-    from tether_gym.training.jax_run import compilation_cache_dir
+    from tether_gym.training.jax.run import compilation_cache_dir
 
     monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
@@ -421,7 +424,7 @@ def test_ctrl_c_while_compiling_exits_at_once_with_one_line(interrupted):
 
 
 def test_ctrl_c_while_training_saves_the_state_and_resume_continues_from_it(interrupted):
-    from tether_gym.training.jax_run import _checkpoint_updates
+    from tether_gym.training.jax.run import _checkpoint_updates
 
     run_dir, cache, env, _, (code, out, err) = interrupted
     assert code == 130

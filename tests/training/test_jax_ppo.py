@@ -1,4 +1,5 @@
-"""The JAX PPO (`tether_gym.training.jax_ppo`): the zoo recipe read as SB3 reads it, a tiny run
+"""The JAX PPO (`tether_gym.training.jax`: its recipe, its stages, the trainer that drives them):
+the zoo recipe read as SB3 reads it, with SB3's own defaults, a tiny run
 of two seeds under `vmap` (shapes, finite numbers, distinct seeds, a reward that rises, SB3's
 linear rate and target_kl stop), the trained policy played by the evaluation runner on the numba
 env, and its saved files loading back to the same actions."""
@@ -19,15 +20,9 @@ pytest.importorskip("optax")
 from tether_gym.agents.jax_policy import is_policy, load_policy  # noqa: E402
 from tether_gym.evaluation.cli import main  # noqa: E402
 from tether_gym.evaluation.runner import evaluate  # noqa: E402
-from tether_gym.training.jax_ppo import (  # noqa: E402
-    METRICS,
-    PPOConfig,
-    SeedsRun,
-    make_train,
-    policy_config,
-    save_trained,
-    unstack,
-)
+from tether_gym.training.jax.ppo import METRICS, make_train, policy_config  # noqa: E402
+from tether_gym.training.jax.recipe import PPOConfig  # noqa: E402
+from tether_gym.training.jax.trainer import SeedsRun, save_trained, unstack  # noqa: E402
 
 UPDATES = 30
 
@@ -91,12 +86,12 @@ def test_what_the_trainer_cannot_do_is_refused():
 
 def test_an_env_without_a_gymnax_backend_is_refused(monkeypatch):
     from tether_gym import families
-    from tether_gym.training import jax_ppo
+    from tether_gym.training import jax as jax_training
 
     def without_backends(env_id):
         return dataclasses.replace(families.family(env_id), backends=())
 
-    monkeypatch.setattr(jax_ppo, "family", without_backends)
+    monkeypatch.setattr(jax_training, "family", without_backends)
     with pytest.raises(ValueError, match="no JAX env in the gymnax convention for 'Tether"):
         PPOConfig(env_id="TetherNavigate-v3")
 
@@ -205,27 +200,27 @@ def test_a_rung_s_recipe_trains_and_its_policy_plays_the_goal_dicts(tmp_path, ca
 def test_the_compile_step_says_what_it_compiles_and_how_long_it_took_last_time(
     tmp_path, monkeypatch
 ):
-    from tether_gym.training import jax_ppo
+    from tether_gym.training.jax import compile as jax_compile
 
-    record = tmp_path / jax_ppo.COMPILE_RECORD
-    monkeypatch.setattr(jax_ppo, "compile_record", lambda: record)
+    record = tmp_path / jax_compile.COMPILE_RECORD
+    monkeypatch.setattr(jax_compile, "compile_record", lambda: record)
     config = tiny_config()
-    said = jax_ppo.describe_compile(config, 2, 10, resume=False)
+    said = jax_compile.describe_compile(config, 2, 10, resume=False)
     assert said.startswith("compiling PPO on TetherBounce-v0 for 2 seeds on ")
     assert (
         ": the envs' reset and one XLA program of 10 updates (each the rollout of 64 envs x 2 "
         "steps, its advantages, 10 epochs of 2 minibatches; 30 updates in all);" in said
     )
     assert said.endswith("; not compiled here before ...")
-    jax_ppo._record_compile(config, 2, 10, 61.04, hit=False)
+    jax_compile.record_compile(config, 2, 10, 61.04, hit=False)
     assert said.replace("not compiled here before", "61.0 s last time") \
-        == jax_ppo.describe_compile(config, 2, 10, resume=False)  # fmt: skip
-    jax_ppo._record_compile(config, 2, 10, 3.0, hit=True)
-    assert jax_ppo.describe_compile(config, 2, 10, resume=True).endswith(
+        == jax_compile.describe_compile(config, 2, 10, resume=False)  # fmt: skip
+    jax_compile.record_compile(config, 2, 10, 3.0, hit=True)
+    assert jax_compile.describe_compile(config, 2, 10, resume=True).endswith(
         "; 3.0 s last time (read from jax's cache, 61.0 s to compile) ..."
     )
     # another recipe, seed count or chunk is another program
-    assert "not compiled here before" in jax_ppo.describe_compile(config, 2, 5, resume=False)
-    assert "not compiled here before" in jax_ppo.describe_compile(config, 1, 10, resume=False)
-    monkeypatch.setattr(jax_ppo, "compile_record", lambda: None)
-    assert "jax's compilation cache is off" in jax_ppo.describe_compile(config, 2, 10, False)
+    assert "not compiled here before" in jax_compile.describe_compile(config, 2, 5, resume=False)
+    assert "not compiled here before" in jax_compile.describe_compile(config, 1, 10, resume=False)
+    monkeypatch.setattr(jax_compile, "compile_record", lambda: None)
+    assert "jax's compilation cache is off" in jax_compile.describe_compile(config, 2, 10, False)

@@ -1,4 +1,4 @@
-"""A policy trained by the JAX PPO (`tether_gym.training.jax_ppo`) as an agent, and its files.
+"""A policy trained by the JAX PPO (`tether_gym.training.jax.ppo`) as an agent, and its files.
 
 `JaxPolicyAgent` plays it with SB3's `predict(obs, state, episode_start, deterministic)` on numpy
 observations, so `tether_gym.evaluation` and `tether-evaluate --agents PATH.msgpack` play it on the

@@ -30,13 +30,14 @@ import time
 from pathlib import Path
 from typing import Any
 
+from tether_gym.algorithms import ALGORITHMS, JAX, SB3, algorithm
 from tether_gym.arguments import DEFAULT_ENV_ID, ArgumentParser
 from tether_gym.families import family
 from tether_gym.seeds import HELD_OUT_SEED
 
-SUFFIXES = (".pt", ".msgpack", ".json", ".md")
-"""The files of an exported agent: an SB3 policy (`.pt`) or a JAX one (`.msgpack` + `.json`),
-and its card."""
+SUFFIXES = (*dict.fromkeys(a.policy_suffix for a in ALGORITHMS), ".json", ".md")
+"""The files of an exported agent: its algorithm's policy file (`Algorithm.policy_suffix`: an
+SB3 policy's `.pt`, a JAX one's `.msgpack` with its `.json`) and its card."""
 NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 """An exported agent's name: a file name without a folder."""
 
@@ -142,7 +143,7 @@ def export(
     from tether_gym.agents.saved import read_config
 
     top = run_dir / "config.yaml"
-    if top.is_file() and read_config(top).get("backend") == "jax":
+    if top.is_file() and read_config(top).get("backend", SB3) == JAX:
         return _export_jax(run_dir, name, command, note, folder, episodes, seed,
                            into_package=into_package, overwrite=overwrite,
                            progress=progress)  # fmt: skip
@@ -163,13 +164,11 @@ def export(
 
     if config.get("algo") not in POLICIES:
         raise ValueError(f"algo must be one of {sorted(POLICIES)}, got {config.get('algo')!r}")
+    trained = POLICIES[config["algo"]]
     clear_files(files, overwrite or into_package)
-    policy_file, card_file = files[".pt"], files[".md"]
+    policy_file, card_file = files[trained.policy_suffix], files[".md"]
     _say(f"{run_dir}'s best model ({int(config['num_timesteps']):,} timesteps) -> {policy_file}")
-    import stable_baselines3
-
-    algorithm = getattr(stable_baselines3, POLICIES[config["algo"]])
-    model = algorithm.load(best / "model.zip", device="cpu")
+    model = trained.load_trainer().load(best / "model.zip", device="cpu")
     model.policy.save(str(policy_file))
     policy = load_policy(policy_file, config["algo"], config["hyperparams"]["policy"])
     agent = with_planner(SB3Agent(policy), config)
@@ -218,6 +217,7 @@ def _export_jax(
     from tether_gym.agents.saved import read_config
 
     config = read_config(run_dir / "config.yaml")
+    trained = algorithm(config.get("algo", "ppo"), JAX)
     seeds = config.get("seeds") or []
     if seed is None and len(seeds) == 1:
         seed = seeds[0]
@@ -230,12 +230,13 @@ def _export_jax(
         raise ValueError(f"run_dir {str(run_dir)!r} has no results.json: did its training end?")
     summary = json.loads(summary_file.read_text())
     kept = summary.get("best_timesteps", {}).get(str(seed))
-    source = run_dir / (f"seed{seed}.msgpack" if kept is None else f"seed{seed}_best.msgpack")
+    stem = f"seed{seed}" if kept is None else f"seed{seed}_best"
+    source = run_dir / f"{stem}{trained.policy_suffix}"
     if not source.is_file():
         raise ValueError(f"run_dir {str(run_dir)!r} has no {source.name}")
     files = export_files(name, folder, into_package)
     clear_files(files, overwrite or into_package)
-    policy_file, card_file = files[".msgpack"], files[".md"]
+    policy_file, card_file = files[trained.policy_suffix], files[".md"]
     kept_at = "its last policy" if kept is None else f"its best policy ({kept:,} timesteps)"
     _say(f"{run_dir}'s seed {seed}, {kept_at} -> {policy_file}")
     from tether_gym.agents.jax_policy import load_policy as load_jax_policy
@@ -245,8 +246,8 @@ def _export_jax(
     agent = load_jax_policy(policy_file)
     facts = {
         "name": name,
-        "backend": "jax",
-        "algo": config["algo"],
+        "backend": trained.backend,
+        "algo": trained.name,
         "policy": "ActorCritic",
         "env_id": config["env_id"],
         "env_kwargs": config["env_kwargs"],
@@ -305,9 +306,10 @@ def _provenance(facts: dict[str, Any], env: object) -> str:
     """The card's first sentence: what was trained, how long, which model was kept and what its
     policy file holds."""
     trained = f"{facts['algo'].upper()} ({facts['policy']}) on {facts['env_id']} ({env}), seed "
-    if facts.get("backend") == "jax":
+    if facts.get("backend") == JAX:
         return (
-            f"{trained}{facts['seed']}, trained by the JAX PPO (`tether-train --backend jax`): "
+            f"{trained}{facts['seed']}, trained by the JAX {facts['algo'].upper()} "
+            f"(`tether-train --backend {JAX}`): "
             f"{_kept(facts)} of a {facts['trained_timesteps']:,}-timestep run, "
             f"{_together(facts['seeds_trained_together'])} in "
             f"{facts['train_seconds']:.0f} s on {facts['device']}. The policy file holds the "

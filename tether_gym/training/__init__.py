@@ -1,6 +1,7 @@
-"""Training (stable-baselines3) and sweeps (Ray Tune) on the tether envs: the optional extras
-"train" and "sweep". It builds on `tether_gym.agents` and `tether_gym.evaluation`, which never
-import it.
+"""Training (stable-baselines3, or compiled with the envs' JAX kernels) and sweeps (Ray Tune) on
+the tether envs: the optional extras "train", "jax" and "sweep". It builds on `tether_gym.agents`
+and `tether_gym.evaluation`, which never import it; the algorithms are the records of
+`tether_gym.algorithms`.
 
 - `train`: the `tether-train` command line; `experiment`: the run in named phases (`train`);
 - `config`: the typed run config (`RunConfig`, the run folder's config.yaml); `zoo`: the
@@ -10,8 +11,9 @@ import it.
 - `folders`: run folders and checkpoints; `callbacks`: the periodic evaluation against the
   yardstick (`yardsticks`); `sb3`: the SB3 `VecEnv` adapter over the native vector env; `her`:
   hindsight relabeling over the path of a maneuver;
-- `jax_ppo`: PPO compiled with the env's JAX kernel, seeds under `jax.vmap` (the "jax" extra);
-  `jax_run`: `tether-train --backend jax`, its run folder and final table;
+- `jax`: training compiled with the env's JAX kernel, seeds under `jax.vmap` (the "jax"
+  extra): PPO's recipe and stages, the trainer that drives any JAX algorithm, and `jax.run`,
+  `tether-train --backend jax`, its run folder and final table;
 - `sweep`: the `tether-sweep` command (`cluster` starts or joins Ray); `summary`: results over
   seeds.
 """
@@ -20,7 +22,7 @@ import argparse
 import sys
 from collections.abc import Callable
 
-from tether_gym.arguments import SWEEP_EXTRA, TRAIN_EXTRA, require_extra
+from tether_gym.arguments import SWEEP_EXTRA, require_extra
 
 INTERRUPTED = 130
 """Exit status after Ctrl-C (128 + SIGINT), as a shell reports it."""
@@ -45,8 +47,8 @@ def _quietly_interrupted(command: Callable[[], int]) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """The console script `tether-train`."""
-    _require("tether-train", TRAIN_EXTRA, "train")
+    """The console script `tether-train` (its backend's extra is required once the command line
+    is read: `train.main`)."""
 
     def command() -> int:
         from tether_gym.training.train import main as train_main

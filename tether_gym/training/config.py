@@ -9,11 +9,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from tether_gym.algorithms import names
 from tether_gym.arguments import check_env
 
-ALGO_NAMES = ("ppo", "sac")
-"""`--algo`'s names (`tether_gym.training.zoo.ALGOS` maps them to their SB3 classes), here where
-the command line reads them without importing SB3."""
+ALGO_NAMES = names()
+"""`--algo`'s names: those of `tether_gym.algorithms.ALGORITHMS` on any backend."""
 CHECKPOINT_KEYS = ("num_timesteps", "train_seconds", "eval_success_rate", "torch_threads")
 """What a checkpoint's `config.yaml` adds to the run's (`tether_gym.training.folders`)."""
 

@@ -28,7 +28,7 @@ from tether_gym.arguments import did_you_mean
 from tether_gym.evaluation.reports import format_table
 from tether_gym.evaluation.results import Result
 from tether_gym.evaluation.runner import evaluate
-from tether_gym.seeds import EVAL_SEED, EVALUATION_BATCH, TEST_SEED
+from tether_gym.seeds import EVAL_SEED, EVALUATION_BATCH
 from tether_gym.training.callbacks import Report, YardstickEvalCallback
 from tether_gym.training.config import RunConfig
 from tether_gym.training.folders import (
@@ -38,40 +38,38 @@ from tether_gym.training.folders import (
     check_resumable,
     drop_rows_after,
 )
+from tether_gym.training.recipe import check_settings
 from tether_gym.training.sb3 import make_sb3_vec_env
 from tether_gym.training.summary import RESULTS
-from tether_gym.training.variants import asked, label, variants
-from tether_gym.training.yardsticks import as_agent, baselines
-from tether_gym.training.zoo import ALGOS, POLICIES, algo_kwargs, expression, zoo_keys
+from tether_gym.training.variants import asked, label
+from tether_gym.training.yardsticks import as_agent, baselines, final_table
+from tether_gym.training.zoo import (
+    ALGOS,
+    algo_kwargs,
+    expression,
+    policy_class,
+    sb3_class,
+    zoo_keys,
+)
 
 
 def check_config(config: RunConfig | Mapping[str, Any]) -> None:
     """ValueError naming the first bad entry of `config`: an unknown algorithm, the env's own
-    check of its arguments, unknown or malformed hyperparameters, a variant's settings, sizes
-    below 1."""
+    check of its arguments, hyperparameters its SB3 class does not take, then what both
+    backends check (`recipe.check_settings`: malformed values, a variant's settings, sizes
+    below 1)."""
     config = RunConfig.of(config)
     if config.algo not in ALGOS:
         raise ValueError(f"algo must be one of {sorted(ALGOS)}, got {config.algo!r}")
     _ = config.env  # the env arguments, resolved and checked first (ValueError)
-    signature = inspect.signature(ALGOS[config.algo].__init__)
+    signature = inspect.signature(sb3_class(config.algo).__init__)
     allowed = set(signature.parameters) - {"self", "env", "_init_setup_model"}
     unknown = set(config.hyperparams) - allowed - set(zoo_keys())
     if unknown:
         first = sorted(unknown)[0]
         hint = did_you_mean(first, sorted(allowed | set(zoo_keys())))
         raise ValueError(f"unknown {label(config)} hyperparameters {sorted(unknown)}{hint}")
-    algo_kwargs(config.hyperparams)
-    for variant in variants():
-        variant.check(config)
-    for key in ("n_envs", "timesteps", "eval_episodes"):
-        if getattr(config, key) < 1:
-            raise ValueError(f"{key} must be at least 1, got {getattr(config, key)}")
-    if config.eval_freq < 0:
-        raise ValueError(f"eval_freq must be at least 0, got {config.eval_freq}")
-    if not isinstance(config.save_replay_buffer, bool):
-        raise ValueError(
-            f"save_replay_buffer must be true or false, got {config.save_replay_buffer!r}"
-        )
+    check_settings(config)
 
 
 def check_run(config: RunConfig | Mapping[str, Any], run_dir: Path, resume: bool = False) -> None:
@@ -98,7 +96,7 @@ def load_model(folder: Path, config: RunConfig, venv: VecEnv) -> BaseAlgorithm:
     VecNormalize statistics if saved beside it."""
     if (folder / "vecnormalize.pkl").is_file():
         venv = VecNormalize.load(str(folder / "vecnormalize.pkl"), venv)
-    return ALGOS[config.algo].load(folder / "model.zip", env=venv, device="cpu")
+    return sb3_class(config.algo).load(folder / "model.zip", env=venv, device="cpu")
 
 
 def load_replay_buffer(model: OffPolicyAlgorithm, path: Path) -> None:
@@ -138,8 +136,8 @@ def make_model(config: RunConfig, run_dir: Path, resume: bool) -> BaseAlgorithm:
         extra = variant.policy_kwargs(config)
         if extra:
             kwargs["policy_kwargs"] = {**kwargs.get("policy_kwargs", {}), **extra}
-    return ALGOS[config.algo](
-        POLICIES.get(policy, {}).get(config.algo, policy),
+    return sb3_class(config.algo)(
+        policy_class(policy, config.algo),
         venv,
         seed=config.seed,
         device="cpu",
@@ -158,16 +156,6 @@ def final_results(run_dir: Path, model: BaseAlgorithm, config: RunConfig) -> lis
         agents[f"{label(config)} (best)"] = as_agent(best, config)
     agents[f"{label(config)} (last)"] = as_agent(model, config)
     return final_table(config, agents)
-
-
-def final_table(config: RunConfig, agents: Mapping[str, object]) -> list[Result]:
-    """`agents` (the trained policies) and the env's `baselines` on the run's fresh test
-    episodes (`TEST_SEED`), the policies first: the final table of an SB3 run and of a
-    `--backend jax` run (`jax_run`)."""
-    return evaluate(
-        {**agents, **baselines(config)}, config.env_kwargs, config.eval_episodes, TEST_SEED,
-        env_id=config.env_id,
-    )  # fmt: skip
 
 
 def compile_kernels(config: RunConfig, model: BaseAlgorithm) -> float:

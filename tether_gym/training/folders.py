@@ -16,14 +16,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import torch
 import yaml
-from stable_baselines3.common.base_class import BaseAlgorithm
-from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 
 from tether_gym.agents.saved import read_config
+from tether_gym.algorithms import algorithm
 
 if TYPE_CHECKING:
+    from stable_baselines3.common.base_class import BaseAlgorithm
+
     from tether_gym.training.config import RunConfig
 
 EVALUATIONS = "evaluations.csv"
@@ -112,13 +112,15 @@ class Checkpoints:
         self.run_dir, self.config = run_dir, config
 
     def save(self, model: BaseAlgorithm, which: str, **extra: Any) -> Path:
+        import torch
+
         folder = self.run_dir / which
         folder.mkdir(exist_ok=True)
         model.save(folder / "model.zip")
         normalizer = model.get_vec_normalize_env()
         if normalizer is not None:
             normalizer.save(str(folder / "vecnormalize.pkl"))
-        if which == "last" and isinstance(model, OffPolicyAlgorithm):
+        if which == "last" and algorithm(self.config.algo).replay_buffer:
             if self.config.save_replay_buffer:
                 model.save_replay_buffer(folder / REPLAY_BUFFER)
                 size = (folder / REPLAY_BUFFER).stat().st_size

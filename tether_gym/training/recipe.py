@@ -1,6 +1,7 @@
 """A new training run's config from the command line, as both backends resolve it
-(`train` for SB3, `jax_run` for PPO on the JAX kernels): the zoo entry of the env, the
-command line over it, and the run folder's default name."""
+(`train` for SB3, `tether_gym.training.jax.run` on the JAX kernels): the zoo entry of the env,
+the command line over it, the run folder's default name, and the checks both backends make
+(`check_settings`). Imports neither torch nor stable-baselines3."""
 
 from __future__ import annotations
 
@@ -11,8 +12,8 @@ from typing import Any
 from tether_gym.arguments import DEFAULT_ENV_ID, env_arguments, env_from_args
 from tether_gym.families import family
 from tether_gym.training.config import RunConfig, make_config
-from tether_gym.training.variants import control_asked
-from tether_gym.training.zoo import default_conf, parse_overrides, run_entry
+from tether_gym.training.variants import control_asked, variants
+from tether_gym.training.zoo import algo_kwargs, default_conf, parse_overrides, run_entry
 
 RUN_OPTIONS = (
     "algo", "seed", "n_envs", "timesteps", "eval_episodes", "eval_freq", "save_replay_buffer",
@@ -44,7 +45,7 @@ def resolve_config(args: argparse.Namespace) -> RunConfig:
     the command line's env arguments over the entry's."""
     given = {key: getattr(args, key) for key in RUN_OPTIONS if getattr(args, key) is not None}
     env_id, env_kwargs = env_from_args(args, check=False)  # checked once merged: check_config
-    conf_file = args.conf_file or default_conf(args.algo or "ppo")
+    conf_file = args.conf_file or default_conf(args.algo or "ppo", args.backend)
     overrides = parse_overrides(args.hyperparams)
     control = control_asked(overrides)
     if control and "control" not in env_kwargs and family(env_id).planners:
@@ -55,3 +56,23 @@ def resolve_config(args: argparse.Namespace) -> RunConfig:
         print(f"tether-train: {notice}", file=sys.stderr)
     params = {**params, **overrides}
     return make_config(env_id, env_kwargs, params, **given)
+
+
+def check_settings(config: RunConfig, by_name: bool = False) -> None:
+    """ValueError naming the first bad setting of `config` that both backends check: the env's
+    arguments (resolved once: `RunConfig.env`), malformed hyperparameter values
+    (`zoo.algo_kwargs`; `by_name` for a trainer without torch), a variant's settings, sizes
+    below 1. The hyperparameters' names are the trainer's to check."""
+    _ = config.env
+    algo_kwargs(config.hyperparams, by_name)
+    for variant in variants():
+        variant.check(config)
+    for key in ("n_envs", "timesteps", "eval_episodes"):
+        if getattr(config, key) < 1:
+            raise ValueError(f"{key} must be at least 1, got {getattr(config, key)}")
+    if config.eval_freq < 0:
+        raise ValueError(f"eval_freq must be at least 0, got {config.eval_freq}")
+    if not isinstance(config.save_replay_buffer, bool):
+        raise ValueError(
+            f"save_replay_buffer must be true or false, got {config.save_replay_buffer!r}"
+        )

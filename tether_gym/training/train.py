@@ -8,10 +8,11 @@
     tether-train --resume runs/<name>                # continue an interrupted run
     tether-train --backend jax --seeds 5             # 5 seeds of PPO compiled with the JAX env
 
-(`python train.py ...` from a clone's root is the same command.) `--algo` picks the algorithm
-(`ALGOS`); its hyperparameters come from the packaged `hyperparams/<algo>.yml` in
-rl-baselines3-zoo's format (keyed by env id, `lin_<x>` for a linear schedule, `policy_kwargs` as a
-Python expression), or `--conf-file`, and `--hyperparams key:value ...` overrides them; an entry
+(`python train.py ...` from a clone's root is the same command.) `--algo` and `--backend` pick
+the algorithm (`tether_gym.algorithms`); its hyperparameters come from the packaged
+`hyperparams/<algo>.yml` in rl-baselines3-zoo's format (keyed by env id, `lin_<x>` for a linear
+schedule, `policy_kwargs` as a Python expression), or `--conf-file`, and `--hyperparams
+key:value ...` overrides them; an entry
 may set the run's `n_envs`, `n_timesteps`, `eval_freq` and `eval_episodes` too (a ladder rung's
 entry sets those of its Results row), which `--n-envs`, `--timesteps`, `--eval-freq` and
 `--eval-episodes` override. The native
@@ -28,7 +29,7 @@ saves the last model before exiting, and so does every periodic evaluation (a ki
 resumes from its last evaluation); an existing run is never overwritten without `--overwrite`.
 
 `--backend jax` trains `--seeds N` seeds (from `--seed` on) of the same recipe at once with PPO
-compiled with the env's JAX backend (`tether_gym.training.jax_run`; on a CPU the env steps the
+compiled with the env's JAX backend (`tether_gym.training.jax.run`; on a CPU the env steps the
 numba kernels from the compiled program, `tether_gym.jax.host`; every env with a JAX backend:
 TetherBounce-v0 and the TetherNavigate ids; PPO only, no variants; the `jax` extra): the run
 folder holds each seed's policy (`seed<k>.msgpack`, which `tether-evaluate --agents` plays) and
@@ -37,7 +38,8 @@ checkpoint.
 
 This module is the command line, which imports torch and stable-baselines3 only once its
 arguments are parsed and the env's id and argument names checked (`--help` and a typo are
-answered without them). The run is
+answered without them), and only for `--backend sb3` (the "train" extra; `--backend jax` needs
+the "jax" extra alone). The run is
 `tether_gym.training.experiment.train(config, run_dir)`, for callers that make their own configs
 (a sweep's trials), with `tether_gym.training.config.RunConfig` (`make_config` from a zoo entry)
 and `experiment.check_run`.
@@ -49,6 +51,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from tether_gym.algorithms import BACKENDS, JAX, SB3, algorithm
 from tether_gym.arguments import (
     ArgumentParser,
     add_env_arguments,
@@ -56,14 +59,12 @@ from tether_gym.arguments import (
     env_arguments,
     env_from_args,
     given_env_options,
+    require_extra,
 )
 from tether_gym.families import env_config, family
 from tether_gym.seeds import TEST_SEED
 from tether_gym.training.config import ALGO_NAMES, RunConfig
 
-BACKENDS = ("sb3", "jax")
-"""`--backend`: stable-baselines3 (`experiment.train`), or PPO compiled with the env's JAX
-kernel (`jax_run`)."""
 RESUME_OPTIONS = ("timesteps", "eval_episodes", "eval_freq", "save_replay_buffer")
 """The options a resumed run may change."""
 
@@ -79,7 +80,7 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
     run.add_argument(
         "--backend",
         choices=BACKENDS,
-        default="sb3",
+        default=SB3,
         help="sb3: stable-baselines3 on the numba envs (default); jax: PPO compiled with the "
         "env's JAX kernel, several seeds at once (--seeds)",
     )
@@ -234,15 +235,17 @@ def main(argv: list[str] | None = None) -> int:
         check_env_names(args)
     except ValueError as error:
         parser.error(str(error))
-    if args.backend == "jax" or saved_backend(args.resume) == "jax":
-        from tether_gym.training import jax_run
+    if args.backend == JAX or saved_backend(args.resume) == JAX:
+        from tether_gym.training.jax import run
 
-        return jax_run.main(args, parser)
+        return run.main(args, parser)
     if args.seeds is not None:
         parser.error("--seeds is for --backend jax; an SB3 run trains one seed (--seed)")
     try:
+        algo = algorithm(args.algo or "ppo", SB3)
+        require_extra("tether-train", algo.modules, algo.extra)
         config, run_dir = run_from_args(args)
-    except ValueError as error:
+    except (ValueError, ModuleNotFoundError) as error:
         parser.error(str(error))
     from tether_gym.training.experiment import train
 

@@ -15,16 +15,14 @@ from __future__ import annotations
 import time
 from typing import TYPE_CHECKING, Any
 
-from stable_baselines3.common.vec_env import VecEnv
-
 from tether_gym.agents.planned import PLANNED, RESIDUAL, Planned
 from tether_gym.envs.tether_navigate.controls import aimed_modes
 from tether_gym.families import family, load
 from tether_gym.training.config import RunConfig
-from tether_gym.training.pretrain import check_pretrain, clone_planner, make_teacher
 
 if TYPE_CHECKING:
     from stable_baselines3.common.base_class import BaseAlgorithm
+    from stable_baselines3.common.vec_env import VecEnv
 
 
 class Variant:
@@ -148,6 +146,8 @@ class Pretrain(PlannedVariant):
         params = config.hyperparams
         if config.algo != "ppo" or not family(config.env_id).planners or params.get("normalize"):
             raise ValueError("pretrain: PPO on TetherNavigate without normalize only")
+        from tether_gym.training.pretrain import check_pretrain
+
         check_pretrain(params[self.key], config.env_kwargs)
         residual = params.get(RESIDUAL.key)
         if residual is not None and params[self.key]["planner"] != residual:
@@ -158,10 +158,14 @@ class Pretrain(PlannedVariant):
 
     def training_agents(self, config: RunConfig) -> list[Any]:
         """The planner it demonstrates."""
+        from tether_gym.training.pretrain import make_teacher
+
         planner = config.hyperparams[self.key]["planner"]
         return [make_teacher(planner, config.env_kwargs, config.env_id)]
 
     def before_learning(self, model: BaseAlgorithm, config: RunConfig, evaluate) -> None:
+        from tether_gym.training.pretrain import clone_planner
+
         clock = time.perf_counter()
         losses = clone_planner(model, config.as_dict(), config.hyperparams[self.key])
         success = evaluate(model)

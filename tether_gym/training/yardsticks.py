@@ -1,15 +1,23 @@
 """What a run is compared with: its env family's yardstick in the periodic evaluations, the
-family's baselines in the final table, and the trained policy as an agent beside them."""
+family's baselines in the final table (`final_table`, both backends'), and the trained policy
+as an agent beside them."""
 
 from __future__ import annotations
 
-from stable_baselines3.common.base_class import BaseAlgorithm
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 from tether_gym.agents.planned import with_planner
 from tether_gym.agents.registry import make_agent
 from tether_gym.agents.saved import SB3Agent
 from tether_gym.families import family
+from tether_gym.seeds import TEST_SEED
 from tether_gym.training.config import RunConfig
+
+if TYPE_CHECKING:
+    from stable_baselines3.common.base_class import BaseAlgorithm
+
+    from tether_gym.evaluation.results import Result
 
 
 def as_agent(model: BaseAlgorithm, config: RunConfig):
@@ -36,3 +44,15 @@ def baselines(config: RunConfig) -> dict[str, object]:
         for label, name in family(env_id).baselines.items()
     }
     return {**agents, "random": make_agent("random", env_kwargs, config.seed, env_id)}
+
+
+def final_table(config: RunConfig, agents: Mapping[str, object]) -> list[Result]:
+    """`agents` (the trained policies) and the env's `baselines` on the run's fresh test
+    episodes (`TEST_SEED`), the policies first: the final table of an SB3 run and of a
+    `--backend jax` run (`tether_gym.training.jax.run`)."""
+    from tether_gym.evaluation.runner import evaluate
+
+    return evaluate(
+        {**agents, **baselines(config)}, config.env_kwargs, config.eval_episodes, TEST_SEED,
+        env_id=config.env_id,
+    )  # fmt: skip

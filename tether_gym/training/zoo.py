@@ -6,7 +6,12 @@ planner-backed variants in `tether_gym.agents.planned.PLANNED` (`planned_keys()`
 
 An entry's `env_kwargs` are the env arguments its recipe was tuned with (a ladder rung's control
 mode and coast): the command line's override them key by key (`make_config`), and a control mode
-other than the recipe's trains with the entry of the family's main id instead (`run_entry`)."""
+other than the recipe's trains with the entry of the family's main id instead (`run_entry`).
+
+The classes an entry names (SB3's, torch's, ours) are "module:name" paths imported where an SB3
+run builds its model (`algo_kwargs`, `policy_class`); reading an entry imports neither torch nor
+stable-baselines3, and `algo_kwargs(..., by_name=True)` reads its expressions by name
+(`Named`): the JAX trainer's recipe."""
 
 from __future__ import annotations
 
@@ -14,24 +19,21 @@ from importlib.resources import files
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import torch
 import yaml
-from stable_baselines3 import PPO, SAC, HerReplayBuffer
-from stable_baselines3.common.base_class import BaseAlgorithm
-from stable_baselines3.common.utils import LinearSchedule
 
-from tether_gym.agents.networks import AimPolicy, AimSACPolicy, NavigateExtractor, ProposalPolicy
 from tether_gym.agents.planned import planned_keys
+from tether_gym.algorithms import SB3, algorithm, on
 from tether_gym.arguments import DEFAULT_ENV_ID, did_you_mean
-from tether_gym.families import family
-from tether_gym.training.config import ALGO_NAMES
-from tether_gym.training.her import PathHerReplayBuffer
+from tether_gym.families import family, load
 
 if TYPE_CHECKING:
     from importlib.resources.abc import Traversable
 
-ALGOS: dict[str, type[BaseAlgorithm]] = dict(zip(ALGO_NAMES, (PPO, SAC), strict=True))
-"""`--algo` names and their SB3 classes; each has its zoo file `hyperparams/<name>.yml`."""
+    from stable_baselines3.common.base_class import BaseAlgorithm
+
+ALGOS = on(SB3)
+"""`--algo` names and their records on stable-baselines3 (`sb3_class`: the class); each has its
+zoo file `hyperparams/<name>.yml`."""
 OWN_KEYS = ("n_timesteps", "n_envs", "policy", "normalize", "env_kwargs")
 """The zoo's own keys of an entry."""
 RUN_KEYS = ("eval_freq", "eval_episodes")
@@ -49,21 +51,62 @@ def zoo_keys() -> tuple[str, ...]:
     return (*OWN_KEYS, *RUN_KEYS, *planned_keys())
 
 
-REPLAY_BUFFERS = {"HerReplayBuffer": HerReplayBuffer, "PathHerReplayBuffer": PathHerReplayBuffer}
-"""`replay_buffer_class` names a zoo entry may give (hindsight relabeling for goal envs)."""
-EXPRESSION_NAMES = {"dict": dict, "nn": torch.nn, "NavigateExtractor": NavigateExtractor}
-"""What a zoo expression (`policy_kwargs`, `replay_buffer_kwargs`) may name."""
+REPLAY_BUFFERS = {
+    "HerReplayBuffer": "stable_baselines3:HerReplayBuffer",
+    "PathHerReplayBuffer": "tether_gym.training.her:PathHerReplayBuffer",
+}
+"""`replay_buffer_class` names a zoo entry may give (hindsight relabeling for goal envs), and
+the "module:name" of each."""
+EXPRESSION_NAMES = {
+    "nn": "torch:nn",
+    "NavigateExtractor": "tether_gym.agents.networks:NavigateExtractor",
+}
+"""What a zoo expression (`policy_kwargs`, `replay_buffer_kwargs`) may name besides `dict`, and
+the "module:name" of each."""
 POLICIES = {
-    "AimPolicy": {"ppo": AimPolicy, "sac": AimSACPolicy},
-    "ProposalPolicy": {"ppo": ProposalPolicy},
+    "AimPolicy": {
+        "ppo": "tether_gym.agents.networks:AimPolicy",
+        "sac": "tether_gym.agents.networks:AimSACPolicy",
+    },
+    "ProposalPolicy": {"ppo": "tether_gym.agents.networks:ProposalPolicy"},
 }
 """Policy names of ours a zoo entry's `policy` may give, besides SB3's ("MlpPolicy", ...), with
-their class for each algorithm that takes them (SB3 too resolves a name by algorithm)."""
+the "module:name" of their class for each algorithm that takes them (SB3 too resolves a name by
+algorithm)."""
 
 
-def default_conf(algo: str) -> Traversable:
-    """The packaged hyperparameter file of `algo` (a `Path` in an installed or editable package)."""
-    return files("tether_gym.training") / "hyperparams" / f"{algo}.yml"
+class Named:
+    """A name in a zoo expression read by name only, its `__name__` (`nn.ReLU`: "ReLU";
+    `NavigateExtractor`): how a trainer without torch reads an expression."""
+
+    def __init__(self, name: str) -> None:
+        self.__name__ = name
+
+    def __getattr__(self, name: str) -> Named:
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return Named(name)
+
+    def __repr__(self) -> str:
+        return self.__name__
+
+
+def sb3_class(algo: str) -> type[BaseAlgorithm]:
+    """The stable-baselines3 class of `algo` (one of `ALGOS`), imported now."""
+    return ALGOS[algo].load_trainer()
+
+
+def policy_class(policy: str, algo: str) -> Any:
+    """The zoo entry's `policy` for `algo`: the class of a name of ours (`POLICIES`), else the
+    name, which SB3 resolves."""
+    path = POLICIES.get(policy, {}).get(algo)
+    return policy if path is None else load(path)
+
+
+def default_conf(algo: str, backend: str = SB3) -> Traversable:
+    """The packaged hyperparameter file of `algo` (its record's `zoo_file`: a `Path` in an
+    installed or editable package); ValueError for an algorithm `backend` does not train."""
+    return files("tether_gym.training") / "hyperparams" / algorithm(algo, backend).zoo_file
 
 
 DEFAULT_CONF = default_conf("ppo")
@@ -152,38 +195,46 @@ def run_entry(
 def schedule(value: Any) -> Any:
     """The zoo's `lin_<x>`: linear decay from x to 0 over training; a number stays constant."""
     if isinstance(value, str) and value.startswith("lin_"):
+        from stable_baselines3.common.utils import LinearSchedule
+
         return LinearSchedule(float(value[4:]), 0.0, 1.0)
     return float(value)
 
 
-def expression(text: str) -> Any:
+def expression(text: str, by_name: bool = False) -> Any:
     """The zoo's convention for dict values: a Python expression, e.g. "dict(net_arch=[64])",
-    over `EXPRESSION_NAMES`."""
-    return eval(text, {"__builtins__": {}, **EXPRESSION_NAMES})
+    over `dict` and `EXPRESSION_NAMES` (imported now; with `by_name`, `Named`s)."""
+    names = {
+        name: Named(name) if by_name else load(path) for name, path in EXPRESSION_NAMES.items()
+    }
+    return eval(text, {"__builtins__": {}, "dict": dict, **names})
 
 
-def algo_kwargs(params: dict[str, Any]) -> dict[str, Any]:
+def algo_kwargs(params: dict[str, Any], by_name: bool = False) -> dict[str, Any]:
     """The algorithm's keyword arguments in a zoo entry (schedules, policy_kwargs and
-    replay_buffer_kwargs evaluated, replay_buffer_class by name)."""
+    replay_buffer_kwargs evaluated, replay_buffer_class by name); with `by_name` the schedules
+    and the replay buffer's name stay as given and the expressions name their classes by name
+    (`expression`): nothing is imported."""
     own = zoo_keys()
     kwargs = {k: v for k, v in params.items() if k not in own}
     key = ""
     try:
         for key in ("learning_rate", "clip_range", "clip_range_vf"):
-            if kwargs.get(key) is not None:
+            if kwargs.get(key) is not None and not by_name:
                 kwargs[key] = schedule(kwargs[key])
         for key in ("policy_kwargs", "replay_buffer_kwargs"):
             if isinstance(kwargs.get(key), str):
-                kwargs[key] = expression(kwargs[key])
+                kwargs[key] = expression(kwargs[key], by_name)
         key = "replay_buffer_class"
         buffer = kwargs.get(key)
         if isinstance(buffer, str):
             if buffer not in REPLAY_BUFFERS:
                 raise ValueError(f"must be one of {sorted(REPLAY_BUFFERS)}")
-            kwargs[key] = REPLAY_BUFFERS[buffer]
+            if not by_name:
+                kwargs[key] = load(REPLAY_BUFFERS[buffer])
         key = "normalize"
         if isinstance(params.get(key), str):
-            expression(params[key])
+            expression(params[key], by_name)
     except Exception as error:
         raise ValueError(f"bad hyperparameter value for {key}: {error}") from None
     return kwargs

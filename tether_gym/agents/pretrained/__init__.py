@@ -4,10 +4,12 @@
     tether-evaluate --agents pretrained-low-stiffness shooting --rho 5 100
     tether-evaluate --env TetherNavigate_PostsReach-v3 --agents pretrained greedy lookahead
 
-Each agent is its policy file here, `<name>.pt`, the policy alone as stable-baselines3's
-`BasePolicy.save` writes it (weights and constructor arguments: no optimizer state, no replay
-buffer, no value of training), or for a policy of the JAX PPO (its card's `backend: jax`)
-`<name>.msgpack` and `<name>.json` (`agents.jax_policy`'s format), and `<name>.md`, its model
+Each agent is its policy file here, in the format of its card's algorithm (`algo`, and
+`backend`, default sb3: its `tether_gym.algorithms` record's `policy_suffix`): `<name>.pt`, the
+policy alone as stable-baselines3's `BasePolicy.save` writes it (weights and constructor
+arguments: no optimizer state, no replay buffer, no value of training), or for a policy of the
+JAX PPO (`backend: jax`) `<name>.msgpack` and `<name>.json` (`agents.jax_policy`'s format), and
+`<name>.md`, its model
 card: YAML front matter (the machine-readable facts, read by `card`) and the text. `AGENTS`
 maps the names that `tether-evaluate --agents` takes to the files; on TetherNavigate,
 "pretrained" is the agent of the env's task (`for_env`). A navigation agent picks among the
@@ -32,6 +34,7 @@ import gymnasium as gym
 
 from tether_gym.agents.planned import with_planner
 from tether_gym.agents.saved import SB3Agent
+from tether_gym.algorithms import JAX, SB3, algorithm, on
 from tether_gym.arguments import require_extra
 from tether_gym.families import check_agent, current_id, family
 
@@ -45,8 +48,9 @@ AGENTS = {
 TEST_EPISODES = 1000
 """How many first held-out episodes a card's `successes_first_*` counts cover when the card
 does not say (`test_episodes`): TetherBounce's cards, its family's `card_test_episodes`."""
-POLICIES = {"ppo": "PPO", "sac": "SAC"}
-"""The algorithms whose policies a card may name, and their SB3 classes."""
+POLICIES = on(SB3)
+"""The algorithms whose SB3 policies a card may name, and their records (`trainer`: the SB3
+class)."""
 
 
 def agent_file(name: str, suffix: str, folder: Path | None = None) -> Path:
@@ -73,14 +77,12 @@ def card(name: str, folder: Path | None = None) -> dict[str, Any]:
 def load_policy(path: Path, algo: str, policy: str = "MlpPolicy") -> Any:
     """An SB3 policy saved by `BasePolicy.save`, on the CPU (it takes no optimizer state)."""
     require_extra(f"the pretrained policy {str(path)!r}", ("stable_baselines3", "torch"))
-    import stable_baselines3
-
     from tether_gym.agents import networks
 
     if algo not in POLICIES:
         raise ValueError(f"algo must be one of {sorted(POLICIES)}, got {algo!r}")
-    algorithm = getattr(stable_baselines3, POLICIES[algo])
-    classes = {**algorithm.policy_aliases, "ProposalPolicy": networks.ProposalPolicy}
+    trainer = POLICIES[algo].load_trainer()
+    classes = {**trainer.policy_aliases, "ProposalPolicy": networks.ProposalPolicy}
     return classes[policy].load(str(path), device="cpu")
 
 
@@ -104,10 +106,12 @@ def load(name: str, folder: Path | None = None):
     """The pretrained agent `name` (a key of `AGENTS`): its policy, deterministic by default,
     with its planner if it has one (`planned.with_planner`, from the card's settings)."""
     facts = card(name, folder)
-    if facts.get("backend") == "jax":
+    trained = algorithm(facts["algo"], facts.get("backend", SB3))
+    path = agent_file(name, trained.policy_suffix, folder)
+    if trained.backend == JAX:
         require_extra(f"the pretrained policy {name!r}", ("jax", "flax"), "jax")
         from tether_gym.agents.jax_policy import load_policy as load_jax_policy
 
-        return load_jax_policy(agent_file(name, ".msgpack", folder))
-    policy = load_policy(agent_file(name, ".pt", folder), facts["algo"], facts["policy"])
+        return load_jax_policy(path)
+    policy = load_policy(path, facts["algo"], facts["policy"])
     return with_planner(SB3Agent(policy), facts)

@@ -1,15 +1,18 @@
-"""`tether-train --backend jax`: several seeds of PPO compiled with the env's JAX kernel
-(`tether_gym.training.jax_ppo`) in one run, written to a run folder as an SB3 run is.
+"""`tether-train --backend jax`: several seeds of an algorithm compiled with the env's JAX kernel
+(PPO: `tether_gym.training.jax.ppo`) in one run, written to a run folder as an SB3 run is.
 
     tether-train --backend jax --seeds 5                 # TetherBounce-v0, seeds 0 .. 4
     tether-train --backend jax --seeds 3 --seed 10 --timesteps 1e6 --dynamics impulse
 
-The recipe is resolved as the SB3 path resolves it (`recipe.resolve_config`: the zoo entry, its
-`env_kwargs` under the command line's, `--hyperparams`, the `RunConfig`), then read by
-`PPOConfig.from_params`; `--seeds N` trains seeds `--seed` .. `--seed` + N - 1 under `jax.vmap`.
+The algorithm is the record of `--algo` on the `jax` backend (`tether_gym.algorithms`), whose
+`JaxTrainer` (`tether_gym.training.jax.trainer`) gives the recipe, the training and the policy
+files: this module drives any of them. The recipe is resolved as the SB3 path resolves it
+(`recipe.resolve_config`: the zoo entry, its `env_kwargs` under the command line's,
+`--hyperparams`, the `RunConfig`), then read by the trainer (`JaxTrainer.recipe`: PPO's
+`PPOConfig.from_run`); `--seeds N` trains seeds `--seed` .. `--seed` + N - 1 under `jax.vmap`.
 Refused up front (ValueError naming the option): an env without a JAX backend in the gymnax
-convention (`families.Backend.gymnax_entry_point`), an algorithm other than ppo, the
-planner-backed variants, and whatever the JAX trainer cannot honour (`PPOConfig`).
+convention (`families.Backend.gymnax_entry_point`), an algorithm the backend does not train,
+the planner-backed variants, and whatever the trainer cannot honour (`PPOConfig`).
 
 The run folder holds `config.yaml` (the `RunConfig` with `backend: jax` and `seeds`),
 `seed<k>.msgpack` + `seed<k>.json` per seed, its policy at the end (`save_trained`;
@@ -21,12 +24,12 @@ the final table, `results.md` and `results.json`: each seed's best and last poli
 env's baselines on the same test episodes (`TEST_SEED`) as an SB3 run's final table
 (`experiment.final_table`), and the mean over seeds of the best and of the last policies with
 its 95% t interval. The compile step is announced (what is compiled, and the seconds it took
-last time: `jax_ppo.describe_compile`) and timed apart; the training clock starts after it. jax's
+last time: `compile.describe_compile`) and timed apart; the training clock starts after it. jax's
 persistent compilation cache (`compilation_cache_dir`: `~/.cache/tether_gym/jax`, or
 `JAX_COMPILATION_CACHE_DIR`) keeps the compiled trainer, so a second run or a resume of the same
 recipe loads it in seconds; XLA's own C++ log lines (its "Very slow compile?") stay off the
 console unless `TF_CPP_MIN_LOG_LEVEL` asks for them. After every chunk of updates, before its
-periodic evaluation, the whole training state is saved as `checkpoint.npz` (`jax_ppo.Checkpoint`):
+periodic evaluation, the whole training state is saved as `checkpoint.npz` (`trainer.Checkpoint`):
 `tether-train --resume RUN_DIR` continues an interrupted run from it, to the same policies as an
 uninterrupted run, and says a finished run (its `results.json` written) is finished without
 compiling or writing anything. Ctrl-C at any moment exits with status 130 and one line
@@ -34,7 +37,7 @@ compiling or writing anything. Ctrl-C at any moment exits with status 130 and on
 once, losing only the work since the last checkpoint.
 
 Imports jax only for an env with a JAX backend, after `require_extra` (which names the `jax`
-extra).
+extra), and neither torch nor stable-baselines3.
 """
 
 from __future__ import annotations
@@ -55,26 +58,25 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
+from tether_gym.algorithms import JAX, SB3, Algorithm, algorithm
 from tether_gym.arguments import require_extra
 from tether_gym.families import FAMILIES, family
 from tether_gym.seeds import EVAL_SEED, TEST_SEED
 from tether_gym.training.config import RunConfig
 from tether_gym.training.folders import EVALUATIONS, append_row, drop_rows_after, prepare_run_dir
-from tether_gym.training.recipe import default_name, resolve_config
+from tether_gym.training.jax import gymnax_entry_point
+from tether_gym.training.recipe import check_settings, default_name, resolve_config
 from tether_gym.training.summary import RESULTS
 
 if TYPE_CHECKING:
     from tether_gym.evaluation.results import Result
-    from tether_gym.training.jax_ppo import Checkpoint, PPOConfig
+    from tether_gym.training.jax import Recipe
+    from tether_gym.training.jax.trainer import Checkpoint, JaxTrainer
 
-BACKEND = "jax"
-"""The `--backend` this module trains with (the `Backend.name` of the families' JAX kernels)."""
-MODULES = ("jax", "flax", "optax")
-"""Import names of the `jax` extra the trainer needs."""
 PROGRESS_LINES = 20
 """Progress lines of a run without periodic evaluations (one per chunk of updates)."""
 CHECKPOINT = "checkpoint.npz"
-"""The run folder's training state after its last chunk of updates (`jax_ppo.Checkpoint`)."""
+"""The run folder's training state after its last chunk of updates (`trainer.Checkpoint`)."""
 CACHE_ENV = "JAX_COMPILATION_CACHE_DIR"
 """jax's own variable for its persistent compilation cache's folder (empty: no cache)."""
 XLA_LOG_ENV = "TF_CPP_MIN_LOG_LEVEL"
@@ -239,21 +241,29 @@ class JaxRun:
     folder."""
 
     config: RunConfig
-    ppo: PPOConfig
+    recipe: Recipe
     seeds: list[int]
     run_dir: Path
     resume: bool = False
     """Whether it continues from the folder's `CHECKPOINT`."""
 
+    @property
+    def algorithm(self) -> Algorithm:
+        return algorithm(self.config.algo, JAX)
+
+    @property
+    def trainer(self) -> JaxTrainer:
+        return self.algorithm.load_trainer()
+
     def label(self) -> str:
-        return f"{self.config.algo.upper()} jax"
+        """The run's name in tables and logs: "PPO jax"."""
+        return f"{self.algorithm.label} {self.algorithm.backend}"
 
 
 def has_jax_backend(env_id: str) -> bool:
-    """Whether the family of `env_id` has a JAX backend the trainer trains (`Family.backends`,
+    """Whether the family of `env_id` has a JAX backend a JAX trainer trains (`Family.backends`,
     with a gymnax entry point)."""
-    return any(backend.name == BACKEND and backend.gymnax_entry_point
-               for backend in family(env_id).backends)  # fmt: skip
+    return gymnax_entry_point(env_id) is not None
 
 
 def jax_env_ids() -> list[str]:
@@ -264,9 +274,10 @@ def jax_env_ids() -> list[str]:
 
 
 def check_jax_config(config: RunConfig) -> None:
-    """ValueError for what `--backend jax` does not train: an env without a JAX backend
-    (before jax is imported: ModuleNotFoundError naming the `jax` extra if it is missing) in
-    the gymnax convention, an algorithm other than ppo or a planner-backed variant."""
+    """ValueError for what `--backend jax` does not train: an env without a JAX backend in the
+    gymnax convention, an algorithm it does not train (`tether_gym.algorithms`; then, before jax
+    is imported, ModuleNotFoundError naming the algorithm's extra if a module is missing) or a
+    planner-backed variant."""
     from tether_gym.agents.planned import planned_keys
 
     if not has_jax_backend(config.env_id):
@@ -274,9 +285,8 @@ def check_jax_config(config: RunConfig) -> None:
             f"--backend jax: {config.env_id} has no JAX backend (a {family(config.env_id).name} "
             f"env); --env must be one of {jax_env_ids()}"
         )
-    require_extra("tether-train --backend jax", MODULES, "jax")
-    if config.algo != "ppo":
-        raise ValueError(f"--backend jax trains ppo only, not --algo {config.algo}")
+    algo = algorithm(config.algo, JAX)
+    require_extra(f"tether-train --backend {JAX}", algo.modules, algo.extra)
     variant_keys = sorted(key for key in config.hyperparams if key in planned_keys())
     if variant_keys:
         raise ValueError(
@@ -285,19 +295,19 @@ def check_jax_config(config: RunConfig) -> None:
         )
 
 
-def ppo_config(config: RunConfig) -> PPOConfig:
-    """The JAX trainer's recipe of `config` (its zoo entry, n_envs, timesteps and env
-    arguments); ValueError for what the trainer cannot honour."""
-    from tether_gym.training.jax_ppo import PPOConfig
-
-    params = {**config.hyperparams, "n_envs": config.n_envs}
-    return PPOConfig.from_params(config.env_id, params, config.timesteps, config.env_kwargs)
+def checked(config: RunConfig) -> Recipe:
+    """`config` checked for `--backend jax` (`check_jax_config`, then what both backends check:
+    `recipe.check_settings`), and its trainer's recipe; ValueError for what the trainer cannot
+    honour."""
+    check_jax_config(config)
+    check_settings(config, by_name=True)  # the env arguments, resolved once (`RunConfig.env`)
+    return algorithm(config.algo, JAX).load_trainer().recipe(config)
 
 
 def run_name(config: RunConfig, seeds: list[int]) -> str:
     """runs/<name>: the SB3 run's default name with `<algo>_jax` and the seeds
     (`seeds0-4`, or `seed3` for one)."""
-    name = default_name(config.env_id, config.env_kwargs, seeds[0], f"{config.algo}_jax")
+    name = default_name(config.env_id, config.env_kwargs, seeds[0], f"{config.algo}_{JAX}")
     stem = name.removesuffix(f"seed{seeds[0]}")
     return stem + (f"seed{seeds[0]}" if len(seeds) == 1 else f"seeds{seeds[0]}-{seeds[-1]}")
 
@@ -306,23 +316,20 @@ def run_from_args(args: argparse.Namespace) -> JaxRun:
     """The checked run of the command line (ValueError; ModuleNotFoundError naming the `jax`
     extra), its folder prepared (`prepare_run_dir`: never overwritten without --overwrite), or
     with `--resume` the run saved in that folder."""
-    from tether_gym.training.experiment import check_config
-
     if args.resume is not None:
         return resumed_run(args)
-    if args.save_replay_buffer:
-        raise ValueError("--save-replay-buffer: --backend jax trains ppo, which has none")
     count = 1 if args.seeds is None else args.seeds
     if count < 1:
         raise ValueError(f"--seeds must be at least 1, got {count}")
     config = resolve_config(args)
-    check_jax_config(config)
-    check_config(config)  # the env arguments, resolved once (`RunConfig.env`), the sizes
-    ppo = ppo_config(config)
+    if config.save_replay_buffer and not algorithm(config.algo, JAX).replay_buffer:
+        raise ValueError(f"--save-replay-buffer: --backend jax trains {config.algo}, which has "
+                         "none")  # fmt: skip
+    recipe = checked(config)
     seeds = list(range(config.seed, config.seed + count))
     run_dir = args.runs_dir / (args.name or run_name(config, seeds))
     prepare_run_dir(run_dir, args.overwrite)
-    return JaxRun(config, ppo, seeds, run_dir)
+    return JaxRun(config, recipe, seeds, run_dir)
 
 
 def resumed_run(args: argparse.Namespace) -> JaxRun:
@@ -335,7 +342,7 @@ def resumed_run(args: argparse.Namespace) -> JaxRun:
 
     run_dir = args.resume
     saved = read_config(run_dir / "config.yaml")
-    if saved.get("backend", "sb3") != BACKEND:
+    if saved.get("backend", SB3) != JAX:
         raise ValueError(f"--resume {run_dir} is a stable-baselines3 run: drop --backend jax")
     given = [f"--{key.replace('_', '-')}" for key in RUN_OPTIONS if getattr(args, key) is not None]
     given += [f"--{key}" for key in ("name", "seeds", "hyperparams") if getattr(args, key)]
@@ -353,23 +360,19 @@ def resumed_run(args: argparse.Namespace) -> JaxRun:
             f"--resume {run_dir}: no {CHECKPOINT} there (interrupted before its first chunk of "
             "updates ended): start the run again with --overwrite"
         )
-    from tether_gym.training.experiment import check_config
-
     seeds = [int(seed) for seed in saved.pop("seeds")]
     saved.pop("backend")
     config = RunConfig.from_dict(saved)
-    check_jax_config(config)
-    check_config(config)
-    return JaxRun(config, ppo_config(config), seeds, run_dir, resume=True)
+    return JaxRun(config, checked(config), seeds, run_dir, resume=True)
 
 
 def chunk_updates(run: JaxRun) -> int:
     """Updates per compiled call (a progress line each): `eval_freq`'s worth, or a
     `PROGRESS_LINES`th of the run without periodic evaluations."""
-    ppo = run.ppo
+    recipe = run.recipe
     if run.config.eval_freq:
-        return max(1, round(run.config.eval_freq / ppo.rollout_size))
-    return max(1, math.ceil(ppo.n_updates / PROGRESS_LINES))
+        return max(1, round(run.config.eval_freq / recipe.rollout_size))
+    return max(1, math.ceil(recipe.n_updates / PROGRESS_LINES))
 
 
 def best_stem(run_dir: Path, seed: int) -> Path:
@@ -421,24 +424,25 @@ class PeriodicEval:
         """Evaluate the seeds' `params` after `updates`; `stage` ("evaluate", then "save" for
         the writing) as `Interrupts.stage`."""
         from tether_gym.agents.jax_policy import JaxPolicyAgent
-        from tether_gym.training.jax_ppo import policy_config, save_trained, unstack
+        from tether_gym.training.jax.trainer import save_trained, unstack
 
+        recipe = self.run.recipe
         if self.yardstick_rate is None:
             (result,) = self._evaluate({self.yardstick: self.baseline})
             self.yardstick_rate = result.success_rate
         if not self.agents:  # one agent per seed, its parameters replaced: compiled once
-            played = policy_config(self.run.ppo)
+            played = self.run.trainer.policy_config(recipe)
             self.agents = {f"seed{s}": JaxPolicyAgent(None, played) for s in self.run.seeds}
         for i, agent in enumerate(self.agents.values()):
             agent.params = unstack(params, i)
-        timesteps = min(updates, self.run.ppo.n_updates) * self.run.ppo.rollout_size
+        timesteps = min(updates, recipe.n_updates) * recipe.rollout_size
         results = self._evaluate(self.agents)
         if stage is not None:
             stage("save")
         for i, (seed, result) in enumerate(zip(self.run.seeds, results, strict=True)):
             if seed not in self.best or result.success_rate > self.best[seed][0]:
                 self.best[seed] = (result.success_rate, timesteps)
-                save_trained(best_stem(self.run.run_dir, seed), unstack(params, i), self.run.ppo)
+                save_trained(best_stem(self.run.run_dir, seed), unstack(params, i), recipe)
             numbers = {"timesteps": timesteps, "seed": seed, "success_rate": result.success_rate,
                        self.family.yardstick_column: self.yardstick_rate}  # fmt: skip
             numbers.update({name: getattr(result, name) for name in self.family.metrics})
@@ -485,17 +489,18 @@ def train(
     `time.perf_counter()` the command started at (`wall_seconds` counts from it)."""
     from tether_gym.agents.jax_policy import load_policy
     from tether_gym.evaluation.reports import format_table
-    from tether_gym.training.experiment import final_table
-    from tether_gym.training.jax_ppo import save_trained, train_seeds, unstack
+    from tether_gym.training.jax.trainer import save_trained, train_seeds, unstack
+    from tether_gym.training.yardsticks import final_table
 
     wall = time.perf_counter() if started is None else started
     interrupts = interrupts or Interrupts()
-    config, ppo, seeds, run_dir = run.config, run.ppo, run.seeds, run.run_dir
-    interrupts.run_dir, interrupts.n_updates = run_dir, ppo.n_updates
+    config, recipe, seeds, run_dir = run.config, run.recipe, run.seeds, run.run_dir
+    backend = run.algorithm.backend
+    interrupts.run_dir, interrupts.n_updates = run_dir, recipe.n_updates
     if not run.resume:
-        saved = {"backend": BACKEND, **config.as_dict(), "seeds": seeds}
+        saved = {"backend": backend, **config.as_dict(), "seeds": seeds}
         _write_atomic(run_dir / "config.yaml", yaml.safe_dump(saved, sort_keys=False))
-    trained = ppo.n_updates * ppo.rollout_size
+    trained = recipe.n_updates * recipe.rollout_size
     rounded = "" if trained == config.timesteps else (
         f" ({config.timesteps:,} asked, rounded up to whole rollouts)"
     )  # fmt: skip
@@ -503,7 +508,7 @@ def train(
           f"{trained:,} timesteps each{rounded} into {run_dir}", flush=True)  # fmt: skip
     start = run_dir / CHECKPOINT if run.resume else None
     done = _checkpoint_updates(start) if start is not None else 0
-    evaluate = PeriodicEval(run, done * ppo.rollout_size) if config.eval_freq else None
+    evaluate = PeriodicEval(run, done * recipe.rollout_size) if config.eval_freq else None
     eval_seconds = 0.0
 
     def after_chunk(checkpoint: Checkpoint) -> None:
@@ -522,11 +527,11 @@ def train(
         if progress or not line.startswith("update "):  # the compile step is always said
             print(line, flush=True)
 
-    out = train_seeds(ppo, seeds, chunk_updates(run), log=log, after_chunk=after_chunk,
+    out = train_seeds(recipe, seeds, chunk_updates(run), log=log, after_chunk=after_chunk,
                       start=start, stage=interrupts.stage)  # fmt: skip
     interrupts.stage("save")
     for i, seed in enumerate(seeds):
-        save_trained(run_dir / f"seed{seed}", unstack(out.params, i), ppo)
+        save_trained(run_dir / f"seed{seed}", unstack(out.params, i), recipe)
     interrupts.check()
     best = evaluate.best if evaluate is not None else {}
     kept = " (the best as seed<k>_best.msgpack)" if best else ""
@@ -555,7 +560,7 @@ def train(
     )  # fmt: skip
     summary = {
         "run_dir": str(run_dir),
-        "backend": BACKEND,
+        "backend": backend,
         "env_id": config.env_id,
         "env_kwargs": config.env_kwargs,
         "seeds": seeds,
