@@ -106,7 +106,7 @@ def host_call(
         n = math.prod(batch)
         flat = np.broadcast_to(packed_data, (*batch, packed_data.shape[-1])).reshape(n, -1)
         lanes = _unpack(flat, data_layout)
-        results = np.empty((n, width), np.float64)
+        results = np.empty((n, width), dtype)  # each output written into its columns once
         if math.prod(packed_params.shape[:-1]) == 1:
             rows, group = packed_params.reshape(1, -1), np.zeros(n, dtype=int)
         else:
@@ -118,9 +118,13 @@ def host_call(
             part = lanes if members is None else [np.ascontiguousarray(x[members]) for x in lanes]
             values = _unpack(row[None], param_layout)
             outputs = run(part, (row.tobytes(), [v[0] for v in values]))
-            packed = np.concatenate([o.reshape(len(o), -1) for o in outputs], axis=1)
-            results[slice(None) if members is None else members] = packed
-        return results.astype(dtype).reshape(*batch, width)
+            rows_of = slice(None) if members is None else members
+            start = 0
+            for o in outputs:
+                size = math.prod(o.shape[1:])
+                results[rows_of, start : start + size] = o.reshape(len(o), -1)
+                start += size
+        return results.reshape(*batch, width)
 
     shape = jax.ShapeDtypeStruct((width,), dtype)
     packed = jax.pure_callback(
@@ -388,14 +392,14 @@ class NavigateHost:
                 steps.autoreset(*arrays)
             else:
                 steps.autoreset_parallel(*arrays, chunk)
-            ended = (out[:, end["terminated"]] != 0.0) | (out[:, end["truncated"]] != 0.0)
-            kept = np.where(ended[:, None], 0.0, out)
-            return [*(new[name] for name in NAVIGATE_STATE.names), obs, final_obs, out, kept]
+            return [*(new[name] for name in NAVIGATE_STATE.names), obs, final_obs, out]
 
         data = [*self._state_leaves(state), *(jnp.asarray(x, dtype) for x in (action, uniforms))]
         rows = ((NAVIGATE_OBSERVATION.width,), NAVIGATE_OBSERVATION.base)
-        out = [*self._state_out(), rows, rows, ((width,), dtype), ((width,), dtype)]
-        *fields, obs, final_obs, outcome, kept = host_call(run, data, _param_leaves(params), out)
+        out = [*self._state_out(), rows, rows, ((width,), dtype)]
+        *fields, obs, final_obs, outcome = host_call(run, data, _param_leaves(params), out)
+        ended = (outcome[end["terminated"]] != 0.0) | (outcome[end["truncated"]] != 0.0)
+        kept = jnp.where(ended, jnp.zeros_like(outcome), outcome)
         return self._state(fields, kept), obs, final_obs, outcome
 
 
