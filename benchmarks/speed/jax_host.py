@@ -7,13 +7,14 @@ median over `--repeats` of:
 
 - `host jax`: the numba kernels called from jitted code (`tether_gym.jax.host`): the fused step
   with its autoreset (`host_step_autoreset`, vmapped: one numba call per batch) in a
-  `fori_loop` inside one `jit`, the actions and uniforms drawn on the device, as an agent
-  compiled with the env runs it;
+  `fori_loop` inside one `jit`, as an agent compiled with the env runs it: the actions from
+  `ACTION_POOL` batches drawn beforehand (as the numba env's), the episodes' uniforms drawn at
+  each step (`jax.random`, as the JAX env draws them);
 - `xla jax`: the XLA kernels (`step_episode` through `JaxVectorEnv.step_batch`) in the same loop
   (`benchmarks.speed.jax_throughput.scan_program`), skipped where its compile takes minutes
   (aim control at batches of 1,024 and more: 48 s and up) and, with `--quick`, above batch 64;
 - `numba vec`: the numba vector env (`gym.make_vec(..., vectorization_mode="vector_entry_point")`)
-  stepped from Python.
+  stepped from Python (its uniforms from numpy's generator, in blocks).
 
 A TetherNavigate step is a maneuver, a TetherBounce step an episode. Each JAX figure comes with
 its compile seconds (trace, lower, compile of the timed program); the ratios are against the
@@ -39,7 +40,9 @@ import jax.numpy as jnp
 import tether_gym  # noqa: F401  (registers the ids)
 from benchmarks.common import output_arguments, refuse_existing
 from benchmarks.speed.jax_throughput import (
+    ACTION_POOL,
     IDS,
+    action_pool,
     jax_scan_rate,
     load,
     machine,
@@ -81,11 +84,13 @@ def host_program(family: str, kwargs: dict, n: int):
         state = state.episode
     fused = jax.vmap(fns.host_step_autoreset, in_axes=(0, 0, 0, None))
 
+    pool = action_pool(draw, n, width)
+
     def run(carry, steps):
-        def step(_, carry):
+        def step(i, carry):
             state, key, total = carry
-            key, draw_actions, draw_uniforms = jax.random.split(key, 3)
-            actions = jax.random.uniform(draw_actions, (n, width), dtype, -1.0, 1.0)
+            key, draw_uniforms = jax.random.split(key)
+            actions = pool[i % ACTION_POOL]
             u = jax.random.uniform(draw_uniforms, (n, n_uniforms), dtype)
             state, obs, _, outcome = fused(state, actions, u, params)
             return state, key, total + outcome[:, 0].sum() + obs[:, 0].sum()

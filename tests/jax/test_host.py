@@ -5,7 +5,7 @@ observations, rewards, episode ends and info bit for bit (float64), from the sam
 (each copy's stream, as `KernelVectorEnv` draws it) and actions, for both families, both
 dynamics and every TetherNavigate control mode; one lane's call unbatched equals that lane;
 params that differ across a vmapped batch give each lane its own params' result; a vmapped batch
-is one numba call; without `jax_enable_x64` the outputs are the numba ones rounded to float32."""
+is one FFI call; without `jax_enable_x64` the outputs are the numba ones rounded to float32."""
 
 from __future__ import annotations
 
@@ -225,21 +225,18 @@ def test_functional_picks_the_backend():
         host.functional("Nope")
 
 
-def test_a_vmapped_batch_is_one_numba_call(monkeypatch):
-    """Under `jit` of `vmap`, the callback runs the numba kernel once on the whole batch."""
-    calls = []
-    real = host.reset_rows
-
-    def counted(uniforms, *args):
-        calls.append(uniforms.shape[0])
-        return real(uniforms, *args)
-
-    monkeypatch.setattr(host, "reset_rows", counted)
+def test_a_vmapped_batch_is_one_call():
+    """Under `vmap` (nested too), each host function is one FFI call over the whole batch
+    (XLA FFI calls the numba kernel once a step, not once a lane)."""
     params = jn.EnvParams.make()
     u = np.random.default_rng(8).random((2, 5, jn.UNIFORMS))
     sample = jax.vmap(jax.vmap(host.NAVIGATE.host_sample_episode, in_axes=(0, None)), (0, None))
-    jax.block_until_ready(jax.jit(sample)(u, params))
-    assert calls == [10]
+    calls = [
+        eqn for eqn in jax.make_jaxpr(sample)(u, params).eqns if eqn.primitive.name == "ffi_call"
+    ]
+    assert len(calls) == 1
+    assert calls[0].invars[0].aval.shape == (2, 5, jn.UNIFORMS)
+    assert calls[0].outvars[0].aval.shape == (2, 5)
 
 
 def test_float32_rounds_the_numba_result():
@@ -301,3 +298,38 @@ def test_the_host_vector_env_steps_in_one_call_as_the_generic_step_would(env_id,
             np.testing.assert_array_equal(np.asarray(ours), np.asarray(theirs))
         assert np.array_equal(np.asarray(new_key), np.asarray(key))
         env.step(actions)
+
+
+PARALLEL_SCRIPT = """
+import jax, numpy as np
+jax.config.update("jax_enable_x64", True)
+from tether_gym.envs.tether_bounce import kernel
+from tether_gym.jax import host
+from tether_gym.jax.tether_bounce import kernel as jb
+n = 2 * kernel.PARALLEL_CHUNK[kernel.IMPULSE]
+params = jb.EnvParams.make(dynamics="impulse")
+rng = np.random.default_rng(0)
+u, u_next = rng.random((2, n, jb.UNIFORMS))
+actions = rng.uniform(-1.0, 1.0, (n, 4))
+episodes = jax.vmap(host.BOUNCE.host_sample_episode, in_axes=(0, None))(u, params)
+fused = jax.jit(jax.vmap(host.BOUNCE.host_step_autoreset, in_axes=(0, 0, 0, None)))
+next_episodes, _, _, outcome = fused(episodes, actions, u_next, params)
+numba_kernel = kernel.TetherBounceKernel(kernel.BounceConfig(dynamics="impulse"))
+state, obs = numba_kernel.reset(u[:, : numba_kernel.n_uniforms])
+expected = numba_kernel.step_autoreset(state, obs, actions, u_next[:, : numba_kernel.n_uniforms])
+np.testing.assert_array_equal(np.asarray(next_episodes), expected[0])
+np.testing.assert_array_equal(np.asarray(outcome), expected[3])
+"""
+
+
+def test_a_cached_ffi_handler_runs_the_parallel_kernel_in_a_new_process():
+    """TetherBounce's fused FFI handler over a batch of two parallel chunks (numba's threads),
+    in two fresh processes: the second loads the handler from numba's cache (a cached handler
+    whose parallel kernel finds numba's threads not started crashes the process)."""
+    import subprocess
+    import sys
+
+    for run in ("first", "cached"):
+        done = subprocess.run([sys.executable, "-c", PARALLEL_SCRIPT], capture_output=True,
+                              text=True, timeout=300)  # fmt: skip
+        assert done.returncode == 0, f"{run} process: {done.returncode} {done.stderr[-2000:]}"

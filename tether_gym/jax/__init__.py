@@ -8,10 +8,11 @@ The modules mirror the numba tree (`tether_gym.envs`, `tether_gym.physics`):
 - `tether_navigate.kernel`, over `tether_navigate.flight`, `tether_navigate.hybrid` and
   `tether_navigate.controls` (`setup`, `velocity`): TetherNavigate-v3's kernel and its
   `FuncEnv`, the same way, in every control mode that has a JAX solver.
-- `host`: the numba kernels of both families called from the jitted step (`jax.pure_callback`,
-  one call per batch) and their `FuncEnv`s: the default `kernel` on a CPU, where XLA steps the
-  kernels written for it far slower than numba; the XLA kernels are the default on an
-  accelerator.
+- `host`: the numba kernels of both families called from the jitted step (XLA FFI custom
+  calls, one per batch: the mechanism in `ffi`, each family's targets in `tether_bounce.ffi`
+  and `tether_navigate.ffi`) and their `FuncEnv`s: the default `kernel` on a CPU, where XLA
+  steps the kernels written for it far slower than numba; the XLA kernels are the default on
+  an accelerator.
 - `envs`: the Gymnasium envs of both families on either kernel, `TetherBounceJaxEnv`
   (`gym.make("tether_gym/TetherBounce-jax-v0")`), `TetherNavigateJaxEnv` (every ladder id,
   `gym.make("tether_gym/TetherNavigate_PostsReach-jax-v3")`) and their vector envs (the
