@@ -389,15 +389,6 @@ def interrupt(argv: list[str], marker: str, delay: float, env: dict[str, str]):
     return code, "".join(lines), process.stderr.read()
 
 
-def calls_back_on_the_host() -> bool:
-    """Whether the JAX envs step through the numba kernels here (`tether_gym.jax.host`)."""
-    try:
-        from tether_gym.jax.host import kernel
-    except ImportError:
-        return False
-    return kernel() == "host"
-
-
 @pytest.fixture(scope="module")
 def interrupted(tmp_path_factory):
     """A run stopped by Ctrl-C while compiling, then (the same command) while training; jax's
@@ -438,13 +429,12 @@ def test_ctrl_c_while_training_saves_the_state_and_resume_continues_from_it(inte
         f"(Ctrl-C again: stop now) ... saved; continue from update {done}/20 with: "
         f"tether-train --resume {run_dir}"
     )
-    # the compiled trainer is in jax's cache (unless it calls the numba kernels back on the
-    # host, which jax does not cache), with the seconds its compile took
-    cacheable = not calls_back_on_the_host()
-    assert bool(list(cache.glob("jit_update*"))) == cacheable
+    # the compiled trainer is in jax's cache (on either kernel: the host kernel's FFI calls
+    # are named targets, not Python callbacks), with the seconds its compile took
+    assert list(cache.glob("jit_update*"))
     assert (cache / "tether_gym_compile_seconds.json").is_file()
     code, out, err = interrupt(["--resume", str(run_dir)], "never said", 0.0, env)
     assert (code, err) == (0, "")
     assert f"continuing from update {done}/20" in out and "s last time ..." in out
-    assert ("(read from jax's compilation cache)" in out) == cacheable
+    assert "(read from jax's compilation cache)" in out
     assert "update 20/20" in out and (run_dir / "results.json").is_file()
