@@ -11,8 +11,9 @@ median over `--repeats` of:
   `ACTION_POOL` batches drawn beforehand (as the numba env's), the episodes' uniforms drawn at
   each step (`jax.random`, as the JAX env draws them);
 - `xla jax`: the XLA kernels (`step_episode` through `JaxVectorEnv.step_batch`) in the same loop
-  (`benchmarks.speed.jax_throughput.scan_program`), skipped where its compile takes minutes
-  (aim control at batches of 1,024 and more: 48 s and up) and, with `--quick`, above batch 64;
+  with the same pool of actions (`benchmarks.speed.jax_throughput.scan_program`), skipped where
+  its compile takes minutes (aim control at batches of 1,024 and more: 48 s and up) and, with
+  `--quick`, above batch 64;
 - `numba vec`: the numba vector env (`gym.make_vec(..., vectorization_mode="vector_entry_point")`)
   stepped from Python (its uniforms from numpy's generator, in blocks).
 
@@ -164,7 +165,7 @@ def main(argv: list[str] | None = None) -> None:
             reason = "--no-xla" if args.no_xla else xla_reason(kwargs, n, args.quick)
             row["xla_jax"] = row["xla_compile_s"] = None
             if reason is None:
-                compiled, carry, seconds = timed_program(scan_program, jax_id, kwargs, n)
+                compiled, carry, seconds = timed_program(scan_program, jax_id, kwargs, n, True)
                 row["xla_jax"] = jax_scan_rate(compiled, carry, n, args.repeats)
                 row["xla_compile_s"] = round(seconds, 2)
                 del compiled, carry

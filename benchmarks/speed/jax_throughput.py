@@ -5,15 +5,13 @@ default) and batch (1, 64, 1,024, 16,384, 65,536 by default), with uniform rando
 [-1, 1], the median over `--repeats` of:
 
 - `jax scan`: the JAX kernel's fused step (`JaxVectorEnv.step_batch`: every copy steps, then
-  starts its next episode) scanned over a block of steps inside one `jit`, cycling through
-  `ACTION_POOL` batches of actions drawn beforehand on the device, the episodes' uniforms drawn
-  at each step (`jax.random`): the env's throughput in an agent compiled with it;
+  starts its next episode) scanned over a block of steps inside one `jit`, the
+  actions drawn on the device: the throughput of an agent compiled with the env;
 - `jax vec`: the same step through Gymnasium's `VectorEnv` API (`gym.make_vec` of
   `tether_gym/TetherBounce-jax-v0` or `tether_gym/TetherNavigate-jax-v3`: numpy actions in,
   numpy observations and info out);
 - `numba vec`: the numba vector env (`gym.make_vec("TetherBounce-v0", ...,
-  vectorization_mode="vector_entry_point")`, or TetherNavigate-v3's), cycling through the
-  same number of action batches drawn beforehand.
+  vectorization_mode="vector_entry_point")`, or TetherNavigate-v3's), actions drawn beforehand.
   A TetherNavigate step is a maneuver.
 
 The `jax scan` programs of every row are compiled first, in parallel threads (the wall time
@@ -71,8 +69,8 @@ SIDES = ("scan", "vec", "numba")
 MIN_SECONDS = 0.5
 """Each timed block of steps lasts at least about this long (at least one step)."""
 ACTION_POOL = 8
-"""Batches of random actions every measured env cycles through: none pays for drawing the
-agent's actions, each for drawing its own episodes' randomness."""
+"""Batches of random actions the Python-driven envs cycle through (and, with `pool`, the
+compiled loop of `scan_program`)."""
 
 
 def action_pool(key: jax.Array, n: int, width: int) -> jax.Array:
@@ -102,21 +100,27 @@ def xla(env_id: str, kwargs: dict) -> dict:
     return {**kwargs, "kernel": "xla"} if env_id.startswith("tether_gym/") else kwargs
 
 
-def scan_program(env_id: str, kwargs: dict, n: int):
+def scan_program(env_id: str, kwargs: dict, n: int, pool: bool = False):
     """`jax scan` (module docstring) compiled ahead: `(compiled, carry)`, where `compiled(carry,
     steps)` runs `steps` fused steps of `n` copies in one `fori_loop` (`steps` is an argument:
-    one program for every block length) and returns the carry to go on from."""
+    one program for every block length) and returns the carry to go on from. With `pool`, the
+    actions cycle through `ACTION_POOL` batches drawn beforehand instead of being drawn at each
+    step."""
     env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point",
                        **xla(env_id, kwargs))  # fmt: skip
     state, key = env.reset_batch(jax.random.PRNGKey(0), env.params)[:2]
     width = env.single_action_space.shape[0]
 
-    pool = action_pool(key, n, width)
+    actions_pool = action_pool(key, n, width) if pool else None
 
     def run(carry, steps):
         def step(i, carry):
             state, key, total = carry
-            actions = pool[i % ACTION_POOL]
+            if pool:
+                actions = actions_pool[i % ACTION_POOL]
+            else:
+                key, draw = jax.random.split(key)
+                actions = jax.random.uniform(draw, (n, width), minval=-1.0, maxval=1.0)
             state, key, obs, _, outcome = env.step_batch(state, actions, key, env.params)
             return state, key, total + outcome[:, 0].sum() + obs[:, 0].sum()
 
