@@ -2,11 +2,12 @@
 
 An `Algorithm` is what `tether-train --algo NAME --backend BACKEND` trains: its zoo file (the
 recipe, `hyperparams/<name>.yml`, shared by its backends), the trainer (the stable-baselines3
-class, or the JAX trainer that `tether_gym.training.jax.run` drives), the optional extra it
-needs and the file its policy is shipped in. `ALGORITHMS` is the one table, keyed by (name,
-backend) in `algorithm`: the command line's `--algo` choices, the SB3 classes of
-`tether_gym.training.zoo`, the pretrained catalog's policies, `tether export` and the JAX run's
-checks read it. The code is named by "module:name" paths (`families.load`), imported on first
+class, the JAX trainer that `tether_gym.training.jax.run` drives, or the offline learner that
+`tether_gym.training.offline` drives on a Minari dataset), the optional extra it needs and the
+file its policy is shipped in. `ALGORITHMS` is the one table, keyed by (name, backend) in
+`algorithm`: the command line's `--algo` choices, the SB3 classes of `tether_gym.training.zoo`,
+the pretrained catalog's policies, `tether export`, the JAX run's checks and the offline run's
+learners read it. The code is named by "module:name" paths (`families.load`), imported on first
 use: this module imports neither torch nor jax, so that every floor from the agents up may
 import it (the pretrained catalog loads a policy by its record).
 """
@@ -24,10 +25,16 @@ SB3 = "sb3"
 JAX = "jax"
 """Compiled with the env's JAX kernel, several seeds at once (`tether_gym.training.jax`): the
 `Backend.name` of the env families' JAX kernels it trains on."""
-BACKENDS = (SB3, JAX)
+OFFLINE = "offline"
+"""Learned from a Minari dataset, no env step taken (`tether_gym.training.offline`); the offline
+algorithms pick it without `--backend`."""
+BACKENDS = (SB3, JAX, OFFLINE)
 """`tether-train --backend` choices, the default first."""
 JAX_EXTRA = ("jax", "flax", "optax")
 """Import names of the `jax` extra a JAX trainer needs."""
+OFFLINE_EXTRA = ("torch", "yaml")
+"""Import names of the `train` extra an offline learner needs (reading its dataset needs the
+`datasets` extra too: `tether_gym.training.offline`)."""
 
 
 @dataclass(frozen=True)
@@ -37,14 +44,15 @@ class Algorithm:
     name: str
     """`--algo`, lower case, e.g. "ppo"."""
     backend: str
-    """`--backend`: `SB3` or `JAX`."""
+    """`--backend`: `SB3`, `JAX` or `OFFLINE`."""
     trainer: str
-    """The "module:name" path of the trainer: the stable-baselines3 class (`SB3`), or the
-    `tether_gym.training.jax.trainer.JaxTrainer` (`JAX`)."""
+    """The "module:name" path of the trainer: the stable-baselines3 class (`SB3`), the
+    `tether_gym.training.jax.trainer.JaxTrainer` (`JAX`), or the learner class of
+    `tether_gym.training.offline_learners` (`OFFLINE`)."""
     policy_suffix: str
     """The file of its policy alone, as the pretrained catalog ships it and `tether export`
-    writes it: ".pt" (SB3's `BasePolicy.save`) or ".msgpack" (with its ".json":
-    `tether_gym.agents.jax_policy`)."""
+    writes it: ".pt" (SB3's `BasePolicy.save`; an offline run's torch file), or ".msgpack" (with
+    its ".json": `tether_gym.agents.jax_policy`)."""
     extra: str
     """The optional extra that installs the trainer."""
     modules: tuple[str, ...]
@@ -72,6 +80,12 @@ ALGORITHMS = (
     Algorithm("ppo", SB3, "stable_baselines3:PPO", ".pt", "train", TRAIN_EXTRA),
     Algorithm("sac", SB3, "stable_baselines3:SAC", ".pt", "train", TRAIN_EXTRA, replay_buffer=True),
     Algorithm("ppo", JAX, "tether_gym.training.jax.ppo:TRAINER", ".msgpack", "jax", JAX_EXTRA),
+    Algorithm(
+        "gcbc", OFFLINE, "tether_gym.training.offline_learners:GCBC", ".pt", "train", OFFLINE_EXTRA
+    ),
+    Algorithm(
+        "iql", OFFLINE, "tether_gym.training.offline_learners:IQL", ".pt", "train", OFFLINE_EXTRA
+    ),
 )
 """Every algorithm the package trains, on each backend that trains it."""
 BY_KEY = {(algo.name, algo.backend): algo for algo in ALGORITHMS}

@@ -1,8 +1,8 @@
 """The algorithm records (`tether_gym.algorithms`): every list of algorithms is read from them
 (`--algo`, `--backend`, the zoo's SB3 classes, the pretrained catalog's policies, the export's
-files, the JAX trainer), an algorithm a backend does not train is refused naming those it does,
-reading the records and a zoo entry imports neither torch nor jax, and the JAX recipe's copy of
-stable-baselines3's defaults is SB3's."""
+files, the JAX trainer, the offline learners and their hyperparameters), an algorithm a backend
+does not train is refused naming those it does, reading the records and a zoo entry imports
+neither torch nor jax, and the JAX recipe's copy of stable-baselines3's defaults is SB3's."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from importlib.resources import files
 import pytest
 
 from tests.helpers import ROOT
-from tether_gym.algorithms import ALGORITHMS, BACKENDS, JAX, SB3, algorithm, names
+from tether_gym.algorithms import ALGORITHMS, BACKENDS, JAX, OFFLINE, SB3, algorithm, names
 from tether_gym.training import zoo
 from tether_gym.training.config import ALGO_NAMES
 
@@ -24,7 +24,8 @@ def test_the_lists_of_algorithms_are_read_from_the_records():
     from tether_gym.evaluation.export import SUFFIXES
     from tether_gym.training.train import build_parser
 
-    assert ALGO_NAMES == names() == ("ppo", "sac") and names(JAX) == ("ppo",)
+    assert ALGO_NAMES == names() == ("ppo", "sac", "gcbc", "iql") and names(JAX) == ("ppo",)
+    assert names(SB3) == ("ppo", "sac") and names(OFFLINE) == ("gcbc", "iql")
     assert zoo.ALGOS == {"ppo": algorithm("ppo"), "sac": algorithm("sac")}
     assert pretrained.POLICIES == zoo.ALGOS
     actions = {action.dest: action for action in build_parser()._actions}
@@ -39,8 +40,13 @@ def test_the_lists_of_algorithms_are_read_from_the_records():
 def test_an_algorithm_a_backend_does_not_train_is_refused_naming_those_it_does():
     with pytest.raises(ValueError, match="--backend jax trains ppo only, not --algo sac"):
         algorithm("sac", JAX)
-    with pytest.raises(ValueError, match=r"backend must be one of \('sb3', 'jax'\), got 'tf'"):
+    with pytest.raises(ValueError, match=r"backend must be one of \('sb3', 'jax', 'offline'\), "):
         algorithm("ppo", "tf")
+    with pytest.raises(ValueError, match="--backend offline trains gcbc or iql only, not --algo "
+                       "ppo"):  # fmt: skip
+        algorithm("ppo", OFFLINE)
+    with pytest.raises(ValueError, match="--backend sb3 trains ppo or sac only, not --algo iql"):
+        algorithm("iql")
     with pytest.raises(ValueError, match="--backend jax trains ppo only"):
         zoo.default_conf("sac", JAX)
     assert zoo.default_conf("sac").name == "sac.yml"
@@ -59,6 +65,22 @@ def test_each_record_names_its_trainer():
     trainer = algorithm("ppo", JAX).load_trainer()
     assert trainer is ppo.TRAINER and isinstance(trainer, JaxTrainer)
     assert trainer_of(PPOConfig()) is trainer and trainer.recipe == PPOConfig.from_run
+
+
+def test_each_offline_record_names_its_learner_and_hyperparameters():
+    """The offline learners are the records' trainers, each with its hyperparameters' type,
+    whose defaults are its zoo file's values on every rung a dataset is made for."""
+    pytest.importorskip("torch")
+    from tether_gym.datasets.create import dense_ids
+    from tether_gym.training import offline, offline_learners
+
+    assert list(offline.PARAMS) == list(names(OFFLINE))
+    assert algorithm("gcbc", OFFLINE).load_trainer() is offline_learners.GCBC
+    assert algorithm("iql", OFFLINE).load_trainer() is offline_learners.IQL
+    for name, kind in offline.PARAMS.items():
+        for env_id in dense_ids():
+            entry = zoo.load_hyperparams(zoo.default_conf(name, OFFLINE), env_id=env_id)
+            assert offline.learner_params(name, entry) == kind(), (name, env_id)
 
 
 def test_a_zoo_expression_read_by_name_imports_nothing():
@@ -82,12 +104,13 @@ def test_a_zoo_expression_read_by_name_imports_nothing():
 
 def test_the_records_and_the_recipes_import_neither_torch_nor_jax():
     """What `tether-train` reads before it knows its backend: the records, the run config, the
-    zoo (an entry read by name), the recipe resolution and the JAX package's root."""
+    zoo (an entry read by name), the recipe resolution, the offline run's checks and the JAX
+    package's root."""
     modules = ["torch", "stable_baselines3", "jax"]
     code = (
         "import sys\n"
         "import tether_gym.algorithms, tether_gym.training.config, tether_gym.training.jax\n"
-        "from tether_gym.training import folders, recipe, yardsticks, zoo\n"
+        "from tether_gym.training import folders, offline, recipe, yardsticks, zoo\n"
         "entry = zoo.load_hyperparams(zoo.DEFAULT_CONF)\n"
         "zoo.algo_kwargs(entry, by_name=True)\n"
         f"print(*(name in sys.modules for name in {modules!r}))\n"

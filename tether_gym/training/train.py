@@ -7,6 +7,7 @@
     tether-train --algo sac --env TetherNavigateSparse-v3             # SAC + HER
     tether-train --resume runs/<name>                # continue an interrupted run
     tether-train --backend jax --seeds 5             # 5 seeds of PPO compiled with the JAX env
+    tether-train --algo iql --dataset tether_gym/PostsReach-v3/expert-setup-v0   # offline
 
 (`python train.py ...` from a clone's root is the same command.) `--algo` and `--backend` pick
 the algorithm (`tether_gym.algorithms`); its hyperparameters come from the packaged
@@ -36,6 +37,11 @@ folder holds each seed's policy (`seed<k>.msgpack`, which `tether-evaluate --age
 the same final table, with the mean over seeds; `--resume` continues it from its last
 checkpoint.
 
+`--algo gcbc` or `--algo iql` (the `offline` backend) learns from `--dataset`, one of the
+package's Minari datasets in the local Minari root (`tether dataset create`), and plays the
+policy on the dataset's env (`tether_gym.training.offline`: its run folder holds `policy.pt` and
+the same final table; `--hyperparams gradient_steps:N` sets its length).
+
 This module is the command line, which imports torch and stable-baselines3 only once its
 arguments are parsed and the env's id and argument names checked (`--help` and a typo are
 answered without them), and only for `--backend sb3` (the "train" extra; `--backend jax` needs
@@ -51,7 +57,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from tether_gym.algorithms import BACKENDS, JAX, SB3, algorithm
+from tether_gym.algorithms import BACKENDS, JAX, OFFLINE, SB3, algorithm, names
 from tether_gym.arguments import (
     ArgumentParser,
     add_env_arguments,
@@ -82,9 +88,16 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         choices=BACKENDS,
         default=SB3,
         help="sb3: stable-baselines3 on the numba envs (default); jax: PPO compiled with the "
-        "env's JAX kernel, several seeds at once (--seeds)",
+        "env's JAX kernel, several seeds at once (--seeds); offline: learned from --dataset "
+        "(what --algo gcbc and iql train on)",
     )
     run.add_argument("--algo", choices=ALGO_NAMES, help="the algorithm (default ppo)")
+    run.add_argument(
+        "--dataset",
+        metavar="ID",
+        help="--algo gcbc or iql: the Minari dataset to learn from, in the local Minari root "
+        "(tether dataset list shows them); the run plays its env",
+    )
     run.add_argument("--n-envs", type=int, help="parallel envs (default: the conf file's)")
     run.add_argument(
         "--timesteps", type=float, help="total timesteps (default: the conf file's n_timesteps)"
@@ -231,6 +244,15 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.num_threads < 1:
         parser.error(f"--num-threads must be at least 1, got {args.num_threads}")
+    if (
+        args.backend == OFFLINE
+        or args.dataset is not None
+        or (args.algo in names(OFFLINE) and args.backend != JAX)
+        or (args.resume is not None and saved_backend(args.resume) == OFFLINE)
+    ):
+        from tether_gym.training import offline
+
+        return offline.main(args, parser)
     try:
         check_env_names(args)
     except ValueError as error:
