@@ -20,11 +20,13 @@ median over `--repeats` of:
 A TetherNavigate step is a maneuver, a TetherBounce step an episode. Each JAX figure comes with
 its compile seconds (trace, lower, compile of the timed program); the ratios are against the
 numba figure of the same run. float64 (`jax_enable_x64`) unless `--precision float32`.
-`--quick`: one repeat, the XLA kernels at batches 1 and 64 only. `--json PATH` writes the rows
+`--quick`: one repeat, the XLA kernels at batches 1 and 64 only; `--xla-max-batch N`: the XLA
+kernels at batches up to N only. `--json PATH` writes the rows
 (refused if the file exists, unless `--overwrite`).
 
     python -m benchmarks.speed.jax_host --quick
-    python -m benchmarks.speed.jax_host --full --json results/jax/host_throughput.json
+    python -m benchmarks.speed.jax_host --full --xla-max-batch 1024 \
+        --json results/jax/host_throughput.json
 """
 
 from __future__ import annotations
@@ -109,10 +111,12 @@ def timed_program(build, *args) -> tuple:
     return compiled, carry, time.perf_counter() - start
 
 
-def xla_reason(kwargs: dict, n: int, quick: bool) -> str | None:
+def xla_reason(kwargs: dict, n: int, quick: bool, largest: int | None) -> str | None:
     """Why the XLA kernels are not measured in a cell (None: they are)."""
     if kwargs.get("control") == "aim" and n >= XLA_AIM_LIMIT:
         return f"aim control's XLA compile at batch >= {XLA_AIM_LIMIT} takes minutes"
+    if largest is not None and n > largest:
+        return f"--xla-max-batch {largest}"
     if quick and n > QUICK_XLA_BATCH:
         return f"--quick: XLA above batch {QUICK_XLA_BATCH} not built"
     return None
@@ -129,6 +133,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--precision", choices=("float64", "float32"), default="float64")
     parser.add_argument("--families", nargs="+", choices=tuple(IDS), default=tuple(IDS))
     parser.add_argument("--no-xla", action="store_true", help="skip the XLA kernels")
+    parser.add_argument("--xla-max-batch", type=int,
+                        help="the XLA kernels at batches up to this only (a TetherNavigate step "
+                        "at 16,384 takes minutes on a CPU)")  # fmt: skip
     output_arguments(parser)
     args = parser.parse_args(argv)
     refuse_existing(parser, args.json, args.overwrite)
@@ -162,7 +169,9 @@ def main(argv: list[str] | None = None) -> None:
             row["host_jax"] = jax_scan_rate(compiled, carry, n, args.repeats)
             row["host_compile_s"] = round(seconds, 2)
             del compiled, carry
-            reason = "--no-xla" if args.no_xla else xla_reason(kwargs, n, args.quick)
+            reason = (
+                "--no-xla" if args.no_xla else xla_reason(kwargs, n, args.quick, args.xla_max_batch)
+            )
             row["xla_jax"] = row["xla_compile_s"] = None
             if reason is None:
                 compiled, carry, seconds = timed_program(scan_program, jax_id, kwargs, n, True)
@@ -185,7 +194,7 @@ def main(argv: list[str] | None = None) -> None:
     print(f"load after: {details['load_after']}")
     if args.json:
         setup = {"precision": args.precision, "repeats": args.repeats, "quick": args.quick,
-                 "batches": list(args.batches)}  # fmt: skip
+                 "batches": list(args.batches), "xla_max_batch": args.xla_max_batch}  # fmt: skip
         for row in rows:
             row["xla_over_numba"] = None if row["xla_jax"] is None else row["xla_over_numba"]
         record = results_file.record(results_file.script_command(__file__), rows, setup, details,
