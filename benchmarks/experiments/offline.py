@@ -98,8 +98,8 @@ def run(dataset_id: str, quality: str, algo: str, seed: int, gradient_steps: int
         episodes: int, runs: Path, detours: Probe | None) -> dict:  # fmt: skip
     """One offline run on the dataset `dataset_id` of `quality` in a fresh folder under `runs`,
     its policy on the test episodes (and, given `detours`, probed for them): its row."""
+    from tether_gym.agents.offline_policy import load_agent
     from tether_gym.training import offline
-    from tether_gym.training.offline_learners import load_agent
 
     config = offline.make_config(dataset_id, algo, seed, gradient_steps, eval_episodes=episodes)
     clock = time.perf_counter()

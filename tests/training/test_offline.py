@@ -1,9 +1,10 @@
 """The offline baselines (`tether-train --algo gcbc|iql --dataset ID`): each algorithm trains on a
 small expert dataset made by `tether dataset create`'s code in a Minari root of the test's own,
-writes its run folder (policy, losses, final table) and plays the test episodes; a second run
-into the folder is refused without --overwrite, and so is resuming it; a bad request is one line
-naming the option; and the learning itself: GC-BC's actions on the dataset's observations come
-much closer to the expert's than a fresh network's, and IQL's value follows the returns."""
+writes its run folder (policy, losses, final table) and plays the test episodes, as
+`tether-evaluate --agents RUN/policy.pt` plays them again; a second run into the folder is
+refused without --overwrite, and so is resuming it; a bad request is one line naming the
+option; and the learning itself: GC-BC's actions on the dataset's observations come much closer
+to the expert's than a fresh network's, and IQL's value follows the returns."""
 
 from __future__ import annotations
 
@@ -18,9 +19,11 @@ pytest.importorskip("pyarrow")
 
 import torch
 
+from tether_gym.agents.offline_policy import load_agent
 from tether_gym.datasets import create
+from tether_gym.evaluation.cli import main as evaluate_main
+from tether_gym.seeds import TEST_SEED
 from tether_gym.training import offline
-from tether_gym.training.offline_learners import load_agent
 from tether_gym.training.train import main as train_main
 
 ENV = "TetherNavigate_PostsReach-v3"
@@ -89,6 +92,39 @@ def test_a_run_trains_writes_its_folder_and_plays_the_test_episodes(algo, root, 
     assert capsys.readouterr().err.startswith("tether-train: error: --resume: an offline run "
                                               "takes no env steps and does not resume")  # fmt: skip
     assert (run_dir / "policy.pt").read_bytes() == before
+
+
+def test_tether_evaluate_plays_a_runs_policy_as_its_final_table_did(root, tmp_path, capsys):
+    """`tether-evaluate --agents RUN/policy.pt`: the policy plays the dataset's env in its
+    control mode on the run's final table's episodes (its config.yaml's), every number of its
+    row but the speed the one the run's results.json reports."""
+    config = offline.make_config(EXPERT, "gcbc", seed=1, hyperparams=dict(
+        gradient_steps=300, net_arch=[64], batch_size=64), eval_episodes=5)  # fmt: skip
+    run_dir = tmp_path / offline.default_name(config)
+    offline.train(config, run_dir, baselines=False)
+    [trained] = json.loads((run_dir / "results.json").read_text())["results"]
+    capsys.readouterr()
+    policy, out = run_dir / offline.POLICY, tmp_path / "evaluated.json"
+    evaluate_main(["--agents", str(policy), "--no-progress-bar", "--json", str(out)])
+    payload = json.loads(out.read_text())
+    assert payload["setup"] == {"env_id": ENV, "env_kwargs": {"control": "setup"},
+                                "seed": TEST_SEED}  # fmt: skip
+    [played] = payload["rows"]
+    assert played["name"] == run_dir.name and played["episodes"] == 5
+    assert measures(played) == measures(trained)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[:2] == [
+        f"tether-evaluate: 5 episodes from seed {TEST_SEED} (its run's final table's: "
+        f"{run_dir / 'config.yaml'})",
+        f"tether-evaluate: {run_dir.name} plays {ENV} with control='setup', coast=False (its "
+        "run's "
+        "control mode)",
+    ]
+
+
+def measures(row: dict) -> dict:
+    """A results row but its agent's name and speed."""
+    return {key: value for key, value in row.items() if key not in ("name", "episodes_per_second")}
 
 
 def minari_env():

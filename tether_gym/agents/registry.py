@@ -1,6 +1,7 @@
 """The agents by name: each env family's (its `Family.agents`, name -> factory: the baselines,
-the planners, the pretrained agents, a random agent) or a saved SB3 model's path, as `--agents`
-lists them (`make_agent`). In the agents layer, so that the evaluation and the recorder
+the planners, the pretrained agents, a random agent) or a saved model's path (an SB3 model's
+zip, a JAX policy's msgpack, an offline run's policy.pt), as `--agents` lists them
+(`make_agent`). In the agents layer, so that the evaluation and the recorder
 (`agents.record`) build the same agents. The package's factories are here; another family's
 may live anywhere its record names."""
 
@@ -98,17 +99,24 @@ def agent_choices(env_id: str) -> tuple[str, ...]:
     return tuple(family(env_id).agents)
 
 
+SAVED_SUFFIXES = (".zip", ".msgpack", ".pt")
+"""The suffixes of a saved model `make_agent` plays: an SB3 model's zip, a JAX policy's msgpack
+(`agents.jax_policy`), an offline run's policy (`agents.offline_policy`)."""
+
+
 def looks_like_path(spec: str) -> bool:
-    """Whether an `--agents` entry names a file rather than an agent: a .zip (an SB3 model) or
-    .msgpack (a JAX policy), a folder in it, or an existing file."""
-    saved = spec.endswith((".zip", ".msgpack"))
+    """Whether an `--agents` entry names a file rather than an agent: a saved model's
+    (`SAVED_SUFFIXES`), a folder in it, or an existing file."""
+    saved = spec.endswith(SAVED_SUFFIXES)
     return saved or "/" in spec or "\\" in spec or Path(spec).is_file()
 
 
 def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT_ENV_ID):
     """The agent named `spec` on `env_id`, built by its family's factory (`Family.agents`),
-    or the saved SB3 model zip at the path `spec`. ValueError for an unknown name, listing the
-    env's, and for an agent of another env family (`families.check_agent`)."""
+    or the saved model at the path `spec`: a JAX policy's .msgpack, an offline run's policy .pt
+    (`tether-train --algo gcbc|iql`, in its dataset's control mode), else an SB3 model's zip.
+    ValueError for an unknown name, listing the env's, for an agent of another env family
+    (`families.check_agent`) and for a file that is not the saved model its suffix says."""
     known = {name for env_family in FAMILIES for name in env_family.agents}
     if spec in known:
         check_agent(spec, env_id)
@@ -117,12 +125,18 @@ def make_agent(spec: str, env_kwargs: dict, seed: int = 0, env_id: str = DEFAULT
     if not looks_like_path(spec):
         raise ValueError(
             f"unknown agent {spec!r}: {env_id} takes {', '.join(agent_choices(env_id))}, "
-            "or a saved model's .zip path"
+            "or a saved model's .zip path (SB3), .msgpack path (JAX) or .pt path (an offline "
+            "run's policy.pt)"
         )
     if spec.endswith(".msgpack"):  # a policy of the JAX trainer (agents.jax_policy)
         require_extra(f"the policy {spec!r}", ("jax", "flax"), "jax")
         from tether_gym.agents.jax_policy import load_policy
 
         return load_policy(spec, seed)
+    if spec.endswith(".pt"):  # a policy of an offline run (agents.offline_policy)
+        require_extra(f"the policy {spec!r}", ("torch",))
+        from tether_gym.agents.offline_policy import load_agent as load_offline_agent
+
+        return load_offline_agent(spec, seed)
     require_extra(f"the model {spec!r}", ("stable_baselines3", "torch"))
     return load_agent(spec)

@@ -266,10 +266,11 @@ def fit_agent(spec: str, agent, env_id: str, env_kwargs: dict[str, Any]) -> None
 
 
 def model_name(parts: tuple[str, ...], depth: int) -> str:
-    """A saved model's name from its path's `parts` (no ".zip"): its last `depth` folders, the
-    file's stem dropped if it is "model" and a run's checkpoint folder said in brackets
-    ("ppo_seed0 (best)" for runs/ppo_seed0/best/model.zip)."""
-    if len(parts) > 1 and parts[-1] == "model":
+    """A saved model's name from its path's `parts` (no suffix): its last `depth` folders, the
+    file's stem dropped if it is "model" (an SB3 run's) or "policy" (an offline run's) and a
+    run's checkpoint folder said in brackets ("ppo_seed0 (best)" for
+    runs/ppo_seed0/best/model.zip)."""
+    if len(parts) > 1 and parts[-1] in ("model", "policy"):
         parts = parts[:-1]
     if len(parts) > 1 and parts[-1] in CHECKPOINTS:
         return f"{'/'.join(parts[-1 - depth : -1])} ({parts[-1]})"
@@ -280,12 +281,12 @@ def agent_names(specs: list[str]) -> list[str]:
     """The table's name of each `--agents` entry: a named agent's own; a saved model's by its
     run (`model_name`), with as many parent folders as tell the agents apart. ValueError if an
     entry repeats."""
+    from tether_gym.agents.registry import SAVED_SUFFIXES
+
     if len(set(specs)) < len(specs):
         raise ValueError(f"--agents lists an agent twice: {specs}")
     paths = [
-        Path(spec.removesuffix(".zip").removesuffix(".msgpack")).parts
-        if spec.endswith((".zip", ".msgpack"))
-        else None
+        Path(spec).with_suffix("").parts if spec.endswith(SAVED_SUFFIXES) else None
         for spec in specs
     ]
     for depth in range(1, max((len(p) for p in paths if p), default=0) + 1):
@@ -316,7 +317,8 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         "pretrained-reach or pretrained-stop, the greedy planner inside), aim-search (a "
         "planner in control aim: two maneuvers ahead over aims), direct (the goal as the aim, "
         "in control aim) on TetherNavigate; "
-        "random, or a saved SB3 model zip path (default: oracle shooting random, or greedy "
+        "random, or a saved policy's path: an SB3 run's .zip, a JAX run's .msgpack, an offline "
+        "run's policy.pt (default: oracle shooting random, or greedy "
         "lookahead random on TetherNavigate)")  # fmt: skip
     add("--episodes", type=int,
         help="episodes per agent (default: with a saved model, its run's final table's; else "

@@ -1,7 +1,7 @@
-"""Training (stable-baselines3, or compiled with the envs' JAX kernels) and sweeps (Ray Tune) on
-the tether envs: the optional extras "train", "jax" and "sweep". It builds on `tether_gym.agents`
-and `tether_gym.evaluation`, which never import it; the algorithms are the records of
-`tether_gym.algorithms`.
+"""Training (stable-baselines3, compiled with the envs' JAX kernels, or offline from a Minari
+dataset) and sweeps (Ray Tune) on the tether envs: the optional extras "train", "jax", "datasets"
+and "sweep". It builds on `tether_gym.agents` and `tether_gym.evaluation`, which never import
+it; the algorithms are the records of `tether_gym.algorithms`.
 
 - `train`: the `tether-train` command line; `experiment`: the run in named phases (`train`);
 - `config`: the typed run config (`RunConfig`, the run folder's config.yaml); `zoo`: the
@@ -14,6 +14,9 @@ and `tether_gym.evaluation`, which never import it; the algorithms are the recor
 - `jax`: training compiled with the env's JAX kernel, seeds under `jax.vmap` (the "jax"
   extra): PPO's recipe and stages, the trainer that drives any JAX algorithm, and `jax.run`,
   `tether-train --backend jax`, its run folder and final table;
+- `offline`: `tether-train --algo gcbc|iql --dataset ID`, an offline baseline learned from a
+  Minari dataset, its run folder and final table; `offline_learners`: its learners (torch),
+  GC-BC and IQL, training the policy of `tether_gym.agents.offline_policy`;
 - `sweep`: the `tether-sweep` command (`cluster` starts or joins Ray); `summary`: results over
   seeds.
 """

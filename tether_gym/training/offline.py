@@ -9,24 +9,26 @@ episodes of the Results page.
 The algorithms are the records of `tether_gym.algorithms` on the `offline` backend, their
 learners in `offline_learners` (torch; the module docstring says what each optimizes): GC-BC and
 IQL, the policy conditioned on the dataset's own goal (the observation and the desired goal,
-`policy_inputs`), as OGBench runs GCBC and GCIQL, trained on the dataset's transitions as they
-are (its dense rewards and terminations, no relabelling). The hyperparameters are the zoo entry
-of the dataset's env id in `hyperparams/<algo>.yml` (or `--conf-file`), `--hyperparams
-key:value` over them: the learner's (`GCBCParams`, `IQLParams`) and the run's, `gradient_steps`
-and `eval_episodes` (`RUN_KEYS`). The env is the dataset's (its metadata's id and arguments:
-its control mode), so the env options, and those of online training (`--timesteps`, `--n-envs`,
-`--eval-freq`, `--seeds`, `--resume`, `--save-replay-buffer`), are refused.
+`tether_gym.agents.offline_policy.policy_inputs`), as OGBench runs GCBC and GCIQL, trained on
+the dataset's transitions as they are (its dense rewards and terminations, no relabelling). The
+hyperparameters are the zoo entry of the dataset's env id in `hyperparams/<algo>.yml` (or
+`--conf-file`), `--hyperparams key:value` over them: the learner's (`GCBCParams`, `IQLParams`)
+and the run's, `gradient_steps` and `eval_episodes` (`RUN_KEYS`). The env is the dataset's (its
+metadata's id and arguments: its control mode), so the env options, and those of online
+training (`--timesteps`, `--n-envs`, `--eval-freq`, `--seeds`, `--resume`,
+`--save-replay-buffer`), are refused.
 
 The run folder (`runs/<algo>_<rung>_<quality>-<control>_seed<k>` by default) holds
 `config.yaml` (`OfflineConfig`, `backend: offline`), `losses.csv` (the mean losses every
-hundredth of the training), `policy.pt` (`offline_learners.save_policy`; `load_agent` plays
-it) and the final table, `results.md` and `results.json` (the keys
-`tether_gym.training.summary` reads; `timesteps` is 0, no env step being taken): the policy and
-the env's baselines (`yardsticks.final_table`) on the same test episodes (`TEST_SEED`) as every
-run's final table and as the dataset's `collector_success`, which the file repeats. A run folder
-is never overwritten without `--overwrite`. Bad input (an unknown algorithm, a dataset not in
-the local Minari root, an unknown or out-of-range hyperparameter, an option of online training)
-is one line naming the option and what it takes, answered before torch is imported.
+hundredth of the training), `policy.pt` (`agents.offline_policy.save_policy`; its `load_agent`
+plays it, as `tether-evaluate --agents RUN/policy.pt` does) and the final table, `results.md`
+and `results.json` (the keys `tether_gym.training.summary` reads; `timesteps` is 0, no env step
+being taken): the policy and the env's baselines (`yardsticks.final_table`) on the same test
+episodes (`TEST_SEED`) as every run's final table and as the dataset's `collector_success`,
+which the file repeats. A run folder is never overwritten without `--overwrite`. Bad input (an
+unknown algorithm, a dataset not in the local Minari root, an unknown or out-of-range
+hyperparameter, an option of online training) is one line naming the option and what it takes,
+answered before torch is imported.
 """
 
 from __future__ import annotations
@@ -186,12 +188,6 @@ class OfflineConfig:
         return dataclasses.asdict(self)
 
 
-def policy_inputs(obs: dict[str, np.ndarray]) -> np.ndarray:
-    """What the policy sees of a goal dict (or a batch of them): the observation, then the
-    desired goal, float32."""
-    return np.concatenate([obs["observation"], obs["desired_goal"]], axis=-1).astype(np.float32)
-
-
 def dataset_metadata(dataset_id: str) -> dict[str, Any]:
     """The metadata of `dataset_id`, one of the package's datasets in the local Minari root;
     ValueError naming those there."""
@@ -265,9 +261,11 @@ def prepare_run(run_dir: Path, overwrite: bool) -> None:
 
 def load_transitions(dataset_id: str) -> dict[str, np.ndarray]:
     """Every transition of the dataset as arrays: `inputs` and `next_inputs`
-    (`policy_inputs`), `actions`, `rewards` and `terminals` (1.0 where the episode ended on its
-    own; a truncated episode's last value is bootstrapped)."""
+    (`offline_policy.policy_inputs`), `actions`, `rewards` and `terminals` (1.0 where the episode
+    ended on its own; a truncated episode's last value is bootstrapped)."""
     import minari
+
+    from tether_gym.agents.offline_policy import policy_inputs
 
     parts: dict[str, list[np.ndarray]] = {
         key: [] for key in ("inputs", "next_inputs", "actions", "rewards", "terminals")
@@ -293,7 +291,7 @@ def make_learner(config: OfflineConfig, data: dict[str, np.ndarray]) -> GCBC:
     """`config`'s learner, its networks initialized from the seed, over the dataset `data`."""
     import torch
 
-    from tether_gym.training.offline_learners import Policy
+    from tether_gym.agents.offline_policy import Policy
 
     torch.manual_seed(config.seed)
     params = config.params
@@ -371,8 +369,8 @@ def train(
     """
     import torch
 
+    from tether_gym.agents.offline_policy import OfflineAgent, save_policy
     from tether_gym.evaluation.reports import format_table
-    from tether_gym.training.offline_learners import OfflineAgent, save_policy
 
     prepare_run(run_dir, overwrite)
     (run_dir / "config.yaml").write_text(yaml.safe_dump(config.as_dict(), sort_keys=False))

@@ -2,14 +2,14 @@
 implicit Q-learning (IQL, Kostrikov, Nair and Levine 2022) on a dataset's transitions, the
 policy conditioned on the dataset's own goal as OGBench's GCBC and GCIQL condition theirs.
 
-Both train one `Policy`: the observation and the desired goal (`offline.policy_inputs`),
-standardized by the dataset's statistics, through an MLP to a Gaussian whose mean is squashed by
-tanh into the action box and whose log standard deviation is one learned vector (IQL's policy).
-GC-BC maximizes the likelihood of the dataset's actions. IQL weights that likelihood by
-exp(temperature * advantage), clipped at `max_weight` (advantage-weighted regression), the
-advantage being the smaller of two target Q networks minus a value network fitted to it by
-expectile regression; the Q networks regress on reward + gamma * V(next) where the episode goes
-on, so no action outside the dataset is ever evaluated. A deterministic action is the mean.
+Both train one `Policy` (`tether_gym.agents.offline_policy`, which saves and plays it): the
+observation and the desired goal, standardized by the dataset's statistics, through an MLP to a
+Gaussian whose mean is squashed by tanh into the action box and whose log standard deviation is
+one learned vector (IQL's policy). GC-BC maximizes the likelihood of the dataset's actions. IQL
+weights that likelihood by exp(temperature * advantage), clipped at `max_weight`
+(advantage-weighted regression), the advantage being the smaller of two target Q networks minus
+a value network fitted to it by expectile regression; the Q networks regress on reward + gamma *
+V(next) where the episode goes on, so no action outside the dataset is ever evaluated.
 
 A compact implementation of our own rather than torchrl's `IQLLoss`, which runs here but brings
 four packages (tensordict pinned below its current release) for the loss alone: torchrl's Minari
@@ -20,58 +20,12 @@ with the torch this package pins, and its IQL step is slower than this plain one
 from __future__ import annotations
 
 import copy
-from collections.abc import Sequence
-from pathlib import Path
-from typing import Any
 
-import numpy as np
 import torch
 from torch import nn
 
-from tether_gym.training.offline import GCBCParams, IQLParams, policy_inputs
-
-LOG_STD_RANGE = (-5.0, 2.0)
-"""The policy's log standard deviation is clamped to this range (IQL's)."""
-
-
-def mlp(inputs: int, net_arch: Sequence[int], outputs: int) -> nn.Sequential:
-    """Linear layers of widths `net_arch` with ReLU between them, then `outputs` linear."""
-    layers: list[nn.Module] = []
-    for width in net_arch:
-        layers += [nn.Linear(inputs, width), nn.ReLU()]
-        inputs = width
-    return nn.Sequential(*layers, nn.Linear(inputs, outputs))
-
-
-class Policy(nn.Module):
-    """A Gaussian policy over the action box [-1, 1]^d: tanh of an MLP of the standardized inputs
-    as its mean, one learned log standard deviation per action."""
-
-    def __init__(self, mean: np.ndarray, std: np.ndarray, action_dim: int, net_arch: Sequence[int]):
-        super().__init__()
-        self.register_buffer("input_mean", torch.as_tensor(mean, dtype=torch.float32))
-        self.register_buffer("input_std", torch.as_tensor(std, dtype=torch.float32))
-        self.net_arch = tuple(net_arch)
-        self.body = mlp(len(mean), self.net_arch, action_dim)
-        self.log_std = nn.Parameter(torch.zeros(action_dim))
-
-    def forward(self, inputs: torch.Tensor) -> torch.Tensor:
-        """The mean action of each row of `inputs`."""
-        return torch.tanh(self.body((inputs - self.input_mean) / self.input_std))
-
-    def distribution(self, inputs: torch.Tensor) -> torch.distributions.Normal:
-        """The Gaussian over each row's action."""
-        std = self.log_std.clamp(*LOG_STD_RANGE).exp()
-        return torch.distributions.Normal(self(inputs), std)
-
-    def log_prob(self, inputs: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
-        """The log-likelihood of each row's action."""
-        return self.distribution(inputs).log_prob(actions).sum(-1)
-
-    def spec(self) -> dict[str, Any]:
-        """What rebuilds it (`load_policy`) besides its weights."""
-        input_dim, action_dim = len(self.input_mean), len(self.log_std)
-        return {"input_dim": input_dim, "action_dim": action_dim, "net_arch": list(self.net_arch)}
+from tether_gym.agents.offline_policy import Policy, mlp
+from tether_gym.training.offline import GCBCParams, IQLParams
 
 
 class GCBC:
@@ -154,49 +108,3 @@ class IQL(GCBC):
                 target.lerp_(source, params.tau)
         return {"actor_loss": actor_loss, "critic_loss": critic_loss.item(),
                 "value_loss": value_loss.item()}  # fmt: skip
-
-
-def save_policy(policy: Policy, path: Path, facts: dict[str, Any]) -> None:
-    """The policy's weights, its `spec` and `facts` (its env and dataset) in one torch file."""
-    torch.save({"spec": policy.spec(), "facts": facts, "state_dict": policy.state_dict()}, path)
-
-
-def load_policy(path: Path) -> tuple[Policy, dict[str, Any]]:
-    """The policy saved at `path` (`save_policy`) and its facts."""
-    saved = torch.load(path, map_location="cpu", weights_only=True)
-    spec = saved["spec"]
-    dims = np.zeros(spec["input_dim"]), np.ones(spec["input_dim"])
-    policy = Policy(*dims, spec["action_dim"], spec["net_arch"])
-    policy.load_state_dict(saved["state_dict"])
-    return policy.eval(), saved["facts"]
-
-
-class OfflineAgent:
-    """A trained offline policy as an evaluation agent: SB3's `predict` on a goal dict or a batch
-    of them, in its dataset's control mode (`control_kwargs`, which the evaluation's
-    `played_kwargs` reads). A stochastic action is drawn from `seed`'s generator and clipped to
-    the action box."""
-
-    def __init__(self, policy: Policy, control_kwargs: dict[str, Any], seed: int = 0):
-        self.policy, self.control_kwargs = policy, dict(control_kwargs)
-        self.generator = torch.Generator().manual_seed(seed)
-
-    def predict(self, obs, state=None, episode_start=None, deterministic: bool = True):
-        inputs = torch.as_tensor(policy_inputs(obs))
-        single = inputs.ndim == 1
-        with torch.no_grad():
-            rows = inputs[None] if single else inputs
-            if deterministic:
-                actions = self.policy(rows)
-            else:
-                distribution = self.policy.distribution(rows)
-                noise = torch.randn(distribution.mean.shape, generator=self.generator)
-                actions = (distribution.mean + distribution.stddev * noise).clamp(-1.0, 1.0)
-        actions = actions.numpy()
-        return (actions[0] if single else actions), state
-
-
-def load_agent(path: Path, seed: int = 0) -> OfflineAgent:
-    """The agent of the policy file `path` (a run folder's `policy.pt`)."""
-    policy, facts = load_policy(path)
-    return OfflineAgent(policy, facts["env_kwargs"], seed)
