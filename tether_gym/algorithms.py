@@ -15,6 +15,7 @@ import it (the pretrained catalog loads a policy by its record).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from tether_gym.arguments import TRAIN_EXTRA
@@ -89,6 +90,13 @@ ALGORITHMS = (
 )
 """Every algorithm the package trains, on each backend that trains it."""
 BY_KEY = {(algo.name, algo.backend): algo for algo in ALGORITHMS}
+
+
+def seed_stem(run_dir: Path, seed: int, best: bool = False) -> Path:
+    """A several-seed run's files of one seed's policy, without their suffix (`policy_suffix`):
+    `seed<k>` (its last policy) or `seed<k>_best` (its best at a periodic evaluation). The JAX
+    trainer writes them; `tether export` reads them."""
+    return run_dir / (f"seed{seed}_best" if best else f"seed{seed}")
 
 
 def names(backend: str | None = None) -> tuple[str, ...]:

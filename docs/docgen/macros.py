@@ -31,6 +31,8 @@ RESULTS_MACROS: dict[str, Callable[..., str]] = {
     "cold_start_table": tables.cold_start_table,
     "datasets_table": tables.datasets_table,
     "jax_agreement_table": tables.jax_agreement_table,
+    "jax_host_table": tables.jax_host_table,
+    "offline_table": tables.offline_table,
     "jax_throughput_table": tables.jax_throughput_table,
     "jax_train_table": tables.jax_train_table,
     "jax_vs_sb3_table": tables.jax_vs_sb3_table,

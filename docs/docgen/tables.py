@@ -610,6 +610,52 @@ def jax_throughput_table(sources: dict[str, str], root: Path = ROOT, style: str 
     return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
 
 
+def jax_host_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """Steps (TetherNavigate: maneuvers) per second of the JAX envs' two kernels against the
+    numba vector env in one run (`benchmarks.speed.jax_host`): one row per family, control
+    mode, dynamics and batch, each JAX column's ratio to numba and its compile seconds ("-"
+    where a kernel was not measured; the run's reasons under the table)."""
+    _check_sources(sources)
+    lines = [
+        "| env | dynamics | batch | host kernel | XLA kernel | numba vector env | host / numba | "
+        "XLA / numba | compile s (host, XLA) |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---|",
+    ]
+
+    def rate(value) -> str:
+        return "-" if value is None else f"{value:,.0f}"
+
+    def ratio(value) -> str:
+        return "-" if value is None else f"{value:.2f}" if value >= 0.01 else f"{value:.4f}"
+
+    notes = []
+    for path in (path for p in sources for path in files_of(p, root)):
+        data = read_file(path)
+        for row in data["rows"]:
+            env = row["family"] + (f" {row['control']}" if "control" in row else "")
+            xla_compile = "-" if row["xla_compile_s"] is None else f"{row['xla_compile_s']:.1f}"
+            lines.append(
+                f"| {env} | {row['dynamics']} | {row['batch']:,} | {rate(row['host_jax'])} | "
+                f"{rate(row['xla_jax'])} | {rate(row['numba_vec'])} | "
+                f"{ratio(row['host_over_numba'])} | {ratio(row['xla_over_numba'])} | "
+                f"{row['host_compile_s']:.1f}, {xla_compile} |"
+            )
+        details, machine = data["details"], data["details"]["machine"]
+        load = details.get("load_before"), details.get("load_after")
+        setup = data["setup"]
+        note = _run_line(data, {
+            "device": f"{machine['device']} ({machine['cpu']}, {machine['cpu_count']} cores)",
+            "precision": f"{setup['precision']}, the median of {setup['repeats']} timed blocks",
+        }).rstrip(".")  # fmt: skip
+        if all(load):
+            note += f"; the machine's load {load[0][0]:.1f} before, {load[1][0]:.1f} after"
+        reasons = sorted(set(details.get("skipped", {}).values()))
+        if reasons:
+            note += ". XLA kernel not measured where " + "; ".join(reasons)
+        notes.append(note + ".")
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
+
+
 def jax_navigate_agreement_table(
     sources: dict[str, str], root: Path = ROOT, style: str = "page"
 ) -> str:
@@ -838,6 +884,53 @@ def datasets_table(sources: dict[str, str], root: Path = ROOT, style: str = "pag
             f"{setup['test_seed']:,}) of the tables above. Load average {start:.1f} at the "
             f"start and {end:.1f} at the end on {setup['cpus']} CPUs (the wall time is a shared "
             f"machine's). " + _run_line(data)
+        )
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
+
+
+def offline_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """The offline baselines (`benchmarks/experiments/offline.py`): per rung, dataset and
+    algorithm, the success over seeds (mean [95% t interval], worst seed) beside the dataset's
+    collector, the mean training seconds, and for aim control the detour probe's measures."""
+    _check_sources(sources)
+    lines = [
+        "| rung | dataset (quality-control) | algorithm | success [95% CI] | worst seed | "
+        "collector | train s | aims off the goal | among the best where a detour is needed |",
+        "|---|---|---|---|---:|---:|---:|---:|---:|",
+    ]
+
+    def share(row: dict[str, Any], key: str) -> str:
+        return f"{100 * row[key]:.1f}%" if key in row else "-"
+
+    notes = []
+    for path in (path for p in sources for path in files_of(p, root)):
+        data = read_file(path)
+        setup, details = data["setup"], data["details"]
+        for row in details["summary"]:
+            ci = row["success_ci"]
+            interval = "" if ci is None else f" [{100 * ci[0]:.1f}, {100 * ci[1]:.1f}]"
+            lines.append(
+                f"| {row['rung']} | {row['quality']}-{row['control']} | {row['algo'].upper()} | "
+                f"{100 * row['success_mean']:.1f}%{interval} | {100 * row['worst']:.1f}% | "
+                f"{100 * row['collector_success']:.1f}% ({row['collector']}) | "
+                f"{row['train_seconds_mean']:,.0f} | {share(row, 'off_goal')} | "
+                f"{share(row, 'in_best_detour')} |"
+            )
+        for env_id, yardsticks in details.get("probe_yardsticks", {}).items():
+            lines.extend(
+                f"| {env_id.removeprefix('TetherNavigate_')} | (yardstick) | {name} | | | | | "
+                f"{share(measures, 'off_goal')} | {share(measures, 'in_best_detour')} |"
+                for name, measures in yardsticks.items()
+            )
+        start, end = setup["load_average_at_start"][0], setup["load_average_at_end"][0]
+        steps = setup["gradient_steps"] or "the zoo entry's"
+        notes.append(
+            f"{len(setup['seeds'])} seeds each; datasets of at least {setup['maneuvers']:,} "
+            f"maneuvers; {steps} gradient steps on one torch thread; every policy on the "
+            f"{setup['test_episodes']:,} test episodes (seed {setup['test_seed']:,}); the "
+            f"aim-control policies probed on {details['probe_states']:,} states. Load average "
+            f"{start:.1f} at the start and {end:.1f} at the end on {setup['cpus']} CPUs. "
+            + _run_line(data)
         )
     return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
 

@@ -150,6 +150,10 @@ def _change(path: Path) -> str:
         first["cases" if "outcome_field" in first else "jax_scan"] = 123456
         path.write_text(json.dumps(data))
         return "123,456"
+    if "host_jax" in first:  # benchmarks/speed/jax_host.py: the first host-kernel rate
+        first["host_jax"] = 123456
+        path.write_text(json.dumps(data))
+        return "123,456"
     if "worst_outcome" in first:  # benchmarks/validation/jax_navigate_agreement.py: the worst
         first["worst_outcome"] = 123456.0
         path.write_text(json.dumps(data))
@@ -164,6 +168,8 @@ def _change(path: Path) -> str:
         first["in_best"] = 0.123456
     elif "off_goal" in first:  # benchmarks/experiments/open_challenge.py: the direct shot
         first["off_goal"] = 0.123456
+    elif "gradient_steps" in first:  # benchmarks/experiments/offline.py: the first summary's
+        data["details"]["summary"][0]["success_mean"] = 0.123456
     else:
         first["success_rate"] = 0.123456
     path.write_text(json.dumps(data))

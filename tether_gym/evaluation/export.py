@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from tether_gym.algorithms import ALGORITHMS, JAX, SB3, algorithm
+from tether_gym.algorithms import ALGORITHMS, JAX, SB3, algorithm, seed_stem
 from tether_gym.arguments import DEFAULT_ENV_ID, ArgumentParser
 from tether_gym.families import family
 from tether_gym.seeds import HELD_OUT_SEED
@@ -230,8 +230,7 @@ def _export_jax(
         raise ValueError(f"run_dir {str(run_dir)!r} has no results.json: did its training end?")
     summary = json.loads(summary_file.read_text())
     kept = summary.get("best_timesteps", {}).get(str(seed))
-    stem = f"seed{seed}" if kept is None else f"seed{seed}_best"
-    source = run_dir / f"{stem}{trained.policy_suffix}"
+    source = seed_stem(run_dir, seed, best=kept is not None).with_suffix(trained.policy_suffix)
     if not source.is_file():
         raise ValueError(f"run_dir {str(run_dir)!r} has no {source.name}")
     files = export_files(name, folder, into_package)

@@ -59,7 +59,7 @@ from tether_gym.jax.tether_navigate import kernel as navigate
 from tether_gym.physics.models import DYNAMICS
 
 KERNELS = ("host", "xla")
-"""The backends of the JAX envs: the numba kernels through a callback, or the XLA kernels."""
+"""The backends of the JAX envs: the numba kernels as XLA FFI calls, or the XLA kernels."""
 
 
 def kernel() -> str:

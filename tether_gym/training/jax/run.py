@@ -58,7 +58,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
-from tether_gym.algorithms import JAX, SB3, Algorithm, algorithm
+from tether_gym.algorithms import JAX, SB3, Algorithm, algorithm, seed_stem
 from tether_gym.arguments import require_extra
 from tether_gym.families import FAMILIES, family
 from tether_gym.seeds import EVAL_SEED, TEST_SEED
@@ -375,17 +375,12 @@ def chunk_updates(run: JaxRun) -> int:
     return max(1, math.ceil(recipe.n_updates / PROGRESS_LINES))
 
 
-def best_stem(run_dir: Path, seed: int) -> Path:
-    """Where a seed's best policy is kept: `seed<k>_best` (.msgpack and .json)."""
-    return run_dir / f"seed{seed}_best"
-
-
 class PeriodicEval:
     """After each chunk of updates (if `eval_freq`): each seed's deterministic policy on the
     periodic evaluation's episodes (`EVAL_SEED`) beside the family's yardstick, a row per seed
     appended to `evaluations.csv` (the SB3 run's columns, and `seed`) and a line printed; a
-    seed's policy saved as its best (`best_stem`) when its success beats the seed's best so far
-    (the first evaluation's always), as SB3's evaluation keeps `best/`."""
+    seed's policy saved as its best (`algorithms.seed_stem`) when its success beats the seed's
+    best so far (the first evaluation's always), as SB3's evaluation keeps `best/`."""
 
     def __init__(self, run: JaxRun, timesteps: int = 0):
         from tether_gym.training.yardsticks import yardstick
@@ -442,7 +437,9 @@ class PeriodicEval:
         for i, (seed, result) in enumerate(zip(self.run.seeds, results, strict=True)):
             if seed not in self.best or result.success_rate > self.best[seed][0]:
                 self.best[seed] = (result.success_rate, timesteps)
-                save_trained(best_stem(self.run.run_dir, seed), unstack(params, i), recipe)
+                save_trained(
+                    seed_stem(self.run.run_dir, seed, best=True), unstack(params, i), recipe
+                )
             numbers = {"timesteps": timesteps, "seed": seed, "success_rate": result.success_rate,
                        self.family.yardstick_column: self.yardstick_rate}  # fmt: skip
             numbers.update({name: getattr(result, name) for name in self.family.metrics})
@@ -531,7 +528,7 @@ def train(
                       start=start, stage=interrupts.stage)  # fmt: skip
     interrupts.stage("save")
     for i, seed in enumerate(seeds):
-        save_trained(run_dir / f"seed{seed}", unstack(out.params, i), recipe)
+        save_trained(seed_stem(run_dir, seed), unstack(out.params, i), recipe)
     interrupts.check()
     best = evaluate.best if evaluate is not None else {}
     kept = " (the best as seed<k>_best.msgpack)" if best else ""
@@ -542,7 +539,7 @@ def train(
     interrupts.stage("evaluate")
     clock = time.perf_counter()
     label = run.label()
-    named = {f"{label} seed{seed} (best)": load_policy(best_stem(run_dir, seed))
+    named = {f"{label} seed{seed} (best)": load_policy(seed_stem(run_dir, seed, best=True))
              for seed in seeds if seed in best}  # fmt: skip
     named.update({f"{label} seed{seed} (last)": out.agent(i) for i, seed in enumerate(seeds)})
     results = final_table(config, named)
