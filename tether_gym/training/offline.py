@@ -53,7 +53,6 @@ from tether_gym.training.summary import RESULTS
 
 if TYPE_CHECKING:
     from tether_gym.evaluation.results import Result
-    from tether_gym.training.offline_learners import GCBC
 
 DATASETS_EXTRA = ("minari", "pyarrow")
 """Import names of the `datasets` extra, which reads a dataset."""
@@ -287,8 +286,9 @@ def input_statistics(inputs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return inputs.mean(axis=0), np.where(std > 1e-6, std, 1.0).astype(np.float32)
 
 
-def make_learner(config: OfflineConfig, data: dict[str, np.ndarray]) -> GCBC:
-    """`config`'s learner, its networks initialized from the seed, over the dataset `data`."""
+def make_learner(config: OfflineConfig, data: dict[str, np.ndarray]) -> Any:
+    """`config`'s learner (`offline_learners.GCBC` or `IQL`), its networks initialized from
+    the seed, over the dataset `data`."""
     import torch
 
     from tether_gym.agents.offline_policy import Policy
@@ -299,7 +299,7 @@ def make_learner(config: OfflineConfig, data: dict[str, np.ndarray]) -> GCBC:
     return algorithm(config.algo, OFFLINE).load_trainer()(policy, params)
 
 
-def learn(learner: GCBC, data: dict[str, np.ndarray], config: OfflineConfig, run_dir: Path,
+def learn(learner: Any, data: dict[str, np.ndarray], config: OfflineConfig, run_dir: Path,
           progress: bool = False) -> dict[str, float]:  # fmt: skip
     """`config.gradient_steps` gradient steps of `learner` on batches drawn uniformly from
     `data` by the seed's generator; the mean losses over each hundredth go to `LOSSES`.
