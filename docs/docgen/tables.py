@@ -559,6 +559,20 @@ def jax_agreement_table(sources: dict[str, str], root: Path = ROOT, style: str =
     return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
 
 
+def _timing_line(data: dict[str, Any]) -> str:
+    """What ran a timing results file (`_run_line` with the device, its CPU, the precision and
+    the timed blocks) and the machine's load before and after, without the final period."""
+    details, machine, setup = data["details"], data["details"]["machine"], data["setup"]
+    note = _run_line(data, {
+        "device": f"{machine['device']} ({machine['cpu']}, {machine['cpu_count']} cores)",
+        "precision": f"{setup['precision']}, the median of {setup['repeats']} timed blocks",
+    }).rstrip(".")  # fmt: skip
+    load = details.get("load_before"), details.get("load_after")
+    if all(load):
+        note += f"; the machine's load {load[0][0]:.1f} before, {load[1][0]:.1f} after"
+    return note
+
+
 def jax_throughput_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
     """Steps (TetherNavigate: maneuvers) per second, JAX against numba in one run
     (`benchmarks.speed.jax_throughput`): one row per dynamics (and control mode) and batch, and
@@ -586,15 +600,8 @@ def jax_throughput_table(sources: dict[str, str], root: Path = ROOT, style: str 
                 f"| {label} | {row['batch']:,} | {rate(scan)} | {rate(row['jax_vec'])} | "
                 f"{rate(numba_vec)} | {ratio} |"
             )
-        details, machine = data["details"], data["details"]["machine"]
-        load = details.get("load_before"), details.get("load_after")
-        setup = data["setup"]
-        note = _run_line(data, {
-            "device": f"{machine['device']} ({machine['cpu']}, {machine['cpu_count']} cores)",
-            "precision": f"{setup['precision']}, the median of {setup['repeats']} timed blocks",
-        }).rstrip(".")  # fmt: skip
-        if all(load):
-            note += f"; the machine's load {load[0][0]:.1f} before, {load[1][0]:.1f} after"
+        details = data["details"]
+        note = _timing_line(data)
         compiled = [
             f"{dynamics} {times['cold']['jit_s']:.1f} s ({times['cached']['jit_s']:.1f} s)"
             for dynamics, times in details.get("compile", {}).items()
@@ -640,15 +647,8 @@ def jax_host_table(sources: dict[str, str], root: Path = ROOT, style: str = "pag
                 f"{ratio(row['host_over_numba'])} | {ratio(row['xla_over_numba'])} | "
                 f"{row['host_compile_s']:.1f}, {xla_compile} |"
             )
-        details, machine = data["details"], data["details"]["machine"]
-        load = details.get("load_before"), details.get("load_after")
-        setup = data["setup"]
-        note = _run_line(data, {
-            "device": f"{machine['device']} ({machine['cpu']}, {machine['cpu_count']} cores)",
-            "precision": f"{setup['precision']}, the median of {setup['repeats']} timed blocks",
-        }).rstrip(".")  # fmt: skip
-        if all(load):
-            note += f"; the machine's load {load[0][0]:.1f} before, {load[1][0]:.1f} after"
+        details = data["details"]
+        note = _timing_line(data)
         reasons = sorted(set(details.get("skipped", {}).values()))
         if reasons:
             note += ". XLA kernel not measured where " + "; ".join(reasons)

@@ -28,6 +28,8 @@ from llvmlite import ir
 from numba import carray, types
 from numba.extending import intrinsic
 
+from tether_gym.physics.jit import twin
+
 API_VERSION = (0, 3)
 """The XLA FFI API (major, minor) whose layouts the handlers read."""
 F32, F64 = 11, 12
@@ -226,6 +228,14 @@ def scatter(frame, first, table, records):
                 target32[:] = carray(pointer(at), (count,), np.float64)
 
 
+def build_handler(function: Callable, suffix: str = "", **rebound) -> Callable:
+    """A target's handler: `function` (a Python function of `SIGNATURE`'s argument) compiled as
+    a cached `numba.cfunc`, as its `physics.jit.twin` with `rebound` globals where `suffix` is
+    given (one cache entry per build)."""
+    copy = twin(function, suffix, **rebound) if suffix else function
+    return numba.cfunc(SIGNATURE, cache=True)(copy)
+
+
 _REGISTERED: dict[str, Callable] = {}
 """Target name -> its compiled handler (kept alive: XLA holds only its address)."""
 
@@ -246,7 +256,7 @@ def register(name: str, build: Callable[[], Callable]) -> str:
 
 __all__ = [
     "API_VERSION", "BOOL", "F32", "F64", "FLOAT", "INT", "PRED", "S32", "S64", "SIGNATURE",
-    "answered_metadata", "buffer", "call_frame", "f32", "f64_in", "f64_out", "f64_store",
-    "gather", "pointer", "record_table", "register", "same_rows", "scatter", "success",
-    "words",
+    "answered_metadata", "buffer", "build_handler", "call_frame", "f32", "f64_in", "f64_out",
+    "f64_store", "gather", "pointer", "record_table", "register", "same_rows", "scatter",
+    "success", "words",
 ]  # fmt: skip

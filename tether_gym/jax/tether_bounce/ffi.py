@@ -10,12 +10,10 @@ columns are NaN where the action is not finite (the kernel skips the row).
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from tether_gym.envs.tether_bounce import kernel
 from tether_gym.jax import ffi
-from tether_gym.physics.jit import twin
 from tether_gym.physics.models import DYNAMICS
 
 _step = kernel._step_impulse
@@ -95,19 +93,13 @@ def _autoreset(address):
     return ffi.success()
 
 
-def _build(function, suffix: str = "", **rebound):
-    """A target's handler: `function` compiled as a cached `numba.cfunc`."""
-    copy = twin(function, suffix, **rebound) if suffix else function
-    return numba.cfunc(ffi.SIGNATURE, cache=True)(copy)
-
-
 def target(function: str, dynamics: str = "") -> str:
     """The registered FFI target of `function` ("reset", "observe", "step", "autoreset"; the
     last two of `dynamics`, "impulse" or "hybrid"), built on first use."""
     name = f"tether_bounce_{function}{'_' + dynamics if dynamics else ''}"
     if function in ("reset", "observe"):
         handler = {"reset": _reset, "observe": _observe}[function]
-        return ffi.register(name, lambda: _build(handler))
+        return ffi.register(name, lambda: ffi.build_handler(handler))
     index = DYNAMICS.index(dynamics)
     serial, parallel = kernel.AUTORESET[index]
     rebound = {
@@ -116,7 +108,7 @@ def target(function: str, dynamics: str = "") -> str:
                       "_CHUNK": kernel.PARALLEL_CHUNK[index]},
     }[function]  # fmt: skip
     handler = {"step": _step_target, "autoreset": _autoreset}[function]
-    return ffi.register(name, lambda: _build(handler, dynamics, **rebound))
+    return ffi.register(name, lambda: ffi.build_handler(handler, dynamics, **rebound))
 
 
 __all__ = ["target"]

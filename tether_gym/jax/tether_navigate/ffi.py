@@ -13,6 +13,8 @@ kernel writes none.
 
 from __future__ import annotations
 
+from functools import partial
+
 import numba
 import numpy as np
 from numba import carray
@@ -22,7 +24,6 @@ from tether_gym.envs.tether_navigate.config import PARAMS, STATE
 from tether_gym.envs.tether_navigate.sampling import reset_rows
 from tether_gym.envs.tether_navigate.spaces import OBSERVATION, observe_all
 from tether_gym.jax import ffi
-from tether_gym.physics.jit import twin
 
 _STATE_TABLE, _PARAMS_TABLE = ffi.record_table(STATE), ffi.record_table(PARAMS)
 _STATE_FIELDS, _PARAMS_FIELDS = len(STATE.names), len(PARAMS.names)
@@ -151,26 +152,20 @@ def _autoreset(address):
     return ffi.success()
 
 
-def _build(function, suffix: str = "", **rebound):
-    """A target's handler: `function` compiled as a cached `numba.cfunc`."""
-    copy = twin(function, suffix, **rebound) if suffix else function
-    return numba.cfunc(ffi.SIGNATURE, cache=True)(copy)
-
-
 def target(function: str, build: tuple[str, int] | None = None) -> str:
     """The registered FFI target of `function` ("reset", "observe", "step", "autoreset"; the
     last two of `build`, a (set-up, dynamics) key of `kernel.STEPS`), built on first use."""
     if function in ("reset", "observe"):
         handler = {"reset": _reset, "observe": _observe}[function]
-        return ffi.register(f"tether_navigate_{function}", lambda: _build(handler))
+        return ffi.register(f"tether_navigate_{function}", partial(ffi.build_handler, handler))
     steps = kernel.STEPS[build]
     suffix = f"{build[0]}_{build[1]}"
     if function == "step":
-        return ffi.register(f"tether_navigate_step_{suffix}",
-                            lambda: _build(_step_target, suffix, _step=steps.step))  # fmt: skip
-    rebound = {"_serial": steps.autoreset, "_parallel": steps.autoreset_parallel}
+        build_step = partial(ffi.build_handler, _step_target, suffix, _step=steps.step)
+        return ffi.register(f"tether_navigate_step_{suffix}", build_step)
     return ffi.register(f"tether_navigate_autoreset_{suffix}",
-                        lambda: _build(_autoreset, suffix, **rebound))  # fmt: skip
+                        partial(ffi.build_handler, _autoreset, suffix, _serial=steps.autoreset,
+                                _parallel=steps.autoreset_parallel))  # fmt: skip
 
 
 __all__ = ["target"]
