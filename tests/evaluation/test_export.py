@@ -62,18 +62,20 @@ def test_existing_files_are_replaced_only_with_overwrite(tmp_path):
 def test_only_the_maintainers_flag_writes_into_the_package(tmp_path, capsys):
     """Without `--into-package` nothing points into the package; with it, NAME is a shipped
     agent's and the files are the catalog's; a folder with it, a new name with it, a name with
-    a folder and a missing folder are refused, each naming what is wrong."""
+    a folder and a file as the folder are refused, each naming what is wrong; a missing folder
+    is made when the files are cleared for writing."""
     files_of = exporter.export_files("pretrained", None, into_package=True)
     assert {p.parent for p in files_of.values()} == {PACKAGE}
     assert files_of[".msgpack"].name == "default.msgpack"
     assert exporter.export_files("pretrained", tmp_path)[".md"] == tmp_path / "default.md"
     assert exporter.export_files("mine", tmp_path)[".pt"] == tmp_path / "mine.pt"
+    (tmp_path / "file.txt").write_text("a user's file")
     refused = [
         (("mine", None, True), "--into-package replaces a shipped agent, one of"),
         (("pretrained", tmp_path, True), "--into-package writes into the package; drop --out"),
         (("mine", None), r"give the folder to export into \(--out DIR\)"),
         (("../mine", tmp_path), "name must be a file name"),
-        (("mine", tmp_path / "none"), "does not exist or is not a folder"),
+        (("mine", tmp_path / "file.txt"), "is a file, not a folder"),
     ]
     for arguments, message in refused:
         with pytest.raises(ValueError, match=message):
@@ -82,6 +84,9 @@ def test_only_the_maintainers_flag_writes_into_the_package(tmp_path, capsys):
         exporter.main([str(tmp_path), "pretrained", "--into-package", "--out", str(tmp_path),
                        "--command", "x"])  # fmt: skip
     assert "--into-package writes into the package; drop --out" in capsys.readouterr().err
+    files = exporter.export_files("mine", tmp_path / "new" / "folder")
+    exporter.clear_files(files, overwrite=False)
+    assert files[".md"].parent.is_dir()
 
 
 def test_the_help_describes_both_kinds_of_run(capsys):

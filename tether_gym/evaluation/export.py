@@ -6,12 +6,12 @@ measures it on held-out episodes, in the format of the shipped agents.
     tether export RUN_DIR pretrained --into-package --command "..."  # maintainers: replace one
 
 NAME is any file name (letters, digits, `.`, `_`, `-`); the files go to `--out` (default the
-current folder) and an existing one is replaced only with `--overwrite`. A shipped agent's name
-(`pretrained.AGENTS`) keeps its catalog's file stem (`default` for `pretrained`), so that
-`pretrained.load(NAME, DIR)` loads the folder as it loads the package. Only `--into-package`
-writes into the installed package (the maintainers' flag: it replaces a shipped agent, and
-drops its policy file of the other format). A JAX policy plays as `tether-evaluate --agents
-DIR/NAME.msgpack`.
+current folder; made if missing) and an existing one is replaced only with `--overwrite`. A
+shipped agent's name (`pretrained.AGENTS`) keeps its catalog's file stem (`default` for
+`pretrained`), so that `pretrained.load(NAME, DIR)` loads the folder as it loads the package.
+Only `--into-package` writes into the installed package (the maintainers' flag: it replaces a
+shipped agent, and drops its policy file of the other format). A JAX policy plays as
+`tether-evaluate --agents DIR/NAME.msgpack`.
 
 The card's success and its baselines' are measured here, on the held-out episodes
 (`HELD_OUT_SEED`) of the run's env, by `tether_gym.evaluation.runner`, a line and a progress
@@ -57,7 +57,8 @@ def export_files(name: str, folder: Path | None, into_package: bool = False) -> 
     """The files of the exported agent `name`, by suffix (`SUFFIXES`): in the installed
     package with `into_package` (`name` one of `pretrained.AGENTS`: its catalog's files), else
     in `folder`, under the catalog's stem for a shipped agent's name and `name` itself for any
-    other. ValueError for a bad name, a missing folder, or both or neither of `folder` and
+    other (`folder` is made where it is missing, when the files are written). ValueError for a
+    bad name, a `folder` that is a file, or both or neither of `folder` and
     `into_package`."""
     from tether_gym.agents.pretrained import AGENTS, agent_file
 
@@ -73,8 +74,8 @@ def export_files(name: str, folder: Path | None, into_package: bool = False) -> 
         return {suffix: agent_file(name, suffix) for suffix in SUFFIXES}
     if folder is None:
         raise ValueError("folder: give the folder to export into (--out DIR)")
-    if not folder.is_dir():
-        raise ValueError(f"folder {str(folder)!r} does not exist or is not a folder")
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"folder {str(folder)!r} is a file, not a folder")
     stem = AGENTS.get(name, name)
     return {suffix: folder / f"{stem}{suffix}" for suffix in SUFFIXES}
 
@@ -82,11 +83,12 @@ def export_files(name: str, folder: Path | None, into_package: bool = False) -> 
 def clear_files(files: dict[str, Path], overwrite: bool) -> None:
     """Make way for an export's `files`: ValueError listing those that exist unless
     `overwrite`, else remove them (a policy of the other format left beside the card would be
-    shipped for nothing)."""
+    shipped for nothing); their folder is made where it is missing."""
     existing = [path for path in files.values() if path.exists()]
     if existing and not overwrite:
         shown = ", ".join(str(path) for path in existing)
         raise ValueError(f"{shown} exists; pass --overwrite to replace it")
+    next(iter(files.values())).parent.mkdir(parents=True, exist_ok=True)
     for path in existing:
         path.unlink()
 
@@ -419,7 +421,12 @@ def build_parser() -> ArgumentParser:
         help="the agent's file name: NAME.pt (SB3) or NAME.msgpack + NAME.json (JAX), and "
         "NAME.md, its card")  # fmt: skip
     add("--command", required=True, help="the command that trained the run")
-    add("--out", type=Path, metavar="DIR", help="the folder to write into (default: this one)")
+    add(
+        "--out",
+        type=Path,
+        metavar="DIR",
+        help="the folder to write into, made if missing (default: this one)",
+    )
     add("--seed", type=int, default=None, help="a --backend jax run's seed to export")
     add("--episodes", type=int, default=None,
         help="held-out episodes of the card (default: the env family's, 10,000 on "
