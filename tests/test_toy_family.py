@@ -1,8 +1,8 @@
 """A toy env family plugged in through the family record only: a 1-D point that must reach 0,
-its config, runner, result type and agent defined here, one `Family` handed to
+its config, vector env, runner, result type and agent defined here, one `Family` handed to
 `families.register_family`. Gymnasium, the family lookup, the command line's env flags,
-`tether-evaluate`, the agents by name, the warm-up and the run names take it with no edit to
-the package."""
+`tether-evaluate`, the agents by name, the warm-up, SB3 training and the run names take it with
+no edit to the package."""
 
 from __future__ import annotations
 
@@ -77,6 +77,15 @@ class PointEnv(gym.Env):
         return np.array([self.x], np.float32), -abs(self.x), success, self.steps >= MAX_STEPS, info
 
 
+class PointVectorEnv(gym.vector.SyncVectorEnv):
+    """The toy's vector env: `num_envs` copies of `PointEnv`, stepped one after the other, an
+    ended episode reset in the step that ends it (as the package's vector envs do)."""
+
+    def __init__(self, num_envs: int = 1, **kwargs: Any):
+        super().__init__([lambda: PointEnv(**kwargs)] * num_envs,
+                         autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)  # fmt: skip
+
+
 def run_point(
     agent, env_id: str, env_kwargs: dict, episodes: int, seed: int, bar
 ) -> dict[str, Any]:
@@ -139,6 +148,7 @@ TOY = Family(
     name="TetherPoint",
     ids={"TetherPoint-v0": {}, "TetherPointNear-v0": {"start": (-0.2, 0.2)}},
     entry_point=f"{HERE}:PointEnv",
+    vector_entry_point=f"{HERE}:PointVectorEnv",
     config=f"{HERE}:PointConfig",
     runner=f"{HERE}:run_point",
     result=f"{HERE}:PointResult",
@@ -214,9 +224,33 @@ def test_a_toy_family_plugs_in_through_the_family_record_only(toy, capsys, monke
     (result,) = run_agents(agents, {}, 5, env_id="TetherPoint-v0")
     assert isinstance(result, PointResult) and result.success_rate == 1.0
 
-    # the warm-up plays its builds and its agents (the package's families: `tether compile`)
+    # the warm-up plays its builds, single and vector, and its agents (`tether compile`)
     monkeypatch.setattr(warm, "FAMILIES", [toy])
     warm.single()
+    warm.vector()
+
+
+def test_a_toy_family_trains_with_sb3(toy, tmp_path, capsys):
+    """`tether-train` on the toy with a zoo file of its own: SB3's PPO steps its vector entry
+    point (Gymnasium's `SyncVectorEnv`, whose info holds `final_obs` only where an episode
+    ended), evaluates against its yardstick and writes the final table with its baselines."""
+    pytest.importorskip("stable_baselines3")
+    from tether_gym.training import train
+
+    conf = tmp_path / "ppo.yml"
+    conf.write_text(
+        "TetherPoint-v0:\n  n_envs: 2\n  n_timesteps: 64\n  policy: MlpPolicy\n"
+        "  n_steps: 16\n  batch_size: 16\n  n_epochs: 1\n"
+    )
+    argv = ["--env", "TetherPoint-v0", "--conf-file", str(conf), "--runs-dir",
+            str(tmp_path / "runs"), "--name", "toy", "--eval-episodes", "3", "--eval-freq", "32",
+            "--num-threads", "1", "--no-progress-bar"]  # fmt: skip
+    assert train.main(argv) == 0
+    out = capsys.readouterr().out
+    assert "[eval] 64 timesteps: PPO" in out and "vs pull to zero 100.0% success" in out
+    table = (tmp_path / "runs" / "toy" / "results.md").read_text()
+    assert "| pull to zero | 3 | 100.0%" in table and "| PPO (best) | 3 |" in table
+    assert (tmp_path / "runs" / "toy" / "best" / "model.zip").is_file()
 
 
 def test_a_toy_family_names_its_training_runs(toy):

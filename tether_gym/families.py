@@ -71,6 +71,10 @@ class Family:
     its main id (`env_id`)."""
     entry_point: str
     """The Gymnasium entry point its ids are registered with."""
+    vector_entry_point: str
+    """The Gymnasium vector entry point its ids are registered with: the vector env that
+    training (`gym.make_vec(..., vectorization_mode="vector_entry_point")`), the evaluation
+    and `tether compile` step."""
     config: str
     """The "module:name" path of its config: a dataclass of the env's arguments, checked and
     completed on construction, with `names()`; its fields are the command line's env flags."""
@@ -97,8 +101,6 @@ class Family:
     """The held-out episodes behind a pretrained card's success rate."""
     card_test_episodes: int
     """The first of them whose successes the card records for tests/agents/test_pretrained.py."""
-    vector_entry_point: str | None = None
-    """The Gymnasium vector entry point its ids are registered with (None: none)."""
     plots: bool = False
     """Whether `tether-evaluate --plot` draws its results (the heading errors)."""
     metrics: tuple[str, ...] = ()

@@ -64,7 +64,7 @@ class SB3VecEnv(VecEnv):
         obs, rewards, terminated, truncated, info = self.venv.step(self._actions)
         dones = terminated | truncated
         columns = {key: _per_copy(info[key]) for key in INFO_KEYS if key in info}
-        final_obs = info["final_obs"]
+        final_obs = info.get("final_obs")  # Gymnasium's vector envs give it only where one ended
         infos = []
         for i in range(self.num_envs):
             entry = {key: column[i] for key, column in columns.items()}
