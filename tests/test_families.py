@@ -58,7 +58,8 @@ def test_an_unknown_id_is_refused_naming_it_and_the_families(env_id):
 
 def test_what_a_family_names_exists():
     """Its runner and result type load; its yardstick is one of its baselines, which are
-    agents it takes; its metrics are summary fields of its result."""
+    agents it takes; every agent has its note for the help and the docs; its metrics are
+    summary fields of its result."""
     for env_family in FAMILIES:
         assert callable(load(env_family.runner))
         result = load(env_family.result)
@@ -67,6 +68,7 @@ def test_what_a_family_names_exists():
         assert env_family.yardstick in env_family.baselines
         assert {*env_family.baselines.values(), "random"} <= set(env_family.agents)
         assert set(env_family.pretrained_by_task.values()) <= set(env_family.agents)
+        assert set(env_family.agent_notes) == set(env_family.agents)
 
 
 def test_the_pretrained_agents_are_those_the_families_list():

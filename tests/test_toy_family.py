@@ -9,6 +9,7 @@ from __future__ import annotations
 import re
 import time
 from dataclasses import dataclass, fields
+from pathlib import Path
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -153,6 +154,7 @@ TOY = Family(
     runner=f"{HERE}:run_point",
     result=f"{HERE}:PointResult",
     agents={"pull": f"{HERE}:pull", "random": "tether_gym.agents.registry:random_agent"},
+    agent_notes={"pull": "moves the point straight to 0"},
     baselines={"pull to zero": "pull"},
     yardstick="pull to zero",
     yardstick_column="pull_success_rate",
@@ -202,7 +204,9 @@ def test_a_toy_family_plugs_in_through_the_family_record_only(toy, capsys, monke
     with pytest.raises(SystemExit):
         evaluate.main(["--env", "TetherPoint-v0", "--tolerance", "-1"])
     assert "tolerance must be positive" in capsys.readouterr().err
-    assert "TetherPoint-v0 (PointEnv) takes" in help_text([], capsys)  # every family's main env
+    out = help_text([], capsys)
+    assert "TetherPoint-v0 (PointEnv) takes" in out  # every family's main env
+    assert "pull (moves the point straight to 0), random on TetherPoint" in " ".join(out.split())
 
     # tether-evaluate with a named agent, and by default its baselines and a random agent
     evaluate.main(["--env", "TetherPoint-v0", "--agents", "random", "--episodes", "3",
@@ -251,6 +255,25 @@ def test_a_toy_family_trains_with_sb3(toy, tmp_path, capsys):
     table = (tmp_path / "runs" / "toy" / "results.md").read_text()
     assert "| pull to zero | 3 | 100.0%" in table and "| PPO (best) | 3 |" in table
     assert (tmp_path / "runs" / "toy" / "best" / "model.zip").is_file()
+
+
+def test_a_toy_family_s_docs_page_shows_its_record(toy):
+    """The docs' `family_reference` renders the toy's ids, entry points, agents with their
+    notes and its yardstick from the record alone."""
+    import sys
+
+    docs = str(Path(__file__).resolve().parents[1] / "docs")
+    if docs not in sys.path:
+        sys.path.insert(0, docs)
+    from docgen.macros import expand
+
+    page = expand('family_reference("TetherPoint")')
+    assert "`TetherPoint-v0` and 1 more" in page and f"`{HERE}:PointVectorEnv`" in page
+    assert (
+        "| `pull` | moves the point straight to 0 | pull to zero (the training runs' yardstick) |"
+        in page
+    )
+    assert "| `random` |" in page and "backend" not in page
 
 
 def test_a_toy_family_names_its_training_runs(toy):

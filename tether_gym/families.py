@@ -88,6 +88,10 @@ class Family:
     """The agent names `tether-evaluate --agents` takes on it (besides a saved model), in the
     order its help lists them -> the "module:name" path of each one's factory, called with an
     `agents.registry.AgentRequest`."""
+    agent_notes: Mapping[str, str]
+    """Agent name (of `agents`) -> what it is, in a few words: `tether-evaluate --agents`'
+    help and the env's docs page (`agents_help`, docs' `family_reference`) say it. A learned
+    agent that calls a planner says so here."""
     baselines: Mapping[str, str]
     """Label -> agent name of the agents a policy is measured against: with a random agent,
     `tether-evaluate`'s default agents and a training run's final table; a pretrained card's
@@ -147,6 +151,13 @@ BOUNCE = Family(
         "pretrained-low-stiffness": "tether_gym.agents.registry:pretrained_agent",
         "random": "tether_gym.agents.registry:random_agent",
     },
+    agent_notes={
+        "oracle": "the impulse model's closed-form inverse",
+        "shooting": "model-based: the impulse set-up corrected against the env's dynamics",
+        "pretrained": "the shipped PPO policy, trained on the default env",
+        "pretrained-low-stiffness": "the shipped PPO policy, trained on rho 5-100",
+        "random": "uniform actions",
+    },
     baselines={"impulse oracle": "oracle", "shooting oracle": "shooting"},
     yardstick="impulse oracle",
     yardstick_column="oracle_success_rate",
@@ -187,6 +198,16 @@ NAVIGATE = Family(
         "aim-search": "tether_gym.agents.registry:aim_search",
         "direct": "tether_gym.agents.registry:direct_shot",
         "random": "tether_gym.agents.registry:random_agent",
+    },
+    agent_notes={
+        "greedy": "planner: the maneuver whose predicted outcome best serves the goal",
+        "lookahead": "planner: a beam search over maneuvers on the greedy predictions",
+        "pretrained": "the shipped agent of the env's task: pretrained-reach or pretrained-stop",
+        "pretrained-reach": "the shipped policy for reach, the greedy planner inside",
+        "pretrained-stop": "the shipped policy for stop, the greedy planner inside",
+        "aim-search": "planner in control aim: two maneuvers ahead over aims",
+        "direct": "the goal as the aim, in control aim",
+        "random": "uniform actions",
     },
     baselines={"greedy planner": "greedy", "lookahead planner": "lookahead"},
     yardstick="greedy planner",
@@ -293,6 +314,26 @@ def register_family(env_family: Family) -> None:
             )
     FAMILIES.append(env_family)
     register(env_family)
+
+
+def agents_help() -> str:
+    """`tether-evaluate --agents`' help: every family's agents with their notes, then the saved
+    policies and the defaults (each family's baselines and random)."""
+    named = "; ".join(
+        ", ".join(
+            f"{name} ({f.agent_notes[name]})" if name in f.agent_notes else name
+            for name in f.agents
+        )
+        + f" on {f.name}"
+        for f in FAMILIES
+    )
+    defaults = ", ".join(
+        " ".join([*f.baselines.values(), "random"]) + f" on {f.name}" for f in FAMILIES
+    )
+    return (
+        f"{named}; or a saved policy's path: an SB3 run's .zip, a JAX run's .msgpack, an offline "
+        f"run's policy.pt (default: the env's baselines and random: {defaults})"
+    )
 
 
 def family(env_id: str) -> Family:

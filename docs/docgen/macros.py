@@ -17,6 +17,7 @@ from typing import Any
 
 from docgen import ROOT, results, tables
 from docgen.cli_reference import cli_help
+from docgen.family_pages import family_reference
 
 PLACEHOLDER = re.compile(r"\{\{\s*(\w+\(.*?\))\s*\}\}", re.DOTALL)
 RESULTS_MACROS: dict[str, Callable[..., str]] = {
@@ -42,6 +43,7 @@ RESULTS_MACROS: dict[str, Callable[..., str]] = {
 MACROS: dict[str, Callable[..., str]] = {
     **RESULTS_MACROS,
     "cli_help": cli_help,
+    "family_reference": family_reference,
     "ladder_ids": tables.ladder_ids,
 }
 """The placeholders a page may use."""

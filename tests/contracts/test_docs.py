@@ -124,6 +124,19 @@ def test_placeholder_renders(page, call):
     assert macros.expand(call).strip()
 
 
+def test_every_family_has_its_reference_on_a_page_of_the_nav():
+    """Each env family's page in the site's nav shows its record (`family_reference`), so an env
+    added to `tether_gym.families` is missing from the docs only by a failing test."""
+    from tether_gym.families import FAMILIES
+
+    nav = (ROOT / "mkdocs.yml").read_text()
+    for env_family in FAMILIES:
+        call = f'family_reference("{env_family.name}")'
+        pages = [p for p, c in CALLS if c == call]
+        assert pages, f"no page calls {call}"
+        assert all(str(p.relative_to(DOCS)) in nav for p in pages), pages
+
+
 def _change(path: Path) -> str:
     """Set the first success rate (an imitation benchmark's: always-goal's) of a results file to
     0.123456, a fuzz's first count to 123456, a cold start's first time to 123456 s, or the jax

@@ -45,7 +45,7 @@ from tether_gym.arguments import (
     given_env_options,
 )
 from tether_gym.evaluation import results_file
-from tether_gym.families import FAMILIES, current_id, env_config, family
+from tether_gym.families import FAMILIES, agents_help, current_id, env_config, family
 from tether_gym.seeds import HELD_OUT_SEED, TEST_SEED
 
 CHECKPOINTS = ("best", "last")
@@ -310,16 +310,7 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add = parser.add_argument
-    add("--agents", nargs="+", metavar="AGENT",
-        help="oracle (impulse), shooting (model-based), pretrained, pretrained-low-stiffness "
-        "(shipped policies, trained on the default env and on rho 5-100) on TetherBounce-v0; "
-        "greedy, lookahead (planners), pretrained (the shipped agent of the env's task: "
-        "pretrained-reach or pretrained-stop, the greedy planner inside), aim-search (a "
-        "planner in control aim: two maneuvers ahead over aims), direct (the goal as the aim, "
-        "in control aim) on TetherNavigate; "
-        "random, or a saved policy's path: an SB3 run's .zip, a JAX run's .msgpack, an offline "
-        "run's policy.pt (default: oracle shooting random, or greedy "
-        "lookahead random on TetherNavigate)")  # fmt: skip
+    add("--agents", nargs="+", metavar="AGENT", help=agents_help())
     add("--episodes", type=int,
         help="episodes per agent (default: with a saved model, its run's final table's; else "
         f"{EPISODES})")  # fmt: skip
