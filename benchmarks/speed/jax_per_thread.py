@@ -60,9 +60,13 @@ CHILD_ENV = {
     "JAX_ENABLE_X64": "1",
     "OMP_NUM_THREADS": "1",
 }
-TARGETS = {"setup": 10.0, "velocity": 20.0, "aim": 20.0}
-"""Issue #56's per-thread targets at batch 1,024 (XLA / numba), by control mode; hybrid set-up
-is held to 20."""
+TARGETS = {
+    "impulse setup": 10.0,
+    "hybrid setup": 20.0,
+    **{f"{d} {c}": 20.0 for d in ("impulse", "hybrid") for c in ("velocity", "aim")},
+}
+"""Issue #56's per-thread targets at batch 1,024 (XLA / numba), by build: impulse set-up 10x,
+hybrid set-up 20x (without its long contacts), the aimed controls 20x."""
 
 
 def _blocks(step, n: int, repeats: int) -> float:
@@ -232,9 +236,12 @@ def main(argv: list[str] | None = None) -> None:
     seconds = time.perf_counter() - started
     print(f"{seconds:.0f} s; per-thread targets at 1,024 (xla/numba): {TARGETS}")
     if args.json:
-        setup = {"repeats": args.repeats, "batches": list(args.batches), "quick": args.quick,
-                 "against": args.against, "targets": TARGETS}  # fmt: skip
-        details = {"load_before": load_before, "load_after": list(os.getloadavg())}
+        from benchmarks.speed.jax_throughput import machine
+
+        setup = {"precision": "float64", "repeats": args.repeats, "batches": list(args.batches),
+                 "quick": args.quick, "against": args.against, "targets": TARGETS}  # fmt: skip
+        details = {"machine": machine(), "load_before": load_before,
+                   "load_after": list(os.getloadavg())}  # fmt: skip
         record = results_file.record(results_file.script_command(__file__), rows, setup, details,
                                      round(seconds, 1))  # fmt: skip
         results_file.write(args.json, record, lambda data: json.dumps(data, indent=2))
