@@ -24,11 +24,14 @@ What a lane pays under `jax.vmap`. A vmapped `while_loop` runs until its last la
 lane paying one step per iteration, so that one long contact (a grazing tether that carries the
 puck round the anchor until the budget runs out: some 20,000 steps where a bounce takes about 60)
 would cost the whole batch its length. The contact's loop therefore has its own batching rule
-(`jax.custom_batching.custom_vmap`, `_cascade`): the batch narrows as its contacts end, and a
-lane pays for at most about `CASCADE` lanes' steps at each width, the longest contact running
-last at width one (where an iteration costs the loop's overhead, not its lanes). Each lane runs
-its own loop's steps (up to the rounding XLA gives one compilation or another, as between any
-two); called without `vmap`, the loop is the plain one.
+(`jax.custom_batching.custom_vmap`, `narrowing_loop`, `_cascade`): the batch runs at full width
+while more than 1/`CASCADE` of its contacts are active, then the active ones in blocks of
+`NARROW` lanes, so that the longest contact runs in a block of `NARROW` (where an iteration
+costs the loop's overhead, not its lanes). The loop is traced at these two widths only,
+whatever the batch. Each lane runs its own loop's steps (up to the rounding XLA gives one
+compilation or another, as between any two); called without `vmap`, the loop is the plain one.
+`gathered` is the same idea for a computation that only some lanes need: under `vmap` those
+lanes alone compute it, gathered into blocks; without, a `lax.cond`.
 """
 
 from __future__ import annotations
@@ -58,9 +61,16 @@ from tether_gym.physics.impulse import impulse_change
 effective_mass = effective_mass.py_func  # plain arithmetic: the one formula, traced
 
 CASCADE = 8
-"""A batch's contacts run at full width while more than 1/CASCADE of them are active, then
-narrowed CASCADE times, and so on (`_cascade`): a lane pays for at most about CASCADE lanes'
-steps at each width."""
+"""A batch's loops run at full width while more than 1/CASCADE of its lanes are active, and a
+block of `NARROW` lanes while more than 1/CASCADE of its lanes are (`_cascade`): a lane pays for
+at most about CASCADE lanes' steps at either width, but in the last block."""
+NARROW = 16
+"""The width of the blocks in which a batch's loops run once few lanes are active (`_cascade`):
+narrow enough that an iteration costs about the loop's overhead, not its lanes (the last block
+runs until its longest loop ends), wide enough that the blocks in between are few."""
+GATHER_BLOCKS = 8
+"""`gathered` computes its lanes in blocks of 1/GATHER_BLOCKS of the batch: at most this many
+blocks, however many lanes need it."""
 
 
 def _tolerance(value: float, dtype: jnp.dtype) -> float:
@@ -413,41 +423,81 @@ def _cascade(advance, problem, carry):
     A vmapped loop runs until its last lane is done, every lane paying one step per iteration:
     one long loop (a grazing tether that carries the puck round the anchor until the budget
     runs out, a tautening search of hundreds of steps) would make the whole batch pay its
-    length. Here the batch
-    runs at full width while more than 1/`CASCADE` of it is active, then its active lanes are
-    gathered into a batch `CASCADE` times narrower, and so on down to one lane, which runs
-    until done; the lanes' results are scattered back. A lane's steps are those of its own
-    loop: only the batch it shares each iteration with changes. The batch pays at most about
-    `CASCADE` steps per active lane's step at every width, and the longest loop's steps at the
-    narrowest."""
+    length. Here the loop is traced at two widths, the batch's and `NARROW`: the batch runs at
+    full width while more than 1/`CASCADE` of it (and more than `NARROW` lanes) is active; then
+    its active lanes run in blocks of `NARROW`, each gathered from the lanes still active, run
+    while more than 1/`CASCADE` of it is active, and scattered back, the last block (every lane
+    still active) until its lanes are done. A lane's steps are those of its own loop: only the
+    lanes it shares each iteration with change."""
 
     def step(pair):
         return pair[0], jax.vmap(advance)(*pair)
 
+    def run_while(pair, more):
+        """`step` while more than `more` of the pair's lanes are active."""
+        return lax.while_loop(lambda pair: jnp.sum(~pair[1].done) > more, step, pair)[1]
+
     n = carry.done.shape[0]
-    full = carry
-    index = jnp.arange(n)
-    width = n
-    while width > 1:
-        narrower = max(1, width // CASCADE)
-        problem, carry = lax.while_loop(
-            lambda pair, w=narrower: jnp.sum(~pair[1].done) > w, step, (problem, carry)
-        )
-        full = _scatter(full, index, carry)
-        slots = jnp.nonzero(~carry.done, size=narrower, fill_value=width)[0]
-        valid = slots < width
-        slots = jnp.minimum(slots, width - 1)
-        problem, carry = jax.tree.map(partial(jnp.take, indices=slots, axis=0), (problem, carry))
-        carry = carry._replace(done=carry.done | ~valid)
-        index = jnp.where(valid, index[slots], n)
-        width = narrower
-    problem, carry = lax.while_loop(lambda pair: jnp.any(~pair[1].done), step, (problem, carry))
-    return _scatter(full, index, carry)
+    width = min(n, NARROW)
+    if width == n:
+        return run_while((problem, carry), 0)
+    carry = run_while((problem, carry), max(n // CASCADE, width))
+
+    def block(full):
+        active = ~full.done
+        slots = jnp.nonzero(active, size=width, fill_value=n)[0]
+        lanes = jax.tree.map(partial(jnp.take, indices=jnp.minimum(slots, n - 1), axis=0),
+                             (problem, full))  # fmt: skip
+        lanes = lanes[0], lanes[1]._replace(done=lanes[1].done | (slots == n))
+        last = jnp.sum(active) <= width
+        return _scatter(full, slots, run_while(lanes, jnp.where(last, 0, width // CASCADE)))
+
+    return lax.while_loop(lambda full: jnp.any(~full.done), block, carry)
 
 
 def _scatter(full, index: jax.Array, part):
     """`full` with its lanes `index` set to `part`'s (an index past the end: none)."""
     return jax.tree.map(lambda f, x: f.at[index].set(x, mode="drop"), full, part)
+
+
+def gathered(compute):
+    """`compute(*args)` where `need`, else `default`, as a function of (need, default, *args)
+    (pytrees of arrays; `compute` reads nothing else that is traced). Without `vmap` it is a
+    `lax.cond`; under `jax.vmap` only the lanes that need it compute it: they are gathered into
+    blocks of 1/`GATHER_BLOCKS` of the batch, each block computed at that width and scattered
+    back, so that a lane that does not need it costs nothing and `compute`'s loops run to the
+    longest lane of their block, not of the batch."""
+
+    @custom_batching.custom_vmap
+    def where_needed(need, default, *args):
+        return lax.cond(need, lambda: compute(*args), lambda: default)
+
+    @where_needed.def_vmap
+    def where_needed_batch(axis_size: int, in_batched, need, default, *args):
+        """`where_needed` over a batch, the lanes that need it in blocks (`gathered`)."""
+        need_batched, default_batched, *args_batched = in_batched
+        need = need if need_batched else jnp.broadcast_to(need, (axis_size,))
+        out = jax.tree.map(
+            lambda x, batched: x if batched else jnp.broadcast_to(x, (axis_size, *jnp.shape(x))),
+            default,
+            default_batched,
+        )
+        width = -(-axis_size // GATHER_BLOCKS)
+        order = jnp.nonzero(need, size=GATHER_BLOCKS * width, fill_value=axis_size)[0]
+        axes = jax.tree.map(lambda batched: 0 if batched else None, tuple(args_batched))
+
+        def block(k, out):
+            slots = lax.dynamic_slice_in_dim(order, k * width, width)
+            index = jnp.minimum(slots, axis_size - 1)
+            lanes = jax.tree.map(
+                lambda x, batched: x[index] if batched else x, tuple(args), tuple(args_batched)
+            )
+            return _scatter(out, slots, jax.vmap(compute, in_axes=axes)(*lanes))
+
+        blocks = (jnp.sum(need) + width - 1) // width
+        return lax.fori_loop(0, blocks, block, out), jax.tree.map(lambda _: True, out)
+
+    return where_needed
 
 
 _integrate = narrowing_loop(_advance)

@@ -29,10 +29,10 @@ The tautening search is one loop whose iteration is a conservative step or, whil
 last step, one Illinois iteration (no inner loop), run under `physics.narrowing_loop`: the batch
 narrows as its searches end, so the few searches of hundreds of steps (a slow puck far inside
 the tether's circle) run at a narrow width, not at the batch's. The flight's lanes that are done
-run no search. (Measured at batch 1,024, impulse set-up control, 2-core CPU: the searches'
-nested loops ran 3,523 steps and 2,303 refinements for a mean of 6 steps a search, the longest
-578, repeated by the lanes already done in each later stretch: about 1.4 ms a lane-maneuver,
-now about 70 us.)
+run no search. What only some lanes need is computed for those lanes alone
+(`physics.gathered`): the wheel's plan and the search of a tautening at once while turning at
+its rate, where the wheel is on and the tether is not taut at once; the wheel target's grid and
+bisection, where the command is out of reach on the stretch.
 
 A puck is a `Puck` tuple of arrays (x, y, vx, vy, angle, spin), as `physics.state.PuckState`.
 """
@@ -68,7 +68,7 @@ from tether_gym.envs.tether_navigate.flight import (
     WHEEL_BISECTIONS,
     WHEEL_GRID,
 )
-from tether_gym.jax.physics import impulse_response, keep, narrowing_loop, runtime_one
+from tether_gym.jax.physics import gathered, impulse_response, keep, narrowing_loop, runtime_one
 from tether_gym.physics.events import (
     BOTTOM,
     LEFT,
@@ -478,11 +478,10 @@ def _nearest(alpha, works):
     return has_below | has_above, jnp.where(take_below, a_below, a_above)
 
 
-def wheel_target(p: Puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clearance):
-    """(t, rate, target, direct): `flight._wheel_target`, `direct` where the target is the
-    command `alpha` itself (the numba target is then `alpha`, the same float)."""
+def _wheel_search(p: Puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clearance):
+    """(found, t, rate, target): `wheel_target` where the command is out of reach: the nearest
+    grid angle that works (`_nearest`), then `WHEEL_BISECTIONS` bisections towards the command."""
     args = (elapsed, t_end, wheel_rate, clearance)
-    t0, rate0 = wheel_crossing(p, ax, ay, length, alpha, *args)
     step = math.pi / (WHEEL_GRID - 1)
     grid = -0.5 * math.pi + jnp.arange(WHEEL_GRID) * step
     t_grid, _ = wheel_crossing(p, ax, ay, length, grid, *args)
@@ -496,8 +495,28 @@ def wheel_target(p: Puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, cle
         return jnp.where(works, mid, reachable), jnp.where(works, out, mid)
 
     reachable, _ = lax.fori_loop(0, WHEEL_BISECTIONS, bisect, (reachable, alpha))
-    t1, rate1 = wheel_crossing(p, ax, ay, length, reachable, *args)
+    t, rate = wheel_crossing(p, ax, ay, length, reachable, *args)
+    return found, t, rate, reachable
+
+
+_wheel_search_where_needed = gathered(_wheel_search)
+"""`_wheel_search` for the lanes whose command is out of reach only (`physics.gathered`)."""
+
+
+def wheel_target(p: Puck, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clearance,
+                 active=True):  # fmt: skip
+    """(t, rate, target, direct): `flight._wheel_target`, `direct` where the target is the
+    command `alpha` itself (the numba target is then `alpha`, the same float). The grid and
+    the bisection (`_wheel_search`) are computed only where the command is out of reach and the
+    lane `active`: a lane not `active` gets no target there."""
+    args = (elapsed, t_end, wheel_rate, clearance)
+    t0, rate0 = wheel_crossing(p, ax, ay, length, alpha, *args)
     direct = t0 < jnp.inf
+    zero = jnp.zeros_like(t0)
+    none = (jnp.asarray(False), jnp.inf + zero, zero, alpha + zero)
+    found, t1, rate1, reachable = _wheel_search_where_needed(
+        active & ~direct, none, p, ax, ay, length, alpha, *args
+    )
     t = jnp.where(direct, t0, jnp.where(found, t1, jnp.inf))
     rate = jnp.where(direct, rate0, jnp.where(found, rate1, 0.0))
     target = jnp.where(direct, alpha, jnp.where(found, reachable, alpha))
@@ -527,7 +546,7 @@ def wheel_plan(puck: Puck, posts, n_posts, ax, ay, length, alpha, clearance, whe
         p, elapsed, hits, _done, result = c
         t_end, t_wall, wall, t_post = stretch_end(p, posts, n_posts, elapsed)
         t, rate, target, direct = wheel_target(
-            p, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clearance
+            p, ax, ay, length, alpha, elapsed, t_end, wheel_rate, clearance, ~_done
         )
         hit = t < inf
         stop = (t_post < inf) | (t_wall > FLIGHT_HORIZON - elapsed) | (hits == MAX_WALL_HITS)
@@ -546,6 +565,23 @@ def path_point(path, n, x, y, active=True):
     row = jnp.stack([x, y])
     new = path.at[jnp.minimum(n, PATH_POINTS - 1)].set(row)
     return jnp.where(active, new, path), jnp.where(active, n + 1, n)
+
+
+def _turning_plan(puck: Puck, posts, n_posts, ax, ay, length, alpha, clearance, wheel_rate,
+                  wall_restitution):  # fmt: skip
+    """(plan, at_once, capped): the wheel's plan (`wheel_plan`) and the tautening search at
+    once of the puck turning at its rate (`time_to_taut`), which `fly` needs where the wheel is
+    on and the tether is not taut at once."""
+    plan = wheel_plan(puck, posts, n_posts, ax, ay, length, alpha, clearance, wheel_rate,
+                      wall_restitution)  # fmt: skip
+    turning = puck._replace(spin=puck.spin + plan[3])
+    zero = jnp.zeros_like(puck.x)
+    at_once, capped = time_to_taut(turning, ax, ay, length, ARM, AT_ONCE + zero, narrow=False)
+    return plan, at_once, capped
+
+
+_turning_plan_where_needed = gathered(_turning_plan)
+"""`_turning_plan` for the lanes that use it only (`physics.gathered`)."""
 
 
 class Flight(NamedTuple):
@@ -581,16 +617,15 @@ def fly(s, dynamics: int, reaction_wheel, wheel_rate, wall_restitution, stiffnes
     posts, n_posts = s.posts, s.n_posts
     at_once, capped0 = time_to_taut(start, ax, ay, length, ARM, AT_ONCE + zero, narrow=False)
     clearance = contact_clearance(s, dynamics, stiffness)
-    plan = wheel_plan(start, posts, n_posts, ax, ay, length, alpha, clearance, wheel_rate,
-                      wall_restitution)  # fmt: skip
-    turning = start._replace(spin=s.spin + plan[3])
-    at_once_turning, capped1 = time_to_taut(
-        turning, ax, ay, length, ARM, AT_ONCE + zero, narrow=False
-    )
     none = (jnp.int32(-1), inf + zero, zero, zero, alpha + zero, jnp.asarray(True))
-    use = reaction_wheel & (at_once == inf) & ~(at_once_turning < inf)
+    wheel = reaction_wheel & (at_once == inf)
+    plan, at_once_turning, capped1 = _turning_plan_where_needed(
+        wheel, (none, inf + zero, jnp.asarray(False)), start, posts, n_posts, ax, ay, length,
+        alpha, clearance, wheel_rate, wall_restitution,
+    )  # fmt: skip
+    use = wheel & ~(at_once_turning < inf)
     target_hits, target_t, target_time, rate, target, direct = select(use, plan, none)
-    capped = capped0 | (reaction_wheel & (at_once == inf) & capped1)
+    capped = capped0 | (wheel & capped1)
     puck = start._replace(spin=s.spin + rate)
     path = jnp.zeros((PATH_POINTS, 2), zero.dtype)
     path, n = path_point(path, jnp.int32(0), puck.x, puck.y)
