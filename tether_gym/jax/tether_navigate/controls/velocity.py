@@ -2,25 +2,30 @@
 `envs.tether_navigate.controls.velocity`'s set-up search (`solve`), over pytrees, one episode at a
 time (`jax.vmap` it for a batch).
 
-The same search as the numba solver, step for step, with its constants imported from it: the
-flight's first `SEGMENTS` straight stretches (`_flight`), its closest approach to the aim, the
-grid of `SAMPLES` tautening points per stretch's window (`_search`), the impulse inverse at each
+The same search as the numba solver, with its constants imported from it: the flight's first
+`SEGMENTS` straight stretches (`flight`), its closest approach to the aim, each peg's tautening
+windows on them (`grid`), the grid of `SAMPLES` points in each window, `REFINEMENTS`
+golden-section steps about a peg's best grid point, and under `control="aim"` every peg present
+searched and the two best refined. A point's score (`bounce_on`) is the impulse inverse there
 (`_bounce_at`: the `TARGETS` + 4 candidate changes along the tether, each scored over the
-`COAST_STRETCHES` stretches of its path, `_miss`), the reaction wheel's check
-(`jax.tether_navigate.flight.wheel_crossing`), `REFINEMENTS` golden-section steps about the best
-grid point (`_golden`), and under `control="aim"` every peg searched and the two best refined.
+`COAST_STRETCHES` stretches of its path, `_miss`) and the reaction wheel's check
+(`jax.tether_navigate.flight.wheel_crossing`).
 
-Written for XLA, every loop bounded by the numba solver's own caps (the stretches, the grid, the
-candidates and the golden-section steps are fixed counts there too), all unrolled or `vmap`ped:
+Written for XLA, the search is one `lax.while_loop` (`search`) whose body scores `BLOCK` points
+in one call of `bounce_on`, the scoring traced once: while grid windows remain, the next points
+of the next window searched (`Grid`: the windows of the pegs searched that are not empty, a
+peg's anywhere windows only where its windows after the closest approach scored nothing, as
+numba's `_search_peg`), then the golden-section steps of the pegs refined side by side. A lane
+loops as often as its own windows need; under `vmap` the batch loops until its longest lane is
+done.
 
 - The numba solver cuts a score off once it cannot beat the best so far (`bound`, `cutoff`): a
   cut score comes back at least the bound, so it loses every comparison it enters. Here every
   score is computed in full; the comparisons decide alike (the same strict `<` and `<=`, the
-  first of equal scores kept: `jnp.argmin`), so the set-up found is the numba one.
-- The anywhere-search the numba solver runs only when nothing comes after the closest approach
-  (`_search_peg`) is computed for every peg and selected, as is each peg's search under `aim`
-  (the numba loop skips none either). Under `vmap` every lane pays the aim search's
-  `MAX_ANCHORS` x 2 x `SEGMENTS` x `SAMPLES` scores.
+  first of equal scores kept, a peg's grid points in numba's order), so the set-up found is
+  the numba one.
+- A path's posts are checked one a loop iteration, the posts present only (`_first_post_hit`);
+  the `COAST_STRETCHES` of a path and the candidates of a point are computed in full.
 - Python's `min`/`max` keep their first argument against a NaN (`_pymin`, `_pymax`), where
   `jnp.minimum` would return the NaN.
 """
@@ -67,8 +72,17 @@ from tether_gym.envs.tether_navigate.controls.velocity import (
 from tether_gym.envs.tether_navigate.controls.velocity import (
     speed_weight as _speed_weight,
 )
+from tether_gym.jax.physics import keep, runtime_one
 from tether_gym.jax.tether_navigate import flight as nav
 from tether_gym.jax.tether_navigate.flight import Puck
+
+BLOCK = 2
+"""Points the search scores per iteration (`search`): one per golden-section search, and a
+grid window's `SAMPLES` (a multiple of it) in `SAMPLES // BLOCK` iterations."""
+WINDOWS = MAX_ANCHORS * 2 * SEGMENTS
+"""The `Grid`'s windows: every peg slot's, after the closest approach and anywhere, per
+stretch."""
+
 
 speed_weight = _speed_weight.py_func
 """`velocity.speed_weight` (its Python body, traced)."""
@@ -123,21 +137,22 @@ class Flight(NamedTuple):
     count: jax.Array
 
 
-class Found(NamedTuple):
-    """`velocity.Found`: a peg's grid search."""
-
-    score: jax.Array
-    puck: Puck
-    low: jax.Array
-    high: jax.Array
-    wheel: Wheel
-    peg: Peg
-
-
 class Table(NamedTuple):
     posts: jax.Array
     n_posts: jax.Array
     restitution: jax.Array
+
+
+class Bounce(NamedTuple):
+    """`velocity._bounce_on`'s result: the score, the miss, the tether length, the moment arm,
+    the brake and whether the wheel meets the offset angle."""
+
+    score: jax.Array
+    miss: jax.Array
+    length: jax.Array
+    arm: jax.Array
+    e: jax.Array
+    turns: jax.Array
 
 
 def pick_peg(s, value):
@@ -170,24 +185,23 @@ def command(action):
 
 
 def flight(s, restitution) -> Flight:
-    """`velocity._flight` (`geometry.flight_stretches`, touching), the `SEGMENTS` stretches
-    unrolled."""
-    puck = Puck(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
-    time = jnp.zeros_like(s.x)
-    count = jnp.int32(SEGMENTS)
-    starts, elapsed, lengths = [], [], []
-    for k in range(SEGMENTS):
+    """`velocity._flight` (`geometry.flight_stretches`, touching), a scan step per stretch."""
+
+    def stretch(c, k):
+        puck, time, count = c
         t_end, t_wall, wall, t_post = nav.stretch_end(puck, s.posts, s.n_posts, time, True)
-        starts.append(puck)
-        elapsed.append(time)
-        lengths.append(t_end)
         hit = t_post < jnp.inf
-        count = jnp.where((count == SEGMENTS) & (hit | (t_wall > FLIGHT_HORIZON - time)), k + 1,
-                          count)  # fmt: skip
-        puck = nav.wall_bounce(nav.free_flight(puck, t_end), wall, restitution)
-        time = jnp.where(hit, FLIGHT_HORIZON, time + t_end)
-    stacked = Puck(*(jnp.stack(column) for column in zip(*starts, strict=True)))
-    return Flight(stacked, jnp.stack(elapsed), jnp.stack(lengths), count)
+        ends = (count == SEGMENTS) & (hit | (t_wall > FLIGHT_HORIZON - time))
+        after = nav.wall_bounce(nav.free_flight(puck, t_end), wall, restitution)
+        next_time = jnp.where(hit, FLIGHT_HORIZON, time + t_end)
+        return (after, next_time, jnp.where(ends, k + 1, count)), (puck, time, t_end)
+
+    puck = Puck(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
+    start = (puck, jnp.zeros_like(s.x), jnp.int32(SEGMENTS))
+    (_, _, count), (starts, elapsed, lengths) = lax.scan(
+        stretch, start, jnp.arange(SEGMENTS, dtype=jnp.int32)
+    )
+    return Flight(starts, elapsed, lengths, count)
 
 
 def _stretch(f: Flight, k) -> Puck:
@@ -210,24 +224,34 @@ def closest_approach(f: Flight, gx, gy):
     return stretch, at
 
 
+def _first_post_hit(puck: Puck, table: Table, t_end):
+    """`geometry.first_post_hit` (touching) over the posts present, one a loop iteration
+    (`jax.tether_navigate.flight.first_post_hit` of each): a table without posts costs nothing."""
+
+    def post(i, first):
+        one = lax.dynamic_slice_in_dim(table.posts, i, 1)
+        return jnp.minimum(first, nav.first_post_hit(puck, one, 1, t_end, True))
+
+    return lax.fori_loop(0, table.n_posts, post, jnp.full_like(t_end, jnp.inf))
+
+
 def _miss(px, py, ox, oy, gx, gy, speed, weight, table: Table):
-    """`velocity._miss`: (the command's miss, whether a post stops the path first), the
-    `COAST_STRETCHES` stretches unrolled."""
+    """`velocity._miss`: (the command's miss, whether a post stops the path first), a loop
+    iteration per stretch of the path (`COAST_STRETCHES`)."""
     zero = jnp.zeros_like(px)
-    puck = Puck(px, py, ox, oy, zero, zero)
     v2 = ox * ox + oy * oy
     error = weight * jnp.abs(jnp.sqrt(v2) - speed)
     stopped = v2 == 0.0
-    nearest, blocked, elapsed = jnp.inf + zero, jnp.asarray(False), zero
-    going = ~stopped
-    for _ in range(COAST_STRETCHES):
+
+    def stretch(_, c):
+        puck, nearest, blocked, elapsed, going = c
         t_wall, wall = nav.time_to_wall(puck)
         t_end = _pymin(t_wall, PATH_TIME - elapsed)
         v2 = puck.vx * puck.vx + puck.vy * puck.vy
         going &= v2 != 0.0
         dx, dy = gx - puck.x, gy - puck.y
         t = _pymin(_pymax((dx * puck.vx + dy * puck.vy) / _safe(v2), 0.0), t_end)
-        t_post = nav.first_post_hit(puck, table.posts, table.n_posts, t_end, True)
+        t_post = _first_post_hit(puck, table, t_end)
         tm = _pymin(t, t_post)
         d = _norm(dx - tm * puck.vx, dy - tm * puck.vy)
         better = going & (d < nearest)
@@ -235,7 +259,10 @@ def _miss(px, py, ox, oy, gx, gy, speed, weight, table: Table):
         blocked = jnp.where(better, t_post <= t, blocked)
         going &= ~((nearest < HIT) | (t_post < jnp.inf) | (t_wall >= PATH_TIME - elapsed))
         puck = nav.wall_bounce(nav.free_flight(puck, t_wall), wall, table.restitution)
-        elapsed = elapsed + t_wall
+        return puck, nearest, blocked, elapsed + t_wall, going
+
+    start = (Puck(px, py, ox, oy, zero, zero), jnp.inf + zero, jnp.asarray(False), zero, ~stopped)
+    _, nearest, blocked, _, _ = lax.fori_loop(0, COAST_STRETCHES, stretch, start)
     return (jnp.where(stopped, _norm(gx - px, gy - py) + error, nearest + error),
             jnp.where(stopped, False, blocked))  # fmt: skip
 
@@ -258,29 +285,30 @@ def _change_towards(px, py, vx, vy, ux, uy, gx, gy, restitution, j: int):
     return jnp.where(across != 0.0, (vx * dy - vy * dx) / _safe(across), jnp.nan)
 
 
+LEAST_CHANGE = TARGETS + 2
+"""The candidate of `_wanted` that is the least change, k_low: its miss is the numba
+fallback's where no candidate compares."""
+
+
 def _wanted(px, py, vx, vy, ux, uy, cmd, k_low, k_high, table: Table):
-    """`velocity._wanted`, every candidate scored: (k, miss, blocked). The least change's miss
-    (the numba fallback where no candidate compares) is scored among them, one `vmap`."""
+    """`velocity._wanted`, every candidate scored (one `vmap`): (k, miss, blocked)."""
     gx, gy, speed, weight = cmd
     along = vx * ux + vy * uy
     disc = along * along - (vx * vx + vy * vy) + speed * speed
     root = jnp.where(disc > 0.0, jnp.sqrt(jnp.where(disc > 0.0, disc, 0.0)), 0.0)
     ks = [_change_towards(px, py, vx, vy, ux, uy, gx, gy, table.restitution, c)
           for c in range(TARGETS)]  # fmt: skip
-    ks += [along - root, along + root, k_low, k_high, k_low]
-    k = jnp.stack(ks)
+    k = jnp.stack([*ks, along - root, along + root, k_low, k_high])
     miss, blocked = jax.vmap(
         lambda kk: _miss(px, py, vx - kk * ux, vy - kk * uy, gx, gy, speed, weight, table)
     )(k)
-    k, low_miss, low_blocked = k[:-1], miss[-1], blocked[-1]
-    miss, blocked = miss[:-1], blocked[:-1]
     valid = (k_low <= k) & (k <= k_high)
     total = miss + jnp.where(blocked, POST_PENALTY, 0.0)
     total = jnp.where(valid & ~jnp.isnan(total), total, jnp.inf)
     c = jnp.argmin(total)
     found = total[c] < jnp.inf
-    return (jnp.where(found, k[c], k_low), jnp.where(found, miss[c], low_miss),
-            jnp.where(found, blocked[c], low_blocked))  # fmt: skip
+    return (jnp.where(found, k[c], k_low), jnp.where(found, miss[c], miss[LEAST_CHANGE]),
+            jnp.where(found, blocked[c], blocked[LEAST_CHANGE]))  # fmt: skip
 
 
 def _longest_arm(radius, longest):
@@ -320,8 +348,10 @@ def _bounce_at(px, py, vx, vy, spin, peg: Peg, cmd, table: Table):
     return score, miss, length, arm, e
 
 
-def bounce_on(puck: Puck, t, peg: Peg, aim: Aim, table: Table, wheel: Wheel):
-    """`velocity._bounce_on`, in full: (score, miss, length, arm, e, turns)."""
+def bounce_on(puck: Puck, t, peg: Peg, aim: Aim, table: Table, wheel: Wheel) -> Bounce:
+    """`velocity._bounce_on`, in full; its results computed once (`physics.keep`), not again in
+    each part of the search's carry that reads them."""
+    one = runtime_one(t)
     x, y = puck.x + puck.vx * t, puck.y + puck.vy * t
     speed = aim.fraction * _norm(puck.vx, puck.vy)
     weight = speed_weight(aim.fraction)
@@ -332,124 +362,231 @@ def bounce_on(puck: Puck, t, peg: Peg, aim: Aim, table: Table, wheel: Wheel):
         puck, peg.x, peg.y, length, jnp.arcsin(nav.divide(arm, ARM)), wheel.elapsed, wheel.t_end,
         wheel.rate, wheel.clearance,
     )  # fmt: skip
-    turns = jnp.abs(at - t) <= 1e-6 * jnp.maximum(1.0, t)
-    return score + jnp.where(turns, 0.0, WHEEL_PENALTY), miss, length, arm, e, turns
-
-
-def _windows(s, anchor, f: Flight, rate, clearance, after_stretch, after_t):
-    """The peg's grid (`velocity._search` before its scores): (peg, the points' stretch
-    index (SEGMENTS * SAMPLES,), their t, whether each is searched, each stretch's t_low,
-    t_high and step)."""
-    ax, ay = s.anchors[anchor, 0], s.anchors[anchor, 1]
-    reach = _norm(s.x + ARM * jnp.cos(s.angle) - ax, s.y + ARM * jnp.sin(s.angle) - ay)
-    longest = _pymax(reach, LENGTH_HIGH)
-    peg = Peg(ax, ay, longest)
-    r_low, r_high = _pymax(reach, LENGTH_LOW) + ARM, longest + ARM
-    farthest = jnp.zeros_like(s.x)
-    t_lows, t_highs, valids = [], [], []
-    for k in range(SEGMENTS):
-        p = _stretch(f, k)
-        farthest = _pymax(farthest, _norm(p.x - ax, p.y - ay))
-        low = r_low if k == 0 else _pymax(r_low, farthest + 2.0 * ARM)
-        t_low, t_high = tautening_window(p.x, p.y, p.vx, p.vy, ax, ay, low, r_high, f.lengths[k])
-        t_low = jnp.where(after_stretch == k, _pymax(t_low, after_t), t_low)
-        t_lows.append(t_low)
-        t_highs.append(t_high)
-        valids.append((k < f.count) & (k >= after_stretch) & (t_low <= t_high))
-    t_low, t_high, valid = jnp.stack(t_lows), jnp.stack(t_highs), jnp.stack(valids)
-    step = nav.divide(t_high - t_low, float(SAMPLES - 1))
-    ts = t_low[:, None] + jnp.arange(SAMPLES) * step[:, None]
-    segment = jnp.repeat(jnp.arange(SEGMENTS), SAMPLES)
-    return peg, segment, ts.ravel(), jnp.repeat(valid, SAMPLES), t_low, t_high, step
-
-
-def search_peg(s, anchor, f: Flight, aim: Aim, table: Table, rate, clearance, stretch,
-               at) -> Found:  # fmt: skip
-    """`velocity._search_peg`: the grid search (`velocity._search`) after the closest approach
-    (`stretch`, `at`), anywhere if nothing comes after it; both grids scored in one `vmap`."""
-    grids = [_windows(s, anchor, f, rate, clearance, stretch, at),
-             _windows(s, anchor, f, rate, clearance, jnp.int32(0), 0.0 * at)]  # fmt: skip
-    peg = grids[0][0]
-    segment = jnp.concatenate([g[1] for g in grids])
-    ts = jnp.concatenate([g[2] for g in grids])
-    valid = jnp.concatenate([g[3] for g in grids])
-    pucks = Puck(*(column[segment] for column in f.starts))
-    wheels = Wheel(f.elapsed[segment], f.lengths[segment], rate + 0.0 * ts, clearance + 0.0 * ts)
-    score = jax.vmap(lambda p, t, w: bounce_on(p, t, peg, aim, table, w)[0])(pucks, ts, wheels)
-    score = jnp.where(valid & ~jnp.isnan(score), score, jnp.inf)
-    half = SEGMENTS * SAMPLES
-    after = jnp.argmin(score[:half])
-    anywhere = half + jnp.argmin(score[half:])
-    best = jnp.where(score[after] < jnp.inf, after, anywhere)
-    grid = best // half
-    seg = segment[best]
-    found = score[best] < jnp.inf
-    t, t_low, t_high, step = ts[best], 0.0, 0.0, 0.0
-    for g in range(2):
-        t_low = jnp.where(grid == g, grids[g][4][seg], t_low)
-        t_high = jnp.where(grid == g, grids[g][5][seg], t_high)
-        step = jnp.where(grid == g, grids[g][6][seg], step)
-    zero = jnp.zeros_like(s.x)
-    seg = jnp.where(found, seg, 0)
-    return Found(
-        jnp.where(found, score[best], jnp.inf), _stretch(f, seg),
-        jnp.where(found, _pymax(t - step, t_low), zero),
-        jnp.where(found, _pymin(t + step, t_high), zero),
-        Wheel(jnp.where(found, f.elapsed[seg], zero), jnp.where(found, f.lengths[seg], zero),
-              rate, clearance),
-        peg,
-    )  # fmt: skip
+    turns = jnp.abs(keep(at, one) - t) <= 1e-6 * jnp.maximum(1.0, t)
+    score = score + jnp.where(turns, 0.0, WHEEL_PENALTY)
+    return Bounce(*(keep(value, one) for value in (score, miss, length, arm, e)), turns)
 
 
 def tautening_window(x, y, vx, vy, ax, ay, r_low, r_high, t_end):
-    """`geometry.tautening_window`: (t_low, t_high), empty if t_low > t_high."""
+    """`geometry.tautening_window`: (t_low, t_high), empty if t_low > t_high. Both radii's
+    crossings in one expression (stacked), so that they round alike wherever XLA contracts
+    products into fused multiply-adds: a window one point wide (r_low = r_high, a tether taut
+    at once) stays one point wide, as numba's does."""
     px, py = x - ax, y - ay
     v2 = vx * vx + vy * vy
     b = px * vx + py * vy
     c = px * px + py * py
     moving = v2 > 0.0
     sv2 = jnp.where(moving, v2, 1.0)
-
-    def leaving(radius):
-        disc = b * b - sv2 * (c - radius * radius)
-        root = jnp.sqrt(jnp.where(disc >= 0.0, disc, 0.0))
-        return jnp.where(disc >= 0.0, nav.divide(root - b, sv2),
-                         jnp.nan)  # fmt: skip
-
+    radius = jnp.stack(jnp.broadcast_arrays(r_low, r_high))
+    disc = b * b - sv2 * (c - radius * radius)
+    root = jnp.sqrt(jnp.where(disc >= 0.0, disc, 0.0))
+    inner, outer = jnp.where(disc >= 0.0, nav.divide(root - b, sv2), jnp.nan)
     t_low = _pymax(0.0, nav.divide(-b, sv2))
-    inner = leaving(r_low)
     t_low = jnp.where(jnp.isnan(inner), t_low, _pymax(t_low, inner))
-    outer = leaving(r_high)
     t_high = jnp.where(jnp.isnan(outer), -jnp.inf, _pymin(t_end, outer))
     return jnp.where(moving, t_low, 0.0), jnp.where(moving, t_high, -jnp.inf)
 
 
-def refine(found: Found, aim: Aim, table: Table):
-    """`velocity._refine`: (score, miss, length, moment arm, brake, turns) at the least score of
-    `velocity._golden`'s search, every point scored in full; the two first points in one
-    `vmap`, the results carried (not scored again)."""
+class Grid(NamedTuple):
+    """Every peg slot's tautening windows on the flight's stretches (`grid`), after the closest
+    approach and anywhere: `WINDOWS` of them, peg by peg, then after before anywhere, then
+    stretch by stretch (`_window_at`), each with its peg, its ends and its grid step."""
 
-    def bounce(t):
-        return bounce_on(found.puck, t, found.peg, aim, table, found.wheel)
+    pegs: Peg
+    t_low: jax.Array
+    t_high: jax.Array
+    step: jax.Array
+    searched: jax.Array
+    """The window is not empty and its peg is searched (present; under velocity control, the
+    one picked)."""
 
-    lo, hi = found.low, found.high
-    t1, t2 = hi - GOLDEN * (hi - lo), lo + GOLDEN * (hi - lo)
-    pair = jax.vmap(bounce)(jnp.stack([t1, t2]))
-    r1, r2 = (jax.tree.map(lambda x: x[0], pair), jax.tree.map(lambda x: x[1], pair))
 
-    def body(_, c):
-        lo, hi, t1, t2, r1, r2 = c
-        left = r1[0] <= r2[0]
-        new = jnp.where(left, t2 - GOLDEN * (t2 - lo), t1 + GOLDEN * (hi - t1))
-        r = bounce(new)
-        return (
-            jnp.where(left, lo, t1), jnp.where(left, t2, hi),
-            jnp.where(left, new, t2), jnp.where(left, t1, new),
-            nav.select(left, r, r2), nav.select(left, r1, r),
-        )  # fmt: skip
+def grid(s, f: Flight, stretch, at, searched_pegs) -> Grid:
+    """The `Grid` of the flight `f` (`velocity._search` before its scores, every peg slot and
+    stretch at once), the pegs `searched_pegs` ((MAX_ANCHORS,) bool) searched; its windows after
+    the closest approach start `at` into `stretch`. (The anywhere windows start at 0.)"""
+    ax, ay = s.anchors[:, 0, None], s.anchors[:, 1, None]
+    reach = _norm(s.x + ARM * jnp.cos(s.angle) - ax, s.y + ARM * jnp.sin(s.angle) - ay)
+    longest = _pymax(reach, LENGTH_HIGH)
+    r_low = _pymax(reach, LENGTH_LOW) + ARM
+    p = f.starts
+    distance = _norm(p.x - ax, p.y - ay)
+    farthest, lows = jnp.zeros_like(reach), [r_low]
+    for k in range(SEGMENTS):
+        farthest = _pymax(farthest, distance[:, k, None])
+        if k > 0:  # beyond the first stretch the tether must not have gone taut on the earlier
+            lows.append(_pymax(r_low, farthest + 2.0 * ARM))
+    windows = tautening_window(p.x, p.y, p.vx, p.vy, ax, ay, jnp.concatenate(lows, 1),
+                               longest + ARM, f.lengths)  # fmt: skip
+    t_low, t_high = (keep(end, runtime_one(distance)) for end in windows)  # computed once
+    k = jnp.arange(SEGMENTS)
+    after = jnp.where(k == stretch, _pymax(t_low, at), t_low)
+    t_low = jnp.stack([after, t_low], axis=1)
+    t_high = jnp.stack([t_high, t_high], axis=1)
+    valid = (k < f.count) & jnp.stack([k >= stretch, k >= 0]) & (t_low <= t_high)
+    searched = valid & searched_pegs[:, None, None]
+    step = nav.divide(t_high - t_low, float(SAMPLES - 1))
+    pegs = Peg(ax[:, 0], ay[:, 0], longest[:, 0])
+    return Grid(pegs, t_low.ravel(), t_high.ravel(), step.ravel(), searched.ravel())
 
-    *_, r1, r2 = lax.fori_loop(0, REFINEMENTS, body, (lo, hi, t1, t2, r1, r2))
-    return nav.select(r1[0] <= r2[0], r1, r2)
+
+def _window_at(window):
+    """(peg, anywhere, stretch) of a `Grid` window."""
+    return window // (2 * SEGMENTS), (window // SEGMENTS) % 2 == 1, window % SEGMENTS
+
+
+class Search(NamedTuple):
+    """The carry of the search's loop (`search`): where the grid goes on, each peg's best grid
+    point, and the golden-section searches of the pegs refined."""
+
+    window: jax.Array
+    """The grid window whose points come next; `WINDOWS` once the grid is done."""
+    sample: jax.Array
+    """The first of them, by index in the window."""
+    best: jax.Array
+    """(MAX_ANCHORS,): each peg's least grid score so far (inf: none)."""
+    best_window: jax.Array
+    best_t: jax.Array
+    """(MAX_ANCHORS,): its window and point (s into the window's stretch)."""
+    refined: jax.Array
+    """(2,): the pegs refined, the best and the runner-up (the best twice where there is no
+    runner-up: velocity control, a single peg)."""
+    steps: jax.Array
+    """Points each golden-section search has scored."""
+    low: jax.Array
+    high: jax.Array
+    t1: jax.Array
+    t2: jax.Array
+    r1: Bounce
+    r2: Bounce
+    """(2,) each: `velocity._golden`'s bracket, inner points and their bounces."""
+    done: jax.Array
+
+
+def _next_window(g: Grid, best, best_window, after):
+    """The first window after `after` that the grid searches: a peg's anywhere windows only
+    where its windows after the closest approach scored nothing (`velocity._search_peg`), which
+    the peg-by-peg order has decided by then. `WINDOWS` if none."""
+    window = jnp.arange(WINDOWS, dtype=jnp.int32)
+    peg, anywhere, _ = _window_at(window)
+    found_after = (best < jnp.inf) & ~_window_at(best_window)[1]
+    wanted = g.searched & ~(anywhere & found_after[peg]) & (window > after)
+    return jnp.where(jnp.any(wanted), jnp.argmax(wanted).astype(jnp.int32), WINDOWS)
+
+
+def _rank(best, n_anchors):
+    """`velocity.solve`'s choice among the pegs' grid scores `best` (inf: none), that of its
+    loop over the pegs: (the first of the least scores, the first of the least among the other
+    pegs present; the first again where it is the only peg)."""
+    peg = jnp.arange(MAX_ANCHORS, dtype=jnp.int32)
+    present = peg < n_anchors
+    anchor = jnp.argmin(jnp.where(present, best, jnp.inf)).astype(jnp.int32)
+    others = present & (peg != anchor)
+    least = jnp.min(jnp.where(others, best, jnp.inf))
+    runner = others & (best == least)
+    return anchor, jnp.where(jnp.any(runner), jnp.argmax(runner).astype(jnp.int32), anchor)
+
+
+def _refining(c: Search, g: Grid, refined) -> Search:
+    """`c` at the grid's end: the golden-section searches of the pegs `refined` started about
+    their best grid points (`velocity._search`'s bracket); done at once if the best has none."""
+    window = c.best_window[refined]
+    t, step = c.best_t[refined], g.step[window]
+    low, high = _pymax(t - step, g.t_low[window]), _pymin(t + step, g.t_high[window])
+    return c._replace(
+        refined=refined, low=low, high=high, t1=high - GOLDEN * (high - low),
+        t2=low + GOLDEN * (high - low), done=~(c.best[refined[0]] < jnp.inf),
+    )  # fmt: skip
+
+
+def _golden_point(c: Search):
+    """(left, t): `velocity._golden`'s next step, the bracket's left part kept (`left`) and the
+    new point's t, per search."""
+    left = c.r1.score <= c.r2.score
+    return left, jnp.where(left, c.t2 - GOLDEN * (c.t2 - c.low), c.t1 + GOLDEN * (c.high - c.t1))
+
+
+def _golden_step(c: Search, r: Bounce, left, new) -> Search:
+    """`c` after its golden-section searches scored their points (`r`): the first two points,
+    then `velocity._golden`'s step (every point scored in full)."""
+    stepping = c.steps >= 2
+    return c._replace(
+        low=jnp.where(stepping & ~left, c.t1, c.low),
+        high=jnp.where(stepping & left, c.t2, c.high),
+        t1=jnp.where(stepping, jnp.where(left, new, c.t2), c.t1),
+        t2=jnp.where(stepping, jnp.where(left, c.t1, new), c.t2),
+        r1=nav.select(c.steps == 0, r, nav.select(stepping, nav.select(left, r, c.r2), c.r1)),
+        r2=nav.select(c.steps == 1, r, nav.select(stepping, nav.select(left, c.r1, r), c.r2)),
+        steps=c.steps + 1,
+        done=c.steps + 1 == REFINEMENTS + 2,
+    )
+
+
+def _grid_step(c: Search, g: Grid, score, t, rank) -> Search:
+    """`c` after the grid points `t` of its window scored `score`: the peg's best point kept
+    (the first of equal scores), the next window's points next, or the refinement of the pegs
+    that `rank` picks once the grid is done."""
+    score = jnp.where(jnp.isnan(score), jnp.inf, score)
+    m = jnp.argmin(score)
+    peg, _, _ = _window_at(jnp.minimum(c.window, WINDOWS - 1))
+    better = (jnp.arange(MAX_ANCHORS) == peg) & (score[m] < c.best[peg])
+    best = jnp.where(better, score[m], c.best)
+    best_window = jnp.where(better, c.window, c.best_window)
+    sample = c.sample + BLOCK
+    on = sample < SAMPLES
+    c = c._replace(
+        window=jnp.where(on, c.window, _next_window(g, best, best_window, c.window)),
+        sample=jnp.where(on, sample, 0),
+        best=best,
+        best_window=best_window,
+        best_t=jnp.where(better, t[m], c.best_t),
+    )
+    return nav.select(c.window < WINDOWS, c, _refining(c, g, jnp.stack(rank(c.best))))
+
+
+def search(f: Flight, g: Grid, aim: Aim, table: Table, rate, clearance, rank) -> Search:
+    """The set-up search (`velocity._search_peg` of each peg searched, then `velocity._refine`
+    of the best and the runner-up that `rank` picks from the pegs' grid scores) as one loop:
+    each iteration scores `BLOCK` points in one call of `bounce_on`, the next of the grid's
+    windows or the golden-section searches' next (`Search`)."""
+    dtype = f.elapsed.dtype
+    slot = jnp.arange(BLOCK, dtype=jnp.int32)
+
+    def points(c: Search, new):
+        """The block's (stretch, t, peg) per point."""
+        window = jnp.minimum(c.window, WINDOWS - 1)
+        peg, _, stretch = _window_at(window)
+        t = g.t_low[window] + (c.sample + slot).astype(dtype) * g.step[window]
+        refined = c.refined[slot % 2]
+        golden = jnp.where(c.steps == 0, c.t1, jnp.where(c.steps == 1, c.t2, new))[slot % 2]
+        in_grid = c.window < WINDOWS
+        return (jnp.where(in_grid, stretch, _window_at(c.best_window[refined])[2]),
+                jnp.where(in_grid, t, golden), jnp.where(in_grid, peg, refined))  # fmt: skip
+
+    def body(c: Search) -> Search:
+        left, new = _golden_point(c)
+        stretch, t, peg = points(c, new)
+        puck = Puck(*(column[stretch] for column in f.starts))
+        wheel = Wheel(f.elapsed[stretch], f.lengths[stretch], rate + 0.0 * t, clearance + 0.0 * t)
+        pegs = jax.tree.map(lambda x: x[peg], g.pegs)
+        r = jax.vmap(bounce_on, in_axes=(0, 0, 0, None, None, 0))(puck, t, pegs, aim, table, wheel)
+        refined = jax.tree.map(lambda x: x[:2], r)
+        return nav.select(c.window < WINDOWS, _grid_step(c, g, r.score, t, rank),
+                          _golden_step(c, refined, left, new))  # fmt: skip
+
+    zero = jnp.zeros(2, dtype)
+    none = Bounce(zero, zero, zero, zero, zero, jnp.zeros(2, bool))
+    inf = jnp.full(MAX_ANCHORS, jnp.inf, dtype)
+    index = jnp.zeros(MAX_ANCHORS, jnp.int32)
+    start = Search(
+        _next_window(g, inf, index, jnp.int32(-1)), jnp.int32(0), inf, index,
+        jnp.zeros(MAX_ANCHORS, dtype),
+        jnp.zeros(2, jnp.int32), jnp.int32(0), zero, zero, zero, zero, none, none,
+        jnp.asarray(False),
+    )  # fmt: skip
+    start = nav.select(start.window < WINDOWS, start, _refining(start, g, jnp.stack(rank(inf))))
+    return lax.while_loop(lambda c: ~c.done, body, start)
 
 
 def solve(action, s, params):
@@ -459,57 +596,32 @@ def solve(action, s, params):
     dynamics (`jax.tether_navigate.flight.contact_clearance`)."""
     clearance = nav.contact_clearance(s, DYNAMICS.index(params.dynamics), params.stiffness)
     action = jnp.asarray(action)
-    pick = action.shape[-1] == PEG_ACTION
     aim = command(action)
     restitution = jnp.asarray(params.wall_restitution, s.x.dtype)
     f = flight(s, restitution)
     stretch, at = closest_approach(f, aim.x, aim.y)
     table = Table(s.posts, s.n_posts, restitution)
     rate = jnp.asarray(params.wheel_rate, s.x.dtype)
-    args = (f, aim, table, rate, clearance, stretch, at)
-    if pick:
-        anchor = pick_peg(s, action[0])
-        found = search_peg(s, anchor, *args)
-        second, runner = anchor, found
+    slots = jnp.arange(MAX_ANCHORS)
+    if action.shape[-1] == PEG_ACTION:
+        picked = pick_peg(s, action[0]).astype(jnp.int32)
+        searched, rank = slots == picked, lambda best: (picked, picked)
     else:
-        pegs = jax.vmap(lambda j: search_peg(s, j, *args))(jnp.arange(MAX_ANCHORS))
-        scores = pegs.score
-        anchor = second = jnp.int32(0)
-        best_score = runner_score = scores[0]
-        for j in range(1, MAX_ANCHORS):
-            here = j < s.n_anchors
-            other = scores[j]
-            better = here & (other < best_score)
-            runs = here & ~better & ((other < runner_score) | (second == anchor))
-            second, runner_score = (
-                jnp.where(better, anchor, jnp.where(runs, j, second)),
-                jnp.where(better, best_score, jnp.where(runs, other, runner_score)),
-            )
-            anchor = jnp.where(better, j, anchor)
-            best_score = jnp.where(better, other, best_score)
-
-        def take(i):
-            return jax.tree.map(lambda x: x[i], pegs)
-
-        found, runner = take(anchor), take(second)
-    none = found.score == jnp.inf
-    if pick:
-        best = refine(found, aim, table)
-    else:
-        both = jax.tree.map(lambda a, b: jnp.stack([a, b]), found, runner)
-        refined = jax.vmap(lambda x: refine(x, aim, table))(both)
-        first = jax.tree.map(lambda x: x[0], refined)
-        other = jax.tree.map(lambda x: x[1], refined)
-        use = (second != anchor) & (runner.score < jnp.inf) & (other[0] < first[0])
-        anchor = jnp.where(use, second, anchor)
-        best = nav.select(use, other, first)
-    _, miss, length, arm, e, turns = best
+        searched, rank = slots < s.n_anchors, lambda best: _rank(best, s.n_anchors)
+    c = search(f, grid(s, f, stretch, at, searched), aim, table, rate, clearance, rank)
+    refined = nav.select(c.r1.score <= c.r2.score, c.r1, c.r2)
+    first, other = (jax.tree.map(lambda x, m=m: x[m], refined) for m in range(2))
+    anchor, second = c.refined
+    use = (second != anchor) & (c.best[second] < jnp.inf) & (other.score < first.score)
+    anchor = jnp.where(use, second, anchor)
+    best = nav.select(use, other, first)
+    none = c.best[c.refined[0]] == jnp.inf
     dtype = s.x.dtype
-    met = jnp.where(none, 0.0, (turns & (miss < COMMAND_TOLERANCE)).astype(dtype))
-    error = jnp.where(none, jnp.inf, miss)
-    length = jnp.where(none, LENGTH_HIGH, length)
-    alpha = jnp.where(none, 0.0, jnp.arcsin(nav.divide(arm, ARM)))
-    e = jnp.where(none, BRAKE_HIGH, e)
+    met = jnp.where(none, 0.0, (best.turns & (best.miss < COMMAND_TOLERANCE)).astype(dtype))
+    error = jnp.where(none, jnp.inf, best.miss)
+    length = jnp.where(none, LENGTH_HIGH, best.length)
+    alpha = jnp.where(none, 0.0, jnp.arcsin(nav.divide(best.arm, ARM)))
+    e = jnp.where(none, BRAKE_HIGH, best.e)
     return anchor, length, alpha, e, aim.x, aim.y, met, error
 
 
