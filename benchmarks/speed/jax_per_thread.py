@@ -153,7 +153,7 @@ def child(args: argparse.Namespace) -> None:
 
     measure = _xla if args.side == "xla" else _numba
     row = measure(args.dynamics, args.control, args.batch, args.repeats)
-    print(json.dumps({**row, "package": str(Path(tether_gym.__file__).parent)}))
+    print(json.dumps({**row, "package": str(Path(tether_gym.__file__).resolve().parent)}))
 
 
 def measured(side: str, dynamics: str, control: str, batch: int, repeats: int,
