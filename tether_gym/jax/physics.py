@@ -466,7 +466,9 @@ def gathered(compute):
     `lax.cond`; under `jax.vmap` only the lanes that need it compute it: they are gathered into
     blocks of 1/`GATHER_BLOCKS` of the batch, each block computed at that width and scattered
     back, so that a lane that does not need it costs nothing and `compute`'s loops run to the
-    longest lane of their block, not of the batch."""
+    longest lane of their block, not of the batch; a batch of at most `GATHER_BLOCKS` lanes
+    computes it at once where any lane needs it (blocks of one lane would cost more than they
+    save)."""
 
     @custom_batching.custom_vmap
     def where_needed(need, default, *args):
@@ -482,9 +484,19 @@ def gathered(compute):
             default,
             default_batched,
         )
+        axes = jax.tree.map(lambda batched: 0 if batched else None, tuple(args_batched))
+        if axis_size <= GATHER_BLOCKS:  # blocks of one lane: the batch at once, if any needs it
+
+            def batch():
+                new = jax.vmap(compute, in_axes=axes)(*args)
+                return jax.tree.map(
+                    lambda x, o: jnp.where(jnp.reshape(need, (-1,) + (1,) * (o.ndim - 1)), x, o),
+                    new, out,
+                )  # fmt: skip
+
+            return lax.cond(jnp.any(need), batch, lambda: out), jax.tree.map(lambda _: True, out)
         width = -(-axis_size // GATHER_BLOCKS)
         order = jnp.nonzero(need, size=GATHER_BLOCKS * width, fill_value=axis_size)[0]
-        axes = jax.tree.map(lambda batched: 0 if batched else None, tuple(args_batched))
 
         def block(k, out):
             slots = lax.dynamic_slice_in_dim(order, k * width, width)
