@@ -83,8 +83,6 @@ def host_program(family: str, kwargs: dict, n: int):
     key, draw = jax.random.split(jax.random.PRNGKey(0))
     uniforms = jax.random.uniform(draw, (n, n_uniforms), dtype=dtype)
     state = jax.jit(jax.vmap(func.initial_from_uniforms, in_axes=(0, None)))(uniforms, params)
-    if family == "TetherBounce":
-        state = state.episode
     fused = jax.vmap(fns.host_step_autoreset, in_axes=(0, 0, 0, None))
 
     pool = action_pool(draw, n, width)

@@ -43,6 +43,7 @@ from tether_gym.evaluation import results_file
 from tether_gym.jax.tether_bounce.kernel import (
     UNIFORMS,
     EnvParams,
+    EnvState,
     observe,
     sample_episode,
     step_episode,
@@ -97,14 +98,14 @@ def numba_side(config: BounceConfig, uniforms: np.ndarray, actions: np.ndarray) 
 
 
 @jax.jit
-def _reset(uniforms: jax.Array, params: EnvParams) -> tuple[jax.Array, jax.Array]:
+def _reset(uniforms: jax.Array, params: EnvParams) -> tuple[EnvState, jax.Array]:
     episodes = jax.vmap(sample_episode, in_axes=(0, None))(uniforms, params)
     return episodes, jax.vmap(observe)(episodes)
 
 
 @jax.jit
-def _step(episodes: jax.Array, actions: jax.Array, params: EnvParams) -> jax.Array:
-    return jax.lax.map(lambda pair: step_episode(*pair, params), (episodes, actions),
+def _step(episodes: EnvState, actions: jax.Array, params: EnvParams) -> jax.Array:
+    return jax.lax.map(lambda pair: step_episode(*pair, params).outcome, (episodes, actions),
                        batch_size=CHUNK)  # fmt: skip
 
 
@@ -114,7 +115,7 @@ def jax_side(config: BounceConfig, uniforms: np.ndarray, actions: np.ndarray) ->
     dtype = jax.dtypes.canonicalize_dtype(jnp.float64)
     episodes, obs = _reset(jnp.asarray(uniforms, dtype), params)
     outcome = _step(episodes, jnp.asarray(actions, dtype), params)
-    return tuple(np.asarray(x, dtype=np.float64) for x in (episodes, obs, outcome))
+    return tuple(np.asarray(x, dtype=np.float64) for x in (episodes.row(), obs, outcome))
 
 
 def differences(fields, got: np.ndarray, want: np.ndarray) -> dict[str, np.ndarray]:

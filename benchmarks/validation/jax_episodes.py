@@ -158,7 +158,7 @@ def starts(config: NavigateConfig, uniforms: np.ndarray) -> tuple[np.ndarray, np
     if "sample" not in _SAMPLE:
         _SAMPLE["sample"] = jax.jit(jax.vmap(jn.sample_episode, in_axes=(0, None)))
     params = jn.EnvParams.from_config(config)
-    return numba_states, _SAMPLE["sample"](uniforms, params).to_records()
+    return numba_states, _SAMPLE["sample"](uniforms, params).to_numba()
 
 
 _SAMPLE: dict = {}

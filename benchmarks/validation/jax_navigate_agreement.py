@@ -148,7 +148,7 @@ def jax_side(config: NavigateConfig, states, actions):
 
     params = jn.EnvParams.from_config(config)
     obs, out = _jax_step(config.dynamics)(
-        jn.EnvState.from_records(states), np.asarray(actions), params
+        jn.EnvState.from_numba(states), np.asarray(actions), params
     )
     return np.asarray(obs, np.float64), np.asarray(out, np.float64)
 

@@ -90,7 +90,7 @@ def test_the_params_are_the_numba_kernels_params_as_a_pytree_that_sweeps_under_v
     @jax.jit
     def outcome(params):
         state = func.initial(key, params)
-        return step_episode(state.episode, jnp.array([0.5, -0.3, 0.2, 0.8]), params)
+        return step_episode(state, jnp.array([0.5, -0.3, 0.2, 0.8]), params).outcome
 
     outcomes = jax.vmap(outcome)(stacked)
     for i, params in enumerate(swept):
@@ -107,7 +107,7 @@ def test_the_vector_entry_point_steps_with_a_same_step_autoreset_like_the_numba_
     assert isinstance(env, TetherBounceJaxVectorEnv)
     obs, _ = env.reset(seed=0)
     assert isinstance(obs, np.ndarray) and env.observation_space.contains(obs)
-    episodes = np.asarray(env.state.episode)
+    episodes = env.state.to_numba()
     actions = env.action_space.sample()
     next_obs, reward, terminated, truncated, info = env.step(actions)
     _, _, want = TetherBounceKernel(BounceConfig(dynamics="impulse")).step(episodes, actions)

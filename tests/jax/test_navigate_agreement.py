@@ -102,7 +102,7 @@ def test_the_reset_draws_the_numba_episode(env_id):
     states, obs = kernel.reset(np.ascontiguousarray(uniforms[:, : kernel.n_uniforms]))
     params = jn.EnvParams.from_config(config)
     episodes = jax.jit(jax.vmap(jn.sample_episode, in_axes=(0, None)))(uniforms, params)
-    got = episodes.to_records()
+    got = episodes.to_numba()
     for name in states.dtype.names:
         np.testing.assert_allclose(got[name], states[name], rtol=0, atol=1e-12, err_msg=name)
     observed = jax.jit(jax.vmap(jn.observe, in_axes=(0, None)))(episodes, params)
@@ -178,7 +178,7 @@ def test_the_flights_event_times_are_the_numba_ones_bit_for_bit():
 
     config = configuration("TetherNavigate_PostsReach-v3", "impulse", "setup", "wheel_rate=1e4")
     states, _ = cases(config, CASES, 5)
-    state = jn.EnvState.from_records(states)
+    state = jn.EnvState.from_numba(states)
     pucks = nav.Puck(state.x, state.y, state.vx, state.vy, state.angle, state.spin)
     anchors = states["anchors"][:, 0]
     length = 0.5 * (1.0 + np.random.default_rng(6).random(CASES))

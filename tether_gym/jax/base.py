@@ -14,8 +14,9 @@ built and by the Gymnasium envs' `reset` and `step`, which get their arguments f
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -42,6 +43,47 @@ def as_row(fields: Fields, values: dict[str, jax.Array], dtype=None) -> jax.Arra
         raise ValueError(f"give every field of {fields.names}, got {tuple(values)}")
     row = jnp.stack([jnp.asarray(values[name]) for name in fields.names], axis=-1)
     return row.astype(fields.base if dtype is None else dtype)
+
+
+class KernelState:
+    """The state of a JAX kernel, one shape for every family: the numba kernel's state fields
+    by name (`names`; batch first where batched) and `outcome`, the `OUTCOME` row of the last
+    step (zeros before the first). A family's `EnvState` is a frozen dataclass declaring those
+    fields, registered as a pytree by `kernel_state`; `to_numba` and `from_numba` turn a batch
+    into the numba kernel's state array (TetherBounce's rows, TetherNavigate's records) and
+    back."""
+
+    names: ClassVar[tuple[str, ...]]
+    outcome: jax.Array
+
+    def replace(self, **changes) -> KernelState:
+        return dataclasses.replace(self, **changes)
+
+    def fields(self) -> list[jax.Array]:
+        """The numba state's fields, in `names`' order."""
+        return [getattr(self, name) for name in self.names]
+
+    @classmethod
+    def of_fields(cls, fields: Sequence[jax.Array], outcome: jax.Array) -> KernelState:
+        """The state of the numba state's fields (in `names`' order) and an outcome row."""
+        return cls(**dict(zip(cls.names, fields, strict=True)), outcome=outcome)
+
+    def to_numba(self) -> np.ndarray:
+        """The batch as the numba kernel's state array (the outcome left out)."""
+        raise NotImplementedError
+
+    @classmethod
+    def from_numba(cls, state: np.ndarray, outcome: np.ndarray | None = None) -> KernelState:
+        """A batch of the numba kernel's state array as a state (`outcome` None: zeros)."""
+        raise NotImplementedError
+
+
+def kernel_state(cls: type[KernelState]) -> type[KernelState]:
+    """`cls` (a `KernelState` with its fields declared) as a frozen dataclass registered as a
+    pytree whose leaves are its fields and `outcome`."""
+    cls = dataclasses.dataclass(frozen=True)(cls)
+    jax.tree_util.register_dataclass(cls, data_fields=[*cls.names, "outcome"], meta_fields=[])
+    return cls
 
 
 def outcome_info(fields: Fields, outcome: jax.Array) -> dict[str, Any]:
@@ -111,13 +153,17 @@ class KernelFuncEnv(FuncEnv):
         """The numba env's `info` of the step, from `next_state`'s outcome."""
         return outcome_info(self.kernel.outcome, next_state.outcome)
 
-    def with_options(self, state, options: dict, params=None):
+    def with_options(self, state: KernelState, options: dict, params=None) -> KernelState:
         """`state` (one episode or a batch) with `reset(options=...)` applied: validated and
         applied by the numba kernel (`Kernel.reset_options`, its `ValueError`s), on the host."""
-        episode = np.array(state.episode, dtype=np.float64).reshape(-1, state.episode.shape[-1])
-        self.kernel.reset_options(options, episode, self.kernel.observation.empty(len(episode)))
-        episode = jnp.asarray(episode.reshape(state.episode.shape), dtype=state.episode.dtype)
-        return state.replace(episode=episode)
+        single = np.ndim(state.outcome) == 1
+        batch = jax.tree.map(lambda x: x[None], state) if single else state
+        numba_state = batch.to_numba()
+        self.kernel.reset_options(
+            options, numba_state, self.kernel.observation.empty(len(numba_state))
+        )
+        new = type(state).from_numba(numba_state, np.asarray(batch.outcome))
+        return jax.tree.map(lambda x: x[0], new) if single else new
 
 
 class KernelJaxEnv(FunctionalJaxEnv):

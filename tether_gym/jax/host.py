@@ -20,9 +20,9 @@ counters), travels field by field and is gathered into records on the way in. A 
 kernel's whole batch does.
 
 Why: XLA's CPU runtime dispatches every fusion of the XLA kernels separately and runs each
-lane's loops at the width of the longest one, so on a CPU they step TetherNavigate 25-240 times
-slower than numba (DESIGN.md); through the host kernel a jitted rollout steps at about numba's
-speed. When to use XLA instead: on an accelerator (the host kernel runs on the CPU: every step
+lane's loops at the width of the longest one, so on a CPU they step TetherNavigate many times
+slower than numba (docs/jax.md's per-thread table); through the host kernel a jitted rollout
+steps at about numba's speed. When to use XLA instead: on an accelerator (the host kernel runs on the CPU: every step
 would copy the batch to the host and back), under `jax.grad` (the host kernel has no
 derivative), or where a program must not call back into the host (exported or serialized
 programs). `kernel()` picks "host" when jax's default backend is the CPU, "xla" otherwise.
@@ -91,44 +91,46 @@ class BounceHost:
         ]
         return jnp.stack(jnp.broadcast_arrays(*columns), axis=-1)
 
-    def host_sample_episode(self, uniforms: jax.Array, params: bounce.EnvParams) -> jax.Array:
+    def host_sample_episode(self, uniforms: jax.Array, params: bounce.EnvParams) -> bounce.EnvState:
         """`bounce.sample_episode` by the numba kernel's reset (`kernel._reset`)."""
         dtype = float_dtype()
-        (state,) = _ffi(
+        (row,) = _ffi(
             bounce_ffi.target("reset"), [((len(bounce_kernel.STATE),), dtype)],
             jnp.asarray(uniforms, dtype), self.params_row(params),
         )  # fmt: skip
-        return state
+        return bounce.EnvState.of_row(row, jnp.zeros(len(bounce_kernel.OUTCOME), dtype))
 
-    def host_observe(self, episode: jax.Array) -> jax.Array:
-        """`bounce.observe` by the numba kernel's."""
+    def host_observe(self, state: bounce.EnvState, params=None) -> jax.Array:
+        """`bounce.observe` by the numba kernel's (which reads no params)."""
         obs = ((len(bounce_kernel.OBSERVATION),), bounce_kernel.OBSERVATION.base)
-        return _ffi(bounce_ffi.target("observe"), [obs], jnp.asarray(episode, float_dtype()))[0]
+        return _ffi(bounce_ffi.target("observe"), [obs], state.row().astype(float_dtype()))[0]
 
     def host_step_episode(
-        self, episode: jax.Array, action: jax.Array, params: bounce.EnvParams
-    ) -> jax.Array:
+        self, state: bounce.EnvState, action: jax.Array, params: bounce.EnvParams
+    ) -> bounce.EnvState:
         """`bounce.step_episode` by the numba kernel's step of the dynamics of `params`."""
         dtype = float_dtype()
         (outcome,) = _ffi(
             bounce_ffi.target("step", params.dynamics), [((len(bounce_kernel.OUTCOME),), dtype)],
-            jnp.asarray(episode, dtype), jnp.asarray(action, dtype), self.params_row(params),
+            state.row().astype(dtype), jnp.asarray(action, dtype), self.params_row(params),
         )  # fmt: skip
-        return outcome
+        return state.replace(outcome=outcome)
 
     def host_step_autoreset(
-        self, episode: jax.Array, action: jax.Array, uniforms: jax.Array, params
-    ) -> tuple[jax.Array, jax.Array, jax.Array, jax.Array]:
+        self, state: bounce.EnvState, action: jax.Array, uniforms: jax.Array, params
+    ) -> tuple[bounce.EnvState, jax.Array, jax.Array, jax.Array]:
         """The step and the next episode in one numba call (every episode ends at its step:
-        `kernel.AUTORESET`, across numba's threads for large batches): (next episode, its
-        observation, the observation the episode ended on, the step's outcome)."""
+        `kernel.AUTORESET`, across numba's threads for large batches): (next state, its
+        observation, the observation the episode ended on, the step's outcome). The next
+        state's `outcome` is zeros (a new episode)."""
         dtype = float_dtype()
         obs = ((len(bounce_kernel.OBSERVATION),), bounce_kernel.OBSERVATION.base)
         results = [((len(bounce_kernel.STATE),), dtype), obs, obs,
                    ((len(bounce_kernel.OUTCOME),), dtype)]  # fmt: skip
-        rows = [jnp.asarray(x, dtype) for x in (episode, action, uniforms)]
+        rows = [jnp.asarray(x, dtype) for x in (state.row(), action, uniforms)]
         target = bounce_ffi.target("autoreset", params.dynamics)
-        return tuple(_ffi(target, results, *rows, self.params_row(params)))
+        row, obs, final_obs, outcome = _ffi(target, results, *rows, self.params_row(params))
+        return bounce.EnvState.of_row(row, jnp.zeros_like(outcome)), obs, final_obs, outcome
 
 
 class NavigateHost:
@@ -151,12 +153,11 @@ class NavigateHost:
 
     @staticmethod
     def _state_leaves(state: navigate.EnvState) -> list[jax.Array]:
-        dtype = float_dtype()
-        leaves = []
-        for name in NAVIGATE_STATE.names:
-            value = jnp.asarray(getattr(state, name))
-            leaves.append(value.astype(jnp.int32 if value.dtype.kind in "iub" else dtype))
-        return leaves
+        def cast(value: jax.Array) -> jax.Array:
+            value = jnp.asarray(value)
+            return value.astype(jnp.int32 if value.dtype.kind in "iub" else float_dtype())
+
+        return [cast(value) for value in state.fields()]
 
     @staticmethod
     def _state_results() -> list[tuple[tuple[int, ...], np.dtype]]:
@@ -167,11 +168,6 @@ class NavigateHost:
             for name in NAVIGATE_STATE.names
         ]  # fmt: skip
 
-    @staticmethod
-    def _state(fields: Sequence[jax.Array], outcome: jax.Array) -> navigate.EnvState:
-        return navigate.EnvState(**dict(zip(NAVIGATE_STATE.names, fields, strict=True)),
-                                 outcome=outcome)  # fmt: skip
-
     def host_sample_episode(
         self, uniforms: jax.Array, params: navigate.EnvParams
     ) -> navigate.EnvState:
@@ -179,7 +175,7 @@ class NavigateHost:
         dtype = float_dtype()
         fields = _ffi(navigate_ffi.target("reset"), self._state_results(),
                             jnp.asarray(uniforms, dtype), *self._params_leaves(params))  # fmt: skip
-        return self._state(fields, jnp.zeros(NAVIGATE_OUTCOME.width, dtype))
+        return navigate.EnvState.of_fields(fields, jnp.zeros(NAVIGATE_OUTCOME.width, dtype))
 
     def host_observe(self, state: navigate.EnvState, params: navigate.EnvParams) -> jax.Array:
         """`navigate.observe` by the numba kernel's (`spaces.observe_all`)."""
@@ -198,7 +194,7 @@ class NavigateHost:
             navigate_ffi.target("step", self.build(params)), [*self._state_results(), outcome],
             *self._state_leaves(state), jnp.asarray(action, dtype), *self._params_leaves(params),
         )  # fmt: skip
-        return self._state(fields, outcome)
+        return navigate.EnvState.of_fields(fields, outcome)
 
     def host_step_autoreset(
         self, state: navigate.EnvState, action: jax.Array, uniforms: jax.Array, params
@@ -219,59 +215,51 @@ class NavigateHost:
         )  # fmt: skip
         ended = (outcome[end["terminated"]] != 0.0) | (outcome[end["truncated"]] != 0.0)
         kept = jnp.where(ended, jnp.zeros_like(outcome), outcome)
-        return self._state(fields, kept), obs, final_obs, outcome
+        return navigate.EnvState.of_fields(fields, kept), obs, final_obs, outcome
 
 
 BOUNCE = BounceHost()
 NAVIGATE = NavigateHost()
 
 
-class HostBounceFunctional(bounce.TetherBounceFunctional):
-    """`TetherBounceFunctional` on the numba kernel (`BOUNCE`: reset, step, observation):
-    the same arguments, states, params and outputs."""
+class HostFunctional(KernelFuncEnv):
+    """A family's `FuncEnv` with its reset, step, observation and fused step with autoreset
+    computed by the numba kernel (`host`: `BOUNCE` or `NAVIGATE`): the same arguments, states,
+    params and outputs as the XLA kernel's `FuncEnv` it is mixed into."""
 
-    def initial_from_uniforms(self, uniforms: jax.Array, params) -> bounce.EnvState:
-        episode = BOUNCE.host_sample_episode(uniforms, params)
-        return bounce.EnvState(episode, jnp.zeros(len(bounce_kernel.OUTCOME), episode.dtype))
+    host: BounceHost | NavigateHost
 
-    def transition(self, state, action, rng=None, params=None) -> bounce.EnvState:
+    def initial_from_uniforms(self, uniforms: jax.Array, params):
+        return self.host.host_sample_episode(uniforms, params)
+
+    def transition(self, state, action, rng=None, params=None):
         params = self.default_params if params is None else params
-        return state.replace(outcome=BOUNCE.host_step_episode(state.episode, action, params))
+        return self.host.host_step_episode(state, action, params)
 
     def observation(self, state, rng=None, params=None) -> jax.Array:
-        return BOUNCE.host_observe(state.episode)
+        params = self.default_params if params is None else params
+        return self.host.host_observe(state, params)
 
     def step_autoreset(self, state, action, uniforms, params):
-        """`KernelFuncEnv.step_autoreset` in one numba call (every episode ends at its step)."""
-        episode, obs, final_obs, outcome = BOUNCE.host_step_autoreset(
-            state.episode, action, uniforms, params
-        )
-        return bounce.EnvState(episode, jnp.zeros_like(outcome)), obs, final_obs, outcome
+        """`KernelFuncEnv.step_autoreset` in one numba call."""
+        return self.host.host_step_autoreset(state, action, uniforms, params)
 
 
-class HostNavigateFunctional(navigate.TetherNavigateFunctional):
-    """`TetherNavigateFunctional` on the numba kernel (`NAVIGATE`: reset, step,
-    observation): the same arguments, states, params and outputs, in every control mode."""
+class HostBounceFunctional(HostFunctional, bounce.TetherBounceFunctional):
+    """`TetherBounceFunctional` on the numba kernel (`BOUNCE`)."""
+
+    host = BOUNCE
+
+
+class HostNavigateFunctional(HostFunctional, navigate.TetherNavigateFunctional):
+    """`TetherNavigateFunctional` on the numba kernel (`NAVIGATE`), in every control mode."""
+
+    host = NAVIGATE
 
     @staticmethod
     def check_control(control: str) -> None:
         """Every control mode: the numba kernel plays them all (`NavigateConfig` has checked
         the name)."""
-
-    def initial_from_uniforms(self, uniforms: jax.Array, params) -> navigate.EnvState:
-        return NAVIGATE.host_sample_episode(uniforms, params)
-
-    def transition(self, state, action, rng=None, params=None) -> navigate.EnvState:
-        params = self.default_params if params is None else params
-        return NAVIGATE.host_step_episode(state, action, params)
-
-    def observation(self, state, rng=None, params=None) -> jax.Array:
-        params = self.default_params if params is None else params
-        return NAVIGATE.host_observe(state, params)
-
-    def step_autoreset(self, state, action, uniforms, params):
-        """`KernelFuncEnv.step_autoreset` in one numba call."""
-        return NAVIGATE.host_step_autoreset(state, action, uniforms, params)
 
 
 FUNCTIONALS = {

@@ -9,11 +9,11 @@ the dynamics chosen when the step is traced (`EnvParams.dynamics` is static), th
 contact a bounded loop (`jax.physics`). float64 under `jax_enable_x64`, float32 otherwise;
 observations are float32 as the space says.
 
-- `sample_episode(uniforms, params)`: an episode from `UNIFORMS` uniforms, consumed in the numba
-  kernel's order (the task if mixed, the goal's two, one per randomized quantity), so the same
-  uniforms give the numba kernel's episode.
-- `step_episode(episode, action, params)`: the outcome row of one bounce.
-- `observe(episode)`: the observation.
+- `sample_episode(uniforms, params)`: an episode (`EnvState`) from `UNIFORMS` uniforms, consumed
+  in the numba kernel's order (the task if mixed, the goal's two, one per randomized quantity),
+  so the same uniforms give the numba kernel's episode.
+- `step_episode(state, action, params)`: the state after one bounce (its `outcome` row).
+- `observe(state)`: the observation.
 
 `jax.vmap` them for a batch, over states and actions or over `EnvParams` too (a stack of
 `EnvParams.make(...)` sweeps a parameter).
@@ -45,11 +45,7 @@ from tether_gym.envs.tether_bounce.kernel import (
     TetherBounceKernel,
 )
 from tether_gym.jax import physics
-from tether_gym.jax.base import (
-    KernelFuncEnv,
-    as_row,
-    float_dtype,
-)
+from tether_gym.jax.base import KernelFuncEnv, KernelState, as_row, float_dtype, kernel_state
 from tether_gym.physics.geometry import stiffness_for_rho
 from tether_gym.tasks.bounce import (
     DEADSPIN,
@@ -133,19 +129,40 @@ jax.tree_util.register_dataclass(
 )
 
 
-@dataclasses.dataclass(frozen=True)
-class EnvState:
-    """One episode: its `STATE` row (task, goal, physical parameters: the numba kernel's
-    columns) and the `OUTCOME` row of its step (zeros before it)."""
+@kernel_state
+class EnvState(KernelState):
+    """One episode: the numba kernel's `STATE` row by name (the task, the goal, the physical
+    parameters; the task an index into `TASKS`, as a float) and the `OUTCOME` row of its step
+    (zeros before it)."""
 
-    episode: jax.Array
+    names = STATE.names
+    task: jax.Array
+    target_heading: jax.Array
+    target_speed: jax.Array
+    inertia_ratio: jax.Array
+    restitution: jax.Array
+    stiffness: jax.Array
+    log10_rho: jax.Array
+    spin: jax.Array
     outcome: jax.Array
 
-    def replace(self, **changes) -> EnvState:
-        return dataclasses.replace(self, **changes)
+    def row(self) -> jax.Array:
+        """The numba kernel's `STATE` row (rows, batched)."""
+        return as_row(STATE, dict(zip(self.names, self.fields(), strict=True)), self.task.dtype)
 
+    @classmethod
+    def of_row(cls, row: jax.Array, outcome: jax.Array) -> EnvState:
+        """The state of a `STATE` row (rows, batched) and an outcome row."""
+        return cls.of_fields(jnp.moveaxis(row, -1, 0), outcome)
 
-jax.tree_util.register_dataclass(EnvState, data_fields=["episode", "outcome"], meta_fields=[])
+    def to_numba(self) -> np.ndarray:
+        return np.array(self.row(), dtype=np.float64)
+
+    @classmethod
+    def from_numba(cls, state: np.ndarray, outcome: np.ndarray | None = None) -> EnvState:
+        dtype = float_dtype()
+        outcome = np.zeros((len(state), len(OUTCOME))) if outcome is None else outcome
+        return cls.of_row(jnp.asarray(state, dtype), jnp.asarray(outcome, dtype))
 
 
 def _draw(u, k, low, high):
@@ -168,8 +185,8 @@ def env_stiffness(rho):
     return stiffness_for_rho(rho, PUCK_MASS, TETHER_LENGTH, MAX_LAUNCH)
 
 
-def sample_episode(uniforms: jax.Array, params: EnvParams) -> jax.Array:
-    """An episode's `STATE` row from its `UNIFORMS` uniforms (`kernel._sample`)."""
+def sample_episode(uniforms: jax.Array, params: EnvParams) -> EnvState:
+    """An episode from its `UNIFORMS` uniforms (`kernel._sample`), before its step."""
     u = jnp.asarray(uniforms, dtype=float_dtype())
     mixed = params.task < 0
     task = jnp.where(mixed, jnp.minimum(jnp.floor(u[0] * 3.0), 2.0), params.task)
@@ -181,28 +198,29 @@ def sample_episode(uniforms: jax.Array, params: EnvParams) -> jax.Array:
     spin, _ = _draw(u, k, -params.spin_disturbance, params.spin_disturbance)
     fixed = params.stiffness > 0.0
     stiffness = jnp.where(fixed, params.stiffness, env_stiffness(jnp.exp(ln_rho)))
-    return as_row(STATE, {
+    values = {
         "task": task, "target_heading": heading, "target_speed": speed, "inertia_ratio": kappa,
         "restitution": e, "stiffness": stiffness, "log10_rho": ln_rho / math.log(10.0),
         "spin": spin,
-    }, u.dtype)  # fmt: skip
+    }  # fmt: skip
+    return EnvState(**{k: jnp.asarray(v, u.dtype) for k, v in values.items()},
+                    outcome=jnp.zeros(len(OUTCOME), u.dtype))  # fmt: skip
 
 
-def observe(episode: jax.Array) -> jax.Array:
+def observe(s: EnvState) -> jax.Array:
     """The observation (float32) of an episode (`kernel._observe`): the task one-hot, the goal
     its task uses, the physical parameters."""
-    s = dict(zip(STATE.names, episode, strict=True))
-    task = s["task"]
+    task = s.task
     aims = task != DEADSPIN
     values = {f"task_{name}": task == code for code, name in enumerate(TASKS)}
     values.update(
-        target_heading_cos=jnp.where(aims, jnp.cos(s["target_heading"]), 0.0),
-        target_heading_sin=jnp.where(aims, jnp.sin(s["target_heading"]), 0.0),
-        target_speed=jnp.where(task == VELOCITY, s["target_speed"] * SPEED_SCALE, 0.0),
-        inertia_ratio=s["inertia_ratio"],
-        restitution=s["restitution"],
-        log10_rho=s["log10_rho"],
-        spin=s["spin"] * SPIN_SCALE,
+        target_heading_cos=jnp.where(aims, jnp.cos(s.target_heading), 0.0),
+        target_heading_sin=jnp.where(aims, jnp.sin(s.target_heading), 0.0),
+        target_speed=jnp.where(task == VELOCITY, s.target_speed * SPEED_SCALE, 0.0),
+        inertia_ratio=s.inertia_ratio,
+        restitution=s.restitution,
+        log10_rho=s.log10_rho,
+        spin=s.spin * SPIN_SCALE,
     )
     return as_row(OBSERVATION, values)
 
@@ -215,24 +233,24 @@ def decode_action(action: jax.Array) -> dict[str, jax.Array]:
     return dict(zip(ACTION.names, setup, strict=True))
 
 
-def bounce(s: dict, setup: dict, params: EnvParams):
+def bounce(s: EnvState, setup: dict, params: EnvParams):
     """The bounce of a set-up with the episode's parameters: (vx, vy, spin, bounced,
     completed), by the dynamics of `params` (`kernel._bounce_impulse`, `_bounce_hybrid`)."""
     beta, alpha, offset = setup["tether_angle"], setup["offset_angle"], setup["offset"]
-    speed, kappa, spin = setup["launch_speed"], s["inertia_ratio"], s["spin"]
+    speed, kappa, spin = setup["launch_speed"], s.inertia_ratio, s.spin
     if params.dynamics == "impulse":
         vx, vy, w, bounced = physics.impulse_core(
-            beta, alpha, offset, kappa, speed, spin, s["restitution"], PUCK_RADIUS
+            beta, alpha, offset, kappa, speed, spin, s.restitution, PUCK_RADIUS
         )
         return vx, vy, w, bounced, jnp.ones_like(bounced)
     zeta = lax.cond(
         params.restitution_low == params.restitution_high,
         lambda: jnp.asarray(params.damping_ratio, speed.dtype),
-        lambda: physics.damping_ratio(s["restitution"]),
+        lambda: physics.damping_ratio(s.restitution),
     )
     vx, vy, w, bounced, completed = physics.hybrid_core(
         beta, alpha, offset, kappa, speed, spin, zeta, PUCK_RADIUS, PUCK_MASS, TETHER_LENGTH,
-        s["stiffness"],
+        s.stiffness,
     )  # fmt: skip
     return vx, vy, w, bounced, completed
 
@@ -250,15 +268,15 @@ def fold_angle(angle):
     return math.pi - jnp.remainder(math.pi - angle, 2.0 * math.pi)
 
 
-def score(s: dict, deflection, ratio, launch_speed, bounced) -> dict[str, jax.Array]:
+def score(s: EnvState, deflection, ratio, launch_speed, bounced) -> dict[str, jax.Array]:
     """The task's outcome (`tasks.bounce.score`): success, the errors and the reward terms by
     their `OUTCOME` names, every task's computed and the episode's selected."""
-    task = s["task"]
+    task = s.task
     dead, velocity = task == DEADSPIN, task == VELOCITY
-    error = fold_angle(deflection - s["target_heading"])
+    error = fold_angle(deflection - s.target_heading)
     heading_term = 1.0 - jnp.abs(error) / math.pi
     on_heading = jnp.abs(error) < HEADING_TOLERANCE
-    speed_error = ratio * launch_speed / s["target_speed"] - 1.0
+    speed_error = ratio * launch_speed / s.target_speed - 1.0
     speed_term = 1.0 - jnp.minimum(jnp.abs(speed_error), 1.0)
     on_speed = jnp.abs(speed_error) < SPEED_TOLERANCE
     success = (
@@ -279,11 +297,11 @@ def score(s: dict, deflection, ratio, launch_speed, bounced) -> dict[str, jax.Ar
     }
 
 
-def step_episode(episode: jax.Array, action: jax.Array, params: EnvParams) -> jax.Array:
-    """The `OUTCOME` row of one step (`kernel._step_impulse`, `_step_hybrid`): decode, bounce,
-    score; every episode ends here. NaN in the action gives NaN in the set-up, the velocities
-    and the reward (the Gymnasium envs refuse it before the step)."""
-    s = dict(zip(STATE.names, episode, strict=True))
+def step_episode(s: EnvState, action: jax.Array, params: EnvParams) -> EnvState:
+    """The episode after its step, the same episode with the step's `OUTCOME` row
+    (`kernel._step_impulse`, `_step_hybrid`): decode, bounce, score; every episode ends here.
+    NaN in the action gives NaN in the set-up, the velocities and the reward (the Gymnasium envs
+    refuse it before the step)."""
     setup = decode_action(action)
     vx, vy, w, bounced, completed = bounce(s, setup, params)
     one = physics.runtime_one(setup["launch_speed"])
@@ -299,8 +317,8 @@ def step_episode(episode: jax.Array, action: jax.Array, params: EnvParams) -> ja
         **terms, **setup, "reward": reward, "terminated": 1.0, "truncated": 0.0,
         "deflection": deflection, "speed_ratio": ratio, "spin": w, "bounced": bounced,
         "completed": completed, "residual_speed": ratio, "vx": vx, "vy": vy,
-    }, episode.dtype)  # fmt: skip
-    return physics.keep(row, one)
+    }, s.outcome.dtype)  # fmt: skip
+    return s.replace(outcome=physics.keep(row, one))
 
 
 class TetherBounceFunctional(KernelFuncEnv):
@@ -323,15 +341,14 @@ class TetherBounceFunctional(KernelFuncEnv):
 
     def initial_from_uniforms(self, uniforms: jax.Array, params: EnvParams) -> EnvState:
         """A new episode (`sample_episode`), before its step."""
-        episode = sample_episode(uniforms, params)
-        return EnvState(episode, jnp.zeros(len(OUTCOME), episode.dtype))
+        return sample_episode(uniforms, params)
 
     def transition(
         self, state: EnvState, action: jax.Array, rng=None, params: EnvParams | None = None
     ) -> EnvState:
         """The episode after its step: the same episode, the step's outcome."""
         params = self.default_params if params is None else params
-        return state.replace(outcome=step_episode(state.episode, action, params))
+        return step_episode(state, action, params)
 
     def observation(self, state: EnvState, rng=None, params: EnvParams | None = None):
-        return observe(state.episode)
+        return observe(state)

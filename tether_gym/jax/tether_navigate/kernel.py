@@ -54,7 +54,7 @@ from tether_gym.envs.tether_navigate.config import (
 from tether_gym.envs.tether_navigate.controls import control_mode
 from tether_gym.envs.tether_navigate.kernel import NavigateKernel
 from tether_gym.envs.tether_navigate.spaces import OBS, OBSERVATION, OUTCOME, ROW_KEYS, SPIN_SCALE
-from tether_gym.jax.base import KernelFuncEnv, float_dtype
+from tether_gym.jax.base import KernelFuncEnv, KernelState, float_dtype, kernel_state
 from tether_gym.jax.tether_navigate import controls
 from tether_gym.jax.tether_navigate import flight as nav
 from tether_gym.tasks import navigate as task
@@ -128,12 +128,13 @@ jax.tree_util.register_dataclass(
 )
 
 
-@dataclasses.dataclass(frozen=True)
-class EnvState:
+@kernel_state
+class EnvState(KernelState):
     """One episode: the numba kernel's `STATE` record by name (the puck, the goal, the
     maneuvers left, the pegs and posts; counts as int32) and the `OUTCOME` row of its last
     maneuver (zeros before the first)."""
 
+    names = STATE.names
     x: jax.Array
     y: jax.Array
     vx: jax.Array
@@ -149,32 +150,22 @@ class EnvState:
     posts: jax.Array
     outcome: jax.Array
 
-    def replace(self, **changes) -> EnvState:
-        return dataclasses.replace(self, **changes)
-
     @classmethod
-    def from_records(cls, records: np.ndarray, outcome: np.ndarray | None = None) -> EnvState:
+    def from_numba(cls, state: np.ndarray, outcome: np.ndarray | None = None) -> EnvState:
         """A batch of numba `STATE` records as an `EnvState` (batch first)."""
         dtype = float_dtype()
-        values = {}
-        for name in STATE.names:
-            column = np.asarray(records[name])
-            kind = np.int32 if column.dtype.kind in "iu" else dtype
-            values[name] = jnp.asarray(column.astype(kind))
-        if outcome is None:
-            outcome = np.zeros((len(records), OUTCOME.width))
-        return cls(**values, outcome=jnp.asarray(outcome, dtype))
+        columns = [np.asarray(state[name]) for name in STATE.names]
+        fields = [jnp.asarray(c, np.int32 if c.dtype.kind in "iu" else dtype) for c in columns]
+        outcome = np.zeros((len(state), OUTCOME.width)) if outcome is None else outcome
+        return cls.of_fields(fields, jnp.asarray(outcome, dtype))
 
-    def to_records(self) -> np.ndarray:
+    def to_numba(self) -> np.ndarray:
         """The batch as numba `STATE` records (the outcome left out)."""
         n = np.shape(self.x)[0] if np.ndim(self.x) else 1
         records = np.zeros(n, STATE)
         for name in STATE.names:
             records[name] = np.asarray(getattr(self, name)).reshape(records[name].shape)
         return records
-
-
-jax.tree_util.register_dataclass(EnvState, data_fields=[*STATE.names, "outcome"], meta_fields=[])
 
 
 def outcome_row(values: dict) -> jax.Array:
@@ -434,17 +425,6 @@ class TetherNavigateFunctional(KernelFuncEnv):
                 block = next_state.outcome[..., start : start + field.size]
                 info[field.name] = block.reshape(*block.shape[:-1], *field.shape)
         return info
-
-    def with_options(self, state: EnvState, options: dict, params=None) -> EnvState:
-        """`state` with `reset(options=...)` applied by the numba kernel (its checks), on the
-        host."""
-        single = np.ndim(state.x) == 0
-        batch = jax.tree.map(lambda x: x[None], state) if single else state
-        records = batch.to_records()
-        obs = OBSERVATION.empty(len(records))
-        self.kernel.reset_options(options, records, obs)
-        new = EnvState.from_records(records, np.asarray(batch.outcome))
-        return jax.tree.map(lambda x: x[0], new) if single else new
 
 
 __all__ = [
