@@ -23,7 +23,7 @@ from tether_gym.arguments import chosen_env, env_from_args
 from tether_gym.evaluation import cli as evaluate
 from tether_gym.evaluation.results import Result
 from tether_gym.evaluation.runner import evaluate as run_agents
-from tether_gym.families import Family, WarmUp, family
+from tether_gym.families import Backend, Family, WarmUp, family
 from tether_gym.seeds import EVALUATION_BATCH
 
 MAX_STEPS = 20
@@ -163,6 +163,15 @@ TOY = Family(
     card_test_episodes=10,
     warm=WarmUp("TetherPoint-v0", f"{HERE}:BUILDS", agents={"pull": {}}),
     run_name_keys=("tolerance",),
+    backends=(
+        Backend(
+            name="jax",
+            extra="jax",
+            ids={"tether_gym/TetherPoint-jax-v0": {}},
+            entry_point="tests.toy_jax:PointJaxEnv",
+            gymnax_entry_point="tests.toy_jax:PointGymnax",
+        ),
+    ),
 )
 
 
@@ -172,7 +181,7 @@ def toy():
     families.register_family(TOY)
     yield TOY
     families.FAMILIES.remove(TOY)
-    for env_id in TOY.ids:
+    for env_id in (*TOY.ids, *TOY.backends[0].ids):
         del gym.registry[env_id]
 
 
@@ -257,6 +266,42 @@ def test_a_toy_family_trains_with_sb3(toy, tmp_path, capsys):
     assert (tmp_path / "runs" / "toy" / "best" / "model.zip").is_file()
 
 
+@pytest.mark.jax_train
+def test_a_toy_family_trains_with_the_jax_trainer(toy, tmp_path, capsys):
+    """The toy's JAX backend (`tests/toy_jax.py`: a `FuncEnv` on the package's JAX base, its
+    state a `KernelState`) steps as its numba-free Gymnasium env does, and `tether-train
+    --backend jax` trains it from a zoo file of its own: two seeds vmapped, evaluated on the
+    toy's own env against its yardstick, each seed's policy saved and played by
+    `tether-evaluate`."""
+    pytest.importorskip("flax")
+    import jax
+
+    from tether_gym.training import train
+
+    env = gym.make("tether_gym/TetherPoint-jax-v0", start=0.3)
+    obs, _ = env.reset(seed=0)
+    assert float(obs[0]) == pytest.approx(0.3)
+    obs, _, terminated, truncated, info = env.step(jax.numpy.array([-0.6]))
+    assert abs(float(obs[0])) < 1e-6 and terminated and not truncated and bool(info["is_success"])
+
+    conf = tmp_path / "ppo.yml"
+    conf.write_text(
+        "TetherPoint-v0:\n  n_envs: 8\n  n_timesteps: 256\n  policy: MlpPolicy\n"
+        "  n_steps: 8\n  batch_size: 32\n  n_epochs: 1\n  gamma: 0.9\n"
+    )
+    runs = tmp_path / "runs"
+    argv = ["--backend", "jax", "--env", "TetherPoint-v0", "--conf-file", str(conf), "--seeds",
+            "2", "--runs-dir", str(runs), "--name", "toy", "--eval-episodes", "3",
+            "--eval-freq", "128", "--no-progress-bar"]  # fmt: skip
+    assert train.main(argv) == 0
+    out = capsys.readouterr().out
+    assert "vs pull to zero 100.0% success" in out
+    assert (runs / "toy" / "seed0.msgpack").is_file() and (runs / "toy" / "seed1.msgpack").is_file()
+    evaluate.main(["--env", "TetherPoint-v0", "--agents", str(runs / "toy" / "seed1.msgpack"),
+                   "--episodes", "3", "--no-progress-bar"])  # fmt: skip
+    assert "| seed1 | 3 |" in capsys.readouterr().out
+
+
 def test_a_toy_family_s_docs_page_shows_its_record(toy):
     """The docs' `family_reference` renders the toy's ids, entry points, agents with their
     notes and its yardstick from the record alone."""
@@ -273,7 +318,9 @@ def test_a_toy_family_s_docs_page_shows_its_record(toy):
         "| `pull` | moves the point straight to 0 | pull to zero (the training runs' yardstick) |"
         in page
     )
-    assert "| `random` |" in page and "backend" not in page
+    assert "| `random` |" in page
+    backend = "| jax | `jax` | 1 (`tether_gym/TetherPoint-jax-v0`) | `tether-train --backend jax` |"
+    assert backend in page
 
 
 def test_a_toy_family_names_its_training_runs(toy):
