@@ -33,6 +33,7 @@ RESULTS_MACROS: dict[str, Callable[..., str]] = {
     "datasets_table": tables.datasets_table,
     "jax_agreement_table": tables.jax_agreement_table,
     "jax_host_table": tables.jax_host_table,
+    "jax_per_thread_table": tables.jax_per_thread_table,
     "offline_table": tables.offline_table,
     "jax_throughput_table": tables.jax_throughput_table,
     "jax_train_table": tables.jax_train_table,

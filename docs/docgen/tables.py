@@ -559,6 +559,11 @@ def jax_agreement_table(sources: dict[str, str], root: Path = ROOT, style: str =
     return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
 
 
+def _cell(value: float | None, form: str) -> str:
+    """A table cell: `value` formatted, "-" where it was not measured (None)."""
+    return "-" if value is None else format(value, form)
+
+
 def _timing_line(data: dict[str, Any]) -> str:
     """What ran a timing results file (`_run_line` with the device, its CPU, the precision and
     the timed blocks) and the machine's load before and after, without the final period."""
@@ -629,23 +634,20 @@ def jax_host_table(sources: dict[str, str], root: Path = ROOT, style: str = "pag
         "|---|---|---:|---:|---:|---:|---:|---:|---|",
     ]
 
-    def rate(value) -> str:
-        return "-" if value is None else f"{value:,.0f}"
-
     def ratio(value) -> str:
-        return "-" if value is None else f"{value:.2f}" if value >= 0.01 else f"{value:.4f}"
+        return _cell(value, ".2f" if value is None or value >= 0.01 else ".4f")
 
     notes = []
     for path in (path for p in sources for path in files_of(p, root)):
         data = read_file(path)
         for row in data["rows"]:
             env = row["family"] + (f" {row['control']}" if "control" in row else "")
-            xla_compile = "-" if row["xla_compile_s"] is None else f"{row['xla_compile_s']:.1f}"
             lines.append(
-                f"| {env} | {row['dynamics']} | {row['batch']:,} | {rate(row['host_jax'])} | "
-                f"{rate(row['xla_jax'])} | {rate(row['numba_vec'])} | "
+                f"| {env} | {row['dynamics']} | {row['batch']:,} | "
+                f"{_cell(row['host_jax'], ',.0f')} | {_cell(row['xla_jax'], ',.0f')} | "
+                f"{_cell(row['numba_vec'], ',.0f')} | "
                 f"{ratio(row['host_over_numba'])} | {ratio(row['xla_over_numba'])} | "
-                f"{row['host_compile_s']:.1f}, {xla_compile} |"
+                f"{row['host_compile_s']:.1f}, {_cell(row['xla_compile_s'], '.1f')} |"
             )
         details = data["details"]
         note = _timing_line(data)
@@ -944,3 +946,37 @@ def ladder_ids() -> str:
         shown = {k: ("the Wall map" if v == ladder.WALL else v) for k, v in kwargs.items()}
         lines.append(f"| `{env_id}` | {kwargs_text(shown)} |")
     return "\n".join(lines) + "\n"
+
+
+def jax_per_thread_table(sources: dict[str, str], root: Path = ROOT, style: str = "page") -> str:
+    """TetherNavigate's XLA kernel per thread against the numba kernel, and against the XLA
+    kernel of an earlier commit in the same run (`benchmarks.speed.jax_per_thread`): one row per
+    build and batch, microseconds of one CPU per maneuver, the ratios, the compile seconds, and
+    the issue's target where it sets one (at batch 1,024)."""
+    _check_sources(sources)
+    lines = [
+        "| build | batch | numba us | XLA us (before) | XLA us | XLA / numba (before) | "
+        "XLA / numba | after / before | compile s (before, after) | target |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---|---:|",
+    ]
+    notes = []
+    for path in (path for p in sources for path in files_of(p, root)):
+        data = read_file(path)
+        targets = data["setup"]["targets"]
+        for row in data["rows"]:
+            build = f"{row['dynamics']} {row['control']}"
+            target = targets.get(build) if row["batch"] == 1024 else None
+            lines.append(
+                f"| {build} | {row['batch']:,} | {row['numba_us']:,.1f} | "
+                f"{_cell(row.get('base_us'), ',.0f')} | {row['xla_us']:,.0f} | "
+                f"{_cell(row.get('base_over_numba'), '.1f')} | {row['xla_over_numba']:.1f} | "
+                f"{_cell(row.get('new_over_base'), '.2f')} | "
+                f"{_cell(row.get('base_compile_s'), '.0f')}, {row['compile_s']:.0f} | "
+                f"{_cell(target, 'g')}{'' if target is None else 'x'} |"
+            )
+        against = data["setup"]["against"]
+        note = _timing_line(data)
+        if against:
+            note += f"; before: commit `{against}`'s XLA kernel, measured in the same run"
+        notes.append(note + ".")
+    return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)

@@ -140,8 +140,8 @@ def test_every_family_has_its_reference_on_a_page_of_the_nav():
 def _change(path: Path) -> str:
     """Set the first success rate (an imitation benchmark's: always-goal's) of a results file to
     0.123456, a fuzz's first count to 123456, a cold start's first time to 123456 s, or the jax
-    agreement's first cases (the throughput's first JAX rate) to 123456: what the table then
-    shows."""
+    agreement's first cases (the throughput's first JAX rate, the per-thread table's first XLA
+    cost) to 123456: what the table then shows."""
     if path.suffix == ".json" and "holes" in (data := json.loads(path.read_text()))["details"]:
         details = data["details"]  # benchmarks/validation/fuzz_navigate.py
         details["counts"]["single"]["counts"][details["holes"][0]] = 123456
@@ -165,6 +165,10 @@ def _change(path: Path) -> str:
         return "123,456"
     if "host_jax" in first:  # benchmarks/speed/jax_host.py: the first host-kernel rate
         first["host_jax"] = 123456
+        path.write_text(json.dumps(data))
+        return "123,456"
+    if "xla_us" in first:  # benchmarks/speed/jax_per_thread.py: the first XLA cost
+        first["xla_us"] = 123456.0
         path.write_text(json.dumps(data))
         return "123,456"
     if "worst_outcome" in first:  # benchmarks/validation/jax_navigate_agreement.py: the worst
