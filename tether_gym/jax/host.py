@@ -22,10 +22,11 @@ kernel's whole batch does.
 Why: XLA's CPU runtime dispatches every fusion of the XLA kernels separately and runs each
 lane's loops at the width of the longest one, so on a CPU they step TetherNavigate many times
 slower than numba (docs/jax.md's per-thread table); through the host kernel a jitted rollout
-steps at about numba's speed. When to use XLA instead: on an accelerator (the host kernel runs on the CPU: every step
-would copy the batch to the host and back), under `jax.grad` (the host kernel has no
-derivative), or where a program must not call back into the host (exported or serialized
-programs). `kernel()` picks "host" when jax's default backend is the CPU, "xla" otherwise.
+steps at about numba's speed. When to use XLA instead: on an accelerator (the host kernel runs
+on the CPU: every step would copy the batch to the host and back), under `jax.grad` (the host
+kernel has no derivative), or where a program must not call back into the host (exported or
+serialized programs). `kernel()` picks "host" when jax's default backend is the CPU, "xla"
+otherwise.
 
 `params` (`EnvParams`) is turned back into the numba kernel's `PARAMS`; its static fields
 (`dynamics`, TetherNavigate's `control`) choose the numba kernel. Params batched across lanes (a
