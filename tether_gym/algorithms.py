@@ -77,7 +77,7 @@ class Algorithm:
         return load(self.trainer)
 
 
-ALGORITHMS = (
+ALGORITHMS: list[Algorithm] = [
     Algorithm("ppo", SB3, "stable_baselines3:PPO", ".pt", "train", TRAIN_EXTRA),
     Algorithm("sac", SB3, "stable_baselines3:SAC", ".pt", "train", TRAIN_EXTRA, replay_buffer=True),
     Algorithm("ppo", JAX, "tether_gym.training.jax.ppo:TRAINER", ".msgpack", "jax", JAX_EXTRA),
@@ -87,9 +87,23 @@ ALGORITHMS = (
     Algorithm(
         "iql", OFFLINE, "tether_gym.training.offline_learners:IQL", ".pt", "train", OFFLINE_EXTRA
     ),
-)
-"""Every algorithm the package trains, on each backend that trains it."""
+]
+"""Every algorithm the package trains, on each backend that trains it; then those
+`register_algorithm` adds."""
 BY_KEY = {(algo.name, algo.backend): algo for algo in ALGORITHMS}
+
+
+def register_algorithm(algo: Algorithm) -> None:
+    """Add an algorithm defined outside the package: `tether-train --algo` takes it from now on
+    (a parser built after this call), on its backend. ValueError if its backend has an algorithm
+    of its name."""
+    key = (algo.name, algo.backend)
+    if key in BY_KEY:
+        raise ValueError(f"--backend {algo.backend} has an algorithm {algo.name} already")
+    if algo.backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {algo.backend!r}")
+    ALGORITHMS.append(algo)
+    BY_KEY[key] = algo
 
 
 def seed_stem(run_dir: Path, seed: int, best: bool = False) -> Path:

@@ -16,7 +16,6 @@ import pytest
 from tests.helpers import ROOT
 from tether_gym.algorithms import ALGORITHMS, BACKENDS, JAX, OFFLINE, SB3, algorithm, names
 from tether_gym.training import zoo
-from tether_gym.training.config import ALGO_NAMES
 
 
 def test_the_lists_of_algorithms_are_read_from_the_records():
@@ -24,12 +23,12 @@ def test_the_lists_of_algorithms_are_read_from_the_records():
     from tether_gym.evaluation.export import SUFFIXES
     from tether_gym.training.train import build_parser
 
-    assert ALGO_NAMES == names() == ("ppo", "sac", "gcbc", "iql") and names(JAX) == ("ppo",)
+    assert names() == ("ppo", "sac", "gcbc", "iql") and names(JAX) == ("ppo",)
     assert names(SB3) == ("ppo", "sac") and names(OFFLINE) == ("gcbc", "iql")
     assert zoo.ALGOS == {"ppo": algorithm("ppo"), "sac": algorithm("sac")}
     assert pretrained.POLICIES == zoo.ALGOS
     actions = {action.dest: action for action in build_parser()._actions}
-    assert tuple(actions["algo"].choices) == ALGO_NAMES
+    assert tuple(actions["algo"].choices) == names()
     assert (tuple(actions["backend"].choices), actions["backend"].default) == (BACKENDS, SB3)
     for algo in ALGORITHMS:
         assert (files("tether_gym.training") / "hyperparams" / algo.zoo_file).is_file()

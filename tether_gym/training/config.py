@@ -9,11 +9,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from tether_gym.algorithms import names
 from tether_gym.arguments import check_env
 
-ALGO_NAMES = names()
-"""`--algo`'s names: those of `tether_gym.algorithms.ALGORITHMS` on any backend."""
 CHECKPOINT_KEYS = ("num_timesteps", "train_seconds", "eval_success_rate", "torch_threads")
 """What a checkpoint's `config.yaml` adds to the run's (`tether_gym.training.folders`)."""
 
@@ -24,7 +21,7 @@ class RunConfig:
     `tether_gym.training.experiment.check_config`."""
 
     algo: str = "ppo"
-    """The algorithm, one of `ALGO_NAMES`."""
+    """The algorithm, one of `tether_gym.algorithms.names()` (`--algo`)."""
     env_id: str
     """The env's registered id."""
     env_kwargs: dict[str, Any] = field(default_factory=dict)

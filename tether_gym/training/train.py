@@ -69,7 +69,7 @@ from tether_gym.arguments import (
 )
 from tether_gym.families import env_config, family
 from tether_gym.seeds import TEST_SEED
-from tether_gym.training.config import ALGO_NAMES, RunConfig
+from tether_gym.training.config import RunConfig
 
 RESUME_OPTIONS = ("timesteps", "eval_episodes", "eval_freq", "save_replay_buffer")
 """The options a resumed run may change."""
@@ -91,7 +91,7 @@ def build_parser(env_id: str | None = None) -> argparse.ArgumentParser:
         "env's JAX kernel, several seeds at once (--seeds); offline: learned from --dataset "
         "(what --algo gcbc and iql train on)",
     )
-    run.add_argument("--algo", choices=ALGO_NAMES, help="the algorithm (default ppo)")
+    run.add_argument("--algo", choices=names(), help="the algorithm (default ppo)")
     run.add_argument(
         "--dataset",
         metavar="ID",
