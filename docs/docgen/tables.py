@@ -955,8 +955,8 @@ def jax_per_thread_table(sources: dict[str, str], root: Path = ROOT, style: str 
     the issue's target where it sets one (at batch 1,024)."""
     _check_sources(sources)
     lines = [
-        "| build | batch | numba us | XLA us (before) | XLA us | XLA / numba (before) | "
-        "XLA / numba | after / before | compile s (before, after) | target |",
+        "| build | batch | numba us | before us | XLA us | before / numba | XLA / numba | "
+        "XLA / before | compile s | target |",
         "|---|---:|---:|---:|---:|---:|---:|---:|---|---:|",
     ]
     notes = []
@@ -977,6 +977,7 @@ def jax_per_thread_table(sources: dict[str, str], root: Path = ROOT, style: str 
         against = data["setup"]["against"]
         note = _timing_line(data)
         if against:
-            note += f"; before: commit `{against}`'s XLA kernel, measured in the same run"
+            note += (f"; before: commit `{against}`'s XLA kernel, measured in the same run "
+                     "(compile s: before, then XLA)")  # fmt: skip
         notes.append(note + ".")
     return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
