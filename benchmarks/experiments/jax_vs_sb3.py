@@ -10,7 +10,9 @@ run), in fresh run folders under a temporary directory. For each command: its wa
 process, from start to exit: start-up, compiling, training, the periodic evaluations and the
 final table), its training seconds and steps/s as the run reports them, and the success of its
 best and last policies on the same test episodes (the final tables' `TEST_SEED`) with the mean
-over seeds, its 95% t interval and the worst seed. The JAX command's peak RSS is measured too.
+over seeds, its 95% t interval and the worst seed; and the difference of the two means with its
+95% interval and Welch's p (`statistics.seeds_difference`: whether the trainers differ or the
+seeds' spread explains the gap). The JAX command's peak RSS is measured too.
 The summary (with the machine's load before and after) goes to `--json` (default
 `results/jax_train/<env>_vs_sb3.json`; refused if it exists, unless `--overwrite`). Run it on an
 otherwise idle machine: the two sides are compared by their wall times.
@@ -33,7 +35,7 @@ import numpy as np
 
 from benchmarks.common import ROOT
 from tether_gym.evaluation import results_file
-from tether_gym.evaluation.statistics import t_interval
+from tether_gym.evaluation.statistics import seeds_difference, t_interval
 from tether_gym.seeds import TEST_SEED
 
 TRAIN = [sys.executable, "-m", "tether_gym.training.train", "--no-progress-bar"]
@@ -132,11 +134,17 @@ def main(argv: list[str] | None = None) -> int:
               f"{100 * mean:.1f}% (worst {100 * worst:.1f}%)")  # fmt: skip
     ratio = rows[0]["wall_seconds"] / rows[1]["wall_seconds"]
     print(f"JAX wall / SB3 wall: {ratio:.2f}")
+    kind = "best" if rows[0]["best"] and rows[1]["best"] else "last"
+    gap = seeds_difference(rows[0][kind]["per_seed"], rows[1][kind]["per_seed"])
+    low, high = gap["ci"]
+    print(f"JAX - SB3 ({kind} policies): {100 * gap['difference']:+.2f} points, 95% "
+          f"[{100 * low:+.2f}, {100 * high:+.2f}], Welch p = {gap['p']:.2f}")  # fmt: skip
+    details = {"wall_ratio": ratio, f"jax_minus_sb3_{kind}": gap, "load_before": load_before}
     data = results_file.record(
         results_file.script_command(__file__),
         rows,
         setup={"env_id": args.env, "test_seed": TEST_SEED, "cpus": os.cpu_count()},
-        details={"wall_ratio": ratio, "load_before": load_before, "load_after": os.getloadavg()},
+        details={**details, "load_after": os.getloadavg()},
         seconds=round(time.perf_counter() - wall, 1),
     )
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import re
 import shutil
 import subprocess
@@ -12,6 +13,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+import scipy.stats
 import yaml
 
 import tether_gym  # noqa: F401
@@ -28,7 +30,7 @@ from tether_gym.envs.tether_navigate.controls.velocity import AIM_ACTION
 from tether_gym.evaluation.cli import agent_names, main
 from tether_gym.evaluation.reports import format_table, paired_table
 from tether_gym.evaluation.runner import evaluate
-from tether_gym.evaluation.statistics import paired, wilson_interval
+from tether_gym.evaluation.statistics import paired, seeds_difference, wilson_interval
 from tether_gym.seeds import TEST_SEED
 
 
@@ -59,6 +61,22 @@ def test_wilson_interval():
     np.testing.assert_allclose(wilson_interval(50, 100), (0.4038, 0.5962), atol=1e-4)
     low, high = wilson_interval(100, 100)
     assert 0.96 < low < 1.0 and high == 1.0
+
+
+def test_seeds_difference_is_welchs_t_on_the_two_trainers_seeds():
+    """The difference of the means, Welch's standard error sqrt(s1^2/n1 + s2^2/n2) with the
+    Welch-Satterthwaite degrees of freedom, written out here; NaN with one seed."""
+    a, b = np.array([0.98, 0.96, 0.97, 0.95]), np.array([0.99, 0.985, 0.987])
+    va, vb = a.var(ddof=1) / len(a), b.var(ddof=1) / len(b)
+    se, df = math.sqrt(va + vb), (va + vb) ** 2 / (va**2 / 3 + vb**2 / 2)
+    t = (a.mean() - b.mean()) / se
+    found = seeds_difference(a, b)
+    assert found["difference"] == pytest.approx(a.mean() - b.mean())
+    assert found["p"] == pytest.approx(2 * scipy.stats.t.sf(abs(t), df))
+    half = scipy.stats.t.ppf(0.975, df) * se
+    gap = a.mean() - b.mean()
+    np.testing.assert_allclose(found["ci"], [gap - half, gap + half])
+    assert math.isnan(seeds_difference(a, b[:1])["p"])
 
 
 def test_the_paired_table_counts_wins_and_losses_and_the_exact_mcnemar_p():

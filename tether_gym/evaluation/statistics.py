@@ -1,6 +1,6 @@
 """The statistics of success rates: one agent's interval over episodes (`wilson_interval`),
-two agents on the same episodes (`paired`, McNemar's exact test) and a mean over seeds
-(`t_interval`)."""
+two agents on the same episodes (`paired`, McNemar's exact test), a mean over seeds
+(`t_interval`) and two trainers' means over their seeds (`seeds_difference`, Welch's t)."""
 
 from __future__ import annotations
 
@@ -41,3 +41,17 @@ def t_interval(values: np.ndarray) -> tuple[float, float]:
         return float(values[0]), float(values[0])
     interval = scipy.stats.ttest_1samp(values, 0.0).confidence_interval(0.95)
     return max(float(interval.low), 0.0), min(float(interval.high), 1.0)
+
+
+def seeds_difference(values: np.ndarray, reference: np.ndarray) -> dict[str, float | list]:
+    """The difference of two trainers' mean success over their seeds (`values` minus
+    `reference`), its 95% interval and the two-sided p of Welch's t test (no equal variances
+    assumed: one trainer's seeds may spread wider); NaN where either has fewer than 2 seeds."""
+    values, reference = np.asarray(values, float), np.asarray(reference, float)
+    difference = float(values.mean() - reference.mean())
+    if min(len(values), len(reference)) < 2:
+        return {"difference": difference, "ci": [math.nan, math.nan], "p": math.nan}
+    test = scipy.stats.ttest_ind(values, reference, equal_var=False)
+    interval = test.confidence_interval(0.95)
+    return {"difference": difference, "ci": [float(interval.low), float(interval.high)],
+            "p": float(test.pvalue)}  # fmt: skip
