@@ -11,6 +11,7 @@ import contextlib
 import importlib.util
 import io
 import json
+import math
 import os
 import re
 import signal
@@ -320,6 +321,10 @@ def test_the_side_by_side_benchmark_times_both_commands_on_the_same_episodes(tmp
     assert jax_row["best"] is not None  # the JAX run evaluates after its one chunk
     assert sb3_row["wall_seconds"] == sum(sb3_row["wall_seconds_per_seed"]) > 0
     assert data["details"]["wall_ratio"] == jax_row["wall_seconds"] / sb3_row["wall_seconds"]
+    kind = "best" if sb3_row["best"] else "last"
+    gap = data["details"][f"jax_minus_sb3_{kind}"]  # one SB3 seed: a difference, no test
+    means = jax_row[kind]["success_mean"], sb3_row[kind]["success_mean"]
+    assert gap["difference"] == pytest.approx(means[0] - means[1]) and math.isnan(gap["p"])
     assert data["setup"]["test_seed"] == 2_000_000
     assert "JAX wall / SB3 wall" in capsys.readouterr().out
 
