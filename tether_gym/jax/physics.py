@@ -80,6 +80,19 @@ def _tolerance(value: float, dtype: jnp.dtype) -> float:
     return value * max(1.0, float(jnp.finfo(dtype).eps / jnp.finfo(jnp.float64).eps))
 
 
+ROUNDING_ULPS = 16
+"""`at_least_rounding`'s floor, in units of the dtype's machine epsilon."""
+
+
+def at_least_rounding(value: float, dtype: jnp.dtype) -> float:
+    """A small float64 margin of the numba kernel (`value`: relative, or seconds for a unit
+    quantity) in `dtype`: the value itself, or `ROUNDING_ULPS` epsilons of `dtype` where that is
+    larger. float64 keeps numba's margin; in float32 a margin below the rounding of the
+    quantities it compares (the tautening a search finds and the wheel's target; a tether at
+    its length at the decision) would decide the outcome by that rounding."""
+    return max(value, ROUNDING_ULPS * float(jnp.finfo(dtype).eps))
+
+
 def runtime_one(like):
     """1 in `like`'s dtype and shape, known to XLA only at run time (0 x + 1 is not folded: x
     may be infinite or NaN), for `keep`."""

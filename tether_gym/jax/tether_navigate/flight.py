@@ -68,7 +68,14 @@ from tether_gym.envs.tether_navigate.flight import (
     WHEEL_BISECTIONS,
     WHEEL_GRID,
 )
-from tether_gym.jax.physics import gathered, impulse_response, keep, narrowing_loop, runtime_one
+from tether_gym.jax.physics import (
+    at_least_rounding,
+    gathered,
+    impulse_response,
+    keep,
+    narrowing_loop,
+    runtime_one,
+)
 from tether_gym.physics.events import (
     BOTTOM,
     LEFT,
@@ -576,7 +583,8 @@ def _turning_plan(puck: Puck, posts, n_posts, ax, ay, length, alpha, clearance, 
                       wall_restitution)  # fmt: skip
     turning = puck._replace(spin=puck.spin + plan[3])
     zero = jnp.zeros_like(puck.x)
-    at_once, capped = time_to_taut(turning, ax, ay, length, ARM, AT_ONCE + zero, narrow=False)
+    horizon = at_least_rounding(AT_ONCE, zero.dtype) + zero
+    at_once, capped = time_to_taut(turning, ax, ay, length, ARM, horizon, narrow=False)
     return plan, at_once, capped
 
 
@@ -615,7 +623,8 @@ def fly(s, dynamics: int, reaction_wheel, wheel_rate, wall_restitution, stiffnes
     start = Puck(s.x, s.y, s.vx, s.vy, s.angle, s.spin)
     zero = jnp.zeros_like(s.x)
     posts, n_posts = s.posts, s.n_posts
-    at_once, capped0 = time_to_taut(start, ax, ay, length, ARM, AT_ONCE + zero, narrow=False)
+    at_once_horizon = at_least_rounding(AT_ONCE, zero.dtype) + zero
+    at_once, capped0 = time_to_taut(start, ax, ay, length, ARM, at_once_horizon, narrow=False)
     clearance = contact_clearance(s, dynamics, stiffness)
     none = (jnp.int32(-1), inf + zero, zero, zero, alpha + zero, jnp.asarray(True))
     wheel = reaction_wheel & (at_once == inf)
@@ -643,7 +652,8 @@ def fly(s, dynamics: int, reaction_wheel, wheel_rate, wall_restitution, stiffnes
         horizon = jnp.where(on_target, target_t, t_end)
         # a lane that is done idles beside the others (its carry is kept): no search
         t, capped = time_to_taut(p, ax, ay, length, ARM, horizon, ~done)
-        on_target &= ~(t < target_t - TARGET_TOLERANCE * jnp.maximum(1.0, target_t))
+        tolerance = at_least_rounding(TARGET_TOLERANCE, t.dtype)
+        on_target &= ~(t < target_t - tolerance * jnp.maximum(1.0, target_t))
         t = jnp.where(on_target, target_t, t)
         taut = t < inf
         turned = free_flight(p, t)
