@@ -11,9 +11,8 @@ median over `--repeats` of:
   `ACTION_POOL` batches drawn beforehand (as the numba env's), the episodes' uniforms drawn at
   each step (`jax.random`, as the JAX env draws them);
 - `xla jax`: the XLA kernels (`step_episode` through `JaxVectorEnv.step_batch`) in the same loop
-  with the same pool of actions (`benchmarks.speed.jax_throughput.scan_program`), skipped where
-  its compile takes minutes (aim control at batches of 1,024 and more: 48 s and up) and, with
-  `--quick`, above batch 64;
+  with the same pool of actions (`benchmarks.speed.jax_throughput.scan_program`), skipped above
+  `--xla-max-batch` and, with `--quick`, above batch 64;
 - `numba vec`: the numba vector env (`gym.make_vec(..., vectorization_mode="vector_entry_point")`)
   stepped from Python (its uniforms from numpy's generator, in blocks).
 
@@ -59,8 +58,6 @@ from tether_gym.jax.base import float_dtype
 BATCHES = (1, 64, 1024)
 FULL_BATCHES = (*BATCHES, 16384)
 QUICK_XLA_BATCH = 64
-XLA_AIM_LIMIT = 1024
-"""Aim control's XLA program is not built at this batch and above (its compile: 48 s at 1,024)."""
 CONFIGURATIONS = (
     ("TetherBounce", {"dynamics": "impulse"}),
     ("TetherBounce", {"dynamics": "hybrid"}),
@@ -109,10 +106,8 @@ def timed_program(build, *args) -> tuple:
     return compiled, carry, time.perf_counter() - start
 
 
-def xla_reason(kwargs: dict, n: int, quick: bool, largest: int | None) -> str | None:
+def xla_reason(n: int, quick: bool, largest: int | None) -> str | None:
     """Why the XLA kernels are not measured in a cell (None: they are)."""
-    if kwargs.get("control") == "aim" and n >= XLA_AIM_LIMIT:
-        return f"aim control's XLA compile at batch >= {XLA_AIM_LIMIT} takes minutes"
     if largest is not None and n > largest:
         return f"--xla-max-batch {largest}"
     if quick and n > QUICK_XLA_BATCH:
@@ -167,9 +162,7 @@ def main(argv: list[str] | None = None) -> None:
             row["host_jax"] = jax_scan_rate(compiled, carry, n, args.repeats)
             row["host_compile_s"] = round(seconds, 2)
             del compiled, carry
-            reason = (
-                "--no-xla" if args.no_xla else xla_reason(kwargs, n, args.quick, args.xla_max_batch)
-            )
+            reason = "--no-xla" if args.no_xla else xla_reason(n, args.quick, args.xla_max_batch)
             row["xla_jax"] = row["xla_compile_s"] = None
             if reason is None:
                 compiled, carry, seconds = timed_program(scan_program, jax_id, kwargs, n, True)
