@@ -786,6 +786,7 @@ def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
                 if len(sb3.get("wall_seconds_per_seed", [])) > 2
                 else ""
             )
+            + _gap_sentence(details)
             + f". The JAX run compiled for "
             f"{jax['compile_seconds']:.0f} s and peaked at {jax['peak_rss_mb']:,} MB of RSS. "
             f"Each policy played the final table's test episodes (seed "
@@ -794,6 +795,19 @@ def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
             f"on {setup['cpus']} CPUs. " + _run_line(data)
         )
     return "\n".join(lines) + "\n\n" + " ".join(notes) + sources_line(sources, style, root)
+
+
+def _gap_sentence(details: dict[str, Any]) -> str:
+    """The JAX mean minus SB3's over their seeds, its 95% interval and Welch's p
+    (`statistics.seeds_difference`), where the file has it: ", JAX - SB3 ..." ("" where not)."""
+    kind, gap = next(((name.rsplit("_", 1)[1], value) for name, value in details.items()
+                      if name.startswith("jax_minus_sb3_")), (None, None))  # fmt: skip
+    if gap is None:
+        return ""
+    low, high = (100 * bound for bound in gap["ci"])
+    p = "no test (one seed)" if gap["p"] != gap["p"] else f"Welch's p = {gap['p']:.2f}"
+    return (f"; the JAX mean minus SB3's ({kind} policies) is {100 * gap['difference']:+.1f} "
+            f"points, 95% CI [{low:+.1f}, {high:+.1f}], {p}")  # fmt: skip
 
 
 def _run_line(data: dict[str, Any], shown: dict[str, str] | None = None) -> str:
