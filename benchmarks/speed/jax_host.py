@@ -71,7 +71,8 @@ CONFIGURATIONS = (
 
 def host_program(family: str, kwargs: dict, n: int):
     """`host jax` (module docstring) compiled ahead: `(compiled, carry)`, `compiled(carry,
-    steps)` running `steps` fused steps of `n` copies in one `fori_loop`."""
+    steps)` running `steps` fused steps of `n` copies in one `fori_loop`, the actions' pool
+    going on from where the last call left off (as `scan_program`'s)."""
     func = host.functional(family, "host", **gym.spec(IDS[family][1]).kwargs, **kwargs)
     fns = host.BOUNCE if family == "TetherBounce" else host.NAVIGATE
     params = func.default_params
@@ -85,17 +86,17 @@ def host_program(family: str, kwargs: dict, n: int):
     pool = action_pool(draw, n, width)
 
     def run(carry, steps):
-        def step(i, carry):
-            state, key, total = carry
+        def step(_, carry):
+            state, key, total, count = carry
             key, draw_uniforms = jax.random.split(key)
-            actions = pool[i % ACTION_POOL]
+            actions = pool[count % ACTION_POOL]
             u = jax.random.uniform(draw_uniforms, (n, n_uniforms), dtype)
             state, obs, _, outcome = fused(state, actions, u, params)
-            return state, key, total + outcome[:, 0].sum() + obs[:, 0].sum()
+            return state, key, total + outcome[:, 0].sum() + obs[:, 0].sum(), count + 1
 
         return jax.lax.fori_loop(0, steps, step, carry)
 
-    carry = (state, key, jnp.zeros((), dtype))
+    carry = (state, key, jnp.zeros((), dtype), jnp.int32(0))
     return jax.jit(run).lower(carry, jnp.int32(1)).compile(), carry
 
 

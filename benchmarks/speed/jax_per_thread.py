@@ -105,15 +105,16 @@ def _xla(dynamics: str, control: str, n: int, repeats: int) -> dict:
     width = env.single_action_space.shape[0]
     pool = jax.random.uniform(jax.random.PRNGKey(1), (POOL, n, width), minval=-1.0, maxval=1.0)
 
-    def run(carry, steps):
-        def step(i, carry):
-            state, key, total = carry
-            state, key, obs, _, outcome = env.step_batch(state, pool[i % POOL], key, env.params)
-            return state, key, total + outcome[:, 0].sum() + obs[:, 0].sum()
+    def run(carry, steps):  # the pool goes on across calls, as numba's `cursor`
+        def step(_, carry):
+            state, key, total, count = carry
+            actions = pool[count % POOL]
+            state, key, obs, _, outcome = env.step_batch(state, actions, key, env.params)
+            return state, key, total + outcome[:, 0].sum() + obs[:, 0].sum(), count + 1
 
         return jax.lax.fori_loop(0, steps, step, carry)
 
-    carry = (state, key, jnp.zeros(()))
+    carry = (state, key, jnp.zeros(()), jnp.int32(0))
     start = time.process_time()
     compiled = jax.jit(run).lower(carry, jnp.int32(1)).compile()
     compile_seconds = time.process_time() - start

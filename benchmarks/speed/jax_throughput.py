@@ -105,7 +105,8 @@ def scan_program(env_id: str, kwargs: dict, n: int, pool: bool = False):
     steps)` runs `steps` fused steps of `n` copies in one `fori_loop` (`steps` is an argument:
     one program for every block length) and returns the carry to go on from. With `pool`, the
     actions cycle through `ACTION_POOL` batches drawn beforehand instead of being drawn at each
-    step."""
+    step, from where the last call left off (the carry counts the steps: a block of one step
+    takes the next batch, not the first again)."""
     env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point",
                        **xla(env_id, kwargs))  # fmt: skip
     state, key = env.reset_batch(jax.random.PRNGKey(0), env.params)[:2]
@@ -114,19 +115,19 @@ def scan_program(env_id: str, kwargs: dict, n: int, pool: bool = False):
     actions_pool = action_pool(key, n, width) if pool else None
 
     def run(carry, steps):
-        def step(i, carry):
-            state, key, total = carry
+        def step(_, carry):
+            state, key, total, count = carry
             if pool:
-                actions = actions_pool[i % ACTION_POOL]
+                actions = actions_pool[count % ACTION_POOL]
             else:
                 key, draw = jax.random.split(key)
                 actions = jax.random.uniform(draw, (n, width), minval=-1.0, maxval=1.0)
             state, key, obs, _, outcome = env.step_batch(state, actions, key, env.params)
-            return state, key, total + outcome[:, 0].sum() + obs[:, 0].sum()
+            return state, key, total + outcome[:, 0].sum() + obs[:, 0].sum(), count + 1
 
         return jax.lax.fori_loop(0, steps, step, carry)
 
-    carry = (state, key, jnp.zeros((), float_dtype()))
+    carry = (state, key, jnp.zeros((), float_dtype()), jnp.int32(0))
     return jax.jit(run).lower(carry, jnp.int32(1)).compile(), carry
 
 
