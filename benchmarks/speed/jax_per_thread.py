@@ -197,12 +197,23 @@ def measured(side: str, dynamics: str, control: str, batch: int, repeats: int,
     return row
 
 
+def builds(args: argparse.Namespace) -> tuple[tuple[str, str], ...]:
+    """The (dynamics, control) builds measured: `--builds`, else `QUICK` with `--quick`, else
+    every one."""
+    if args.builds:
+        return tuple(tuple(name.split("-")) for name in args.builds)
+    return QUICK if args.quick else CONFIGURATIONS
+
+
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--against", metavar="REV", help="a commit to measure the XLA side of too")
     parser.add_argument("--repeats", type=int, default=3, help="timed blocks (median)")
     parser.add_argument("--batches", type=int, nargs="+", default=list(BATCHES))
     parser.add_argument("--quick", action="store_true", help="impulse and hybrid set-up only")
+    names = [f"{d}-{c}" for d, c in CONFIGURATIONS]
+    parser.add_argument("--builds", nargs="+", choices=names, metavar="BUILD",
+                        help=f"these builds only ({', '.join(names)})")  # fmt: skip
     parser.add_argument(
         "--max-contact-steps",
         type=int,
@@ -243,7 +254,7 @@ def main(argv: list[str] | None = None) -> None:
     with ExitStack() as stack:
         base = stack.enter_context(worktree(args.against)) if args.against else None
         print(header, flush=True)
-        for dynamics, control in QUICK if args.quick else CONFIGURATIONS:
+        for dynamics, control in builds(args):
             for batch in args.batches:
                 side = (dynamics, control, batch, args.repeats)
                 numba = measured("numba", *side, ROOT, args.max_contact_steps)
@@ -270,7 +281,8 @@ def main(argv: list[str] | None = None) -> None:
         from benchmarks.speed.jax_throughput import machine
 
         setup = {"precision": "float64", "repeats": args.repeats, "batches": list(args.batches),
-                 "quick": args.quick, "against": args.against, "targets": TARGETS,
+                 "quick": args.quick, "builds": args.builds, "against": args.against,
+                 "targets": TARGETS,
                  "max_contact_steps": args.max_contact_steps}  # fmt: skip
         details = {"machine": machine(), "load_before": load_before,
                    "load_after": list(os.getloadavg())}  # fmt: skip

@@ -80,14 +80,16 @@ def test_jax_host_writes_its_rows_and_keeps_an_existing_file(tmp_path):
 
 
 def test_jax_per_thread_caps_both_kernels_contacts_and_refuses_a_cap_below_one(capsys):
-    """`speed/jax_per_thread.py --max-contact-steps N` sets the numba and the XLA contact's
-    `MAX_STEPS` (what a measuring child does before either compiles); N < 1 is refused, naming
-    the option."""
+    """`speed/jax_per_thread.py --builds` picks the builds measured; `--max-contact-steps N`
+    sets the numba and the XLA contact's `MAX_STEPS` (what a measuring child does before either
+    compiles); N < 1 is refused, naming the option."""
     pytest.importorskip("jax")
     import tether_gym.jax.tether_navigate.hybrid as xla_hybrid
     import tether_gym.physics.hybrid as numba_hybrid
     from benchmarks.speed import jax_per_thread
 
+    args = jax_per_thread.parse_args(["--builds", "hybrid-setup", "hybrid-velocity"])
+    assert jax_per_thread.builds(args) == (("hybrid", "setup"), ("hybrid", "velocity"))
     with pytest.raises(SystemExit):
         jax_per_thread.parse_args(["--max-contact-steps", "0"])
     assert "--max-contact-steps must be >= 1, got 0" in capsys.readouterr().err
