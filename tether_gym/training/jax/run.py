@@ -612,10 +612,14 @@ def _checkpoint_updates(path: Path) -> int:
 
 
 def _device() -> str:
+    """The device the run trained on and the envs' kernel there (`tether_gym.jax.host.kernel`:
+    the numba kernels on a CPU, the XLA kernels on an accelerator)."""
     import jax
 
+    from tether_gym.jax.host import kernel
+
     device = jax.devices()[0]
-    return f"{device} ({jax.default_backend()})"
+    return f"{device} ({jax.default_backend()}, {kernel()} kernel)"
 
 
 def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
