@@ -32,6 +32,9 @@ The recipe is the SB3 run's (`tether_gym.training.jax.recipe`). What is SB3's he
 - the learning rate `lin_<x>`: x times the progress remaining after the rollout (SB3's
   `LinearSchedule`), updates until the timesteps are reached (the last rollout may overshoot).
 
+`make_learner` is the update of one rollout; `tests/training/test_jax_ppo_matches_sb3.py` holds
+it to SB3's `PPO.train` on the same rollout, weights and minibatches.
+
 What differs: the rollout runs the JAX kernel (`tether_gym.jax`, gymnax convention), float32;
 `batch_size` must divide `n_steps * n_envs` (SB3 allows a short last minibatch); the random
 streams are JAX's.
@@ -122,6 +125,84 @@ of the episodes that ended in it, and the applied minibatches' mean losses, KL a
 fraction, their count and the rate."""
 
 
+def optimizer(config: PPOConfig) -> optax.GradientTransformation:
+    """SB3's: the global gradient norm clipped to `max_grad_norm`, then Adam with eps 1e-5 (the
+    learning rate is applied by the caller, per rollout)."""
+    clip = optax.clip_by_global_norm(config.max_grad_norm)
+    return optax.chain(clip, optax.scale_by_adam(eps=1e-5))
+
+
+Learner = Callable[..., tuple[Any, Any, jax.Array]]
+"""`learn(params, opt_state, flat, adv, returns, perms, lr)` -> (params, opt_state, sums)."""
+
+
+def make_learner(config: PPOConfig, net: ActorCritic) -> Learner:
+    """SB3's `PPO.train` on one rollout, as a jittable function: `learn(params, opt_state, flat,
+    adv, returns, perms, lr)`, where `flat` is the rollout's `Transition` flattened to
+    (`rollout_size`, ...), `adv` and `returns` its advantages and returns, `perms` the
+    (`n_epochs`, `rollout_size`) permutations that cut each epoch into `batch_size`
+    minibatches, `lr` the rollout's learning rate. Each minibatch is one gradient step of the
+    clipped surrogate (advantages normalized per minibatch), the value loss and the entropy
+    term, unless its approximate KL at the parameters before the step exceeds 1.5 *
+    `target_kl`: then it is not applied and the epochs end. Returns the parameters, the
+    optimizer state and `sums`: the applied minibatches' sums of (policy loss, value loss,
+    entropy, approximate KL, clip fraction) and their count."""
+    tx = optimizer(config)
+    n_mb, total_mb = config.n_minibatches, config.n_epochs * config.n_minibatches
+    kl_limit = jnp.inf if config.target_kl is None else 1.5 * config.target_kl
+
+    def loss_fn(params, batch: Transition, adv, returns, clip_range):
+        mean, log_std, value = net.apply(params, batch.obs)
+        log_prob = gaussian_log_prob(batch.action, mean, log_std)
+        if config.normalize_advantage and adv.shape[0] > 1:
+            adv = (adv - adv.mean()) / (jnp.std(adv, ddof=1) + 1e-8)
+        log_ratio = log_prob - batch.log_prob
+        ratio = jnp.exp(log_ratio)
+        surrogate = jnp.minimum(
+            adv * ratio, adv * jnp.clip(ratio, 1.0 - clip_range, 1.0 + clip_range)
+        )
+        policy_loss = -surrogate.mean()
+        if config.clip_range_vf is not None:
+            value = batch.value + jnp.clip(
+                value - batch.value, -config.clip_range_vf, config.clip_range_vf
+            )
+        value_loss = jnp.mean((returns - value) ** 2)
+        entropy = gaussian_entropy(log_std)
+        loss = policy_loss - config.ent_coef * entropy + config.vf_coef * value_loss
+        approx_kl = lax.stop_gradient(jnp.mean((ratio - 1.0) - log_ratio))
+        clip_fraction = jnp.mean((jnp.abs(ratio - 1.0) > clip_range).astype(jnp.float32))
+        return loss, (policy_loss, value_loss, entropy, approx_kl, clip_fraction)
+
+    grad_fn = jax.value_and_grad(loss_fn, has_aux=True)
+
+    def learn(params, opt_state, flat: Transition, adv, returns, perms, lr):
+        def cond(carry):
+            _, _, i, going, _ = carry
+            return jnp.logical_and(going, i < total_mb)
+
+        def body(carry):
+            params, opt_state, i, going, sums = carry
+            idx = lax.dynamic_slice(perms[i // n_mb], ((i % n_mb) * config.batch_size,),
+                                    (config.batch_size,))  # fmt: skip
+            batch = jax.tree.map(lambda x: x[idx], flat)
+            (_, aux), grads = grad_fn(params, batch, adv[idx], returns[idx], config.clip_range)
+            going = aux[3] <= kl_limit
+            updates, new_opt = tx.update(grads, opt_state, params)
+            new_params = jax.tree.map(lambda p, g: p - lr * g, params, updates)
+            params, opt_state = jax.tree.map(
+                lambda a, b: jnp.where(going, a, b), (new_params, new_opt), (params, opt_state)
+            )
+            sums = sums + jnp.where(going, jnp.stack([*aux, 1.0]), 0.0)
+            return params, opt_state, i + 1, going, sums
+
+        params, opt_state, _, _, sums = lax.while_loop(
+            cond, body, (params, opt_state, 0, jnp.bool_(True), jnp.zeros(6))
+        )
+        return params, opt_state, sums
+
+    return learn
+
+
 def make_train(config: PPOConfig) -> Callable[[jax.Array], dict[str, Any]]:
     """`train(key)`: one seed's whole run, jittable and vmappable (`jax.vmap(train)(keys)`),
     returning {"params": the trained parameters, "metrics": {name: (n_updates,)}}.
@@ -146,9 +227,9 @@ def make_stages(config: PPOConfig):
     action_dim = int(np.prod(act_space.shape))
     low, high = jnp.asarray(act_space.low), jnp.asarray(act_space.high)
     net = network(config, action_dim)
-    tx = optax.chain(optax.clip_by_global_norm(config.max_grad_norm), optax.scale_by_adam(eps=1e-5))
-    n_envs, n_steps, n_mb = config.n_envs, config.n_steps, config.n_minibatches
-    total_mb = config.n_epochs * n_mb
+    tx = optimizer(config)
+    learn = make_learner(config, net)
+    n_envs, n_steps = config.n_envs, config.n_steps
     func = env.func_env
     vstep = jax.vmap(func.step_autoreset, in_axes=(0, 0, 0, None))
     vreset = jax.vmap(env.reset_env, in_axes=(0, None))
@@ -194,30 +275,6 @@ def make_stages(config: PPOConfig):
         _, adv = lax.scan(backward, (jnp.zeros_like(last_value), last_value), traj, reverse=True)
         return adv
 
-    def loss_fn(params, batch: Transition, adv, returns, clip_range):
-        mean, log_std, value = net.apply(params, batch.obs)
-        log_prob = gaussian_log_prob(batch.action, mean, log_std)
-        if config.normalize_advantage and adv.shape[0] > 1:
-            adv = (adv - adv.mean()) / (jnp.std(adv, ddof=1) + 1e-8)
-        log_ratio = log_prob - batch.log_prob
-        ratio = jnp.exp(log_ratio)
-        surrogate = jnp.minimum(
-            adv * ratio, adv * jnp.clip(ratio, 1.0 - clip_range, 1.0 + clip_range)
-        )
-        policy_loss = -surrogate.mean()
-        if config.clip_range_vf is not None:
-            value = batch.value + jnp.clip(
-                value - batch.value, -config.clip_range_vf, config.clip_range_vf
-            )
-        value_loss = jnp.mean((returns - value) ** 2)
-        entropy = gaussian_entropy(log_std)
-        loss = policy_loss - config.ent_coef * entropy + config.vf_coef * value_loss
-        approx_kl = lax.stop_gradient(jnp.mean((ratio - 1.0) - log_ratio))
-        clip_fraction = jnp.mean((jnp.abs(ratio - 1.0) > clip_range).astype(jnp.float32))
-        return loss, (policy_loss, value_loss, entropy, approx_kl, clip_fraction)
-
-    grad_fn = jax.value_and_grad(loss_fn, has_aux=True)
-
     def one_update(state: RunnerState, u: jax.Array):
         state, traj = lax.scan(env_step, state, None, n_steps)
         _, _, last_value = net.apply(state.params, state.obs)
@@ -233,30 +290,8 @@ def make_stages(config: PPOConfig):
         perms = jax.vmap(lambda k: jax.random.permutation(k, config.rollout_size))(
             jax.random.split(k_perm, config.n_epochs)
         )
-        kl_limit = jnp.inf if config.target_kl is None else 1.5 * config.target_kl
-
-        def cond(carry):
-            _, _, i, going, _ = carry
-            return jnp.logical_and(going, i < total_mb)
-
-        def body(carry):
-            params, opt_state, i, going, sums = carry
-            idx = lax.dynamic_slice(perms[i // n_mb], ((i % n_mb) * config.batch_size,),
-                                    (config.batch_size,))  # fmt: skip
-            batch = jax.tree.map(lambda x: x[idx], flat)
-            (_, aux), grads = grad_fn(params, batch, adv[idx], returns[idx], config.clip_range)
-            going = aux[3] <= kl_limit
-            updates, new_opt = tx.update(grads, opt_state, params)
-            new_params = jax.tree.map(lambda p, g: p - lr * g, params, updates)
-            params, opt_state = jax.tree.map(
-                lambda a, b: jnp.where(going, a, b), (new_params, new_opt), (params, opt_state)
-            )
-            sums = sums + jnp.where(going, jnp.stack([*aux, 1.0]), 0.0)
-            return params, opt_state, i + 1, going, sums
-
-        params, opt_state, _, _, sums = lax.while_loop(
-            cond, body, (state.params, state.opt_state, 0, jnp.bool_(True), jnp.zeros(6))
-        )
+        params, opt_state, sums = learn(state.params, state.opt_state, flat, adv, returns,
+                                        perms, lr)  # fmt: skip
         count = sums[5]
         means = sums[:5] / jnp.maximum(count, 1.0)
         metrics = {
