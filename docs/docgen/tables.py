@@ -989,8 +989,11 @@ def jax_per_thread_table(sources: dict[str, str], root: Path = ROOT, style: str 
                 f"{_cell(row.get('base_compile_s'), '.0f')}, {row['compile_s']:.0f} | "
                 f"{_cell(target, 'g')}{'' if target is None else 'x'} |"
             )
-        against = data["setup"]["against"]
+        against, cap = data["setup"]["against"], data["setup"].get("max_contact_steps")
         note = _timing_line(data)
+        if cap:
+            note += (f"; hybrid contacts capped at {cap:,} RK4 steps on both sides "
+                     "(`--max-contact-steps`: cost only, capped outcomes change)")  # fmt: skip
         if against:
             note += (f"; before: commit `{against}`'s XLA kernel, measured in the same run "
                      "(compile s: before, then XLA)")  # fmt: skip
