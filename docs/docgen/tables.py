@@ -799,15 +799,16 @@ def jax_vs_sb3_table(sources: dict[str, str], root: Path = ROOT, style: str = "p
 
 def _gap_sentence(details: dict[str, Any]) -> str:
     """The JAX mean minus SB3's over their seeds, its 95% interval and Welch's p
-    (`statistics.seeds_difference`), where the file has it: ", JAX - SB3 ..." ("" where not)."""
+    (`statistics.seeds_difference`), where the file has it ("" where not)."""
     kind, gap = next(((name.rsplit("_", 1)[1], value) for name, value in details.items()
                       if name.startswith("jax_minus_sb3_")), (None, None))  # fmt: skip
     if gap is None:
         return ""
+    said = f"; the JAX mean minus SB3's ({kind} policies) is {100 * gap['difference']:+.1f} points"
+    if np.isnan(gap["p"]):
+        return said + " (one seed on a side: no interval, no test)"
     low, high = (100 * bound for bound in gap["ci"])
-    p = "no test (one seed)" if gap["p"] != gap["p"] else f"Welch's p = {gap['p']:.2f}"
-    return (f"; the JAX mean minus SB3's ({kind} policies) is {100 * gap['difference']:+.1f} "
-            f"points, 95% CI [{low:+.1f}, {high:+.1f}], {p}")  # fmt: skip
+    return f"{said}, 95% CI [{low:+.1f}, {high:+.1f}], Welch's p = {gap['p']:.2f}"
 
 
 def _run_line(data: dict[str, Any], shown: dict[str, str] | None = None) -> str:
