@@ -9,7 +9,7 @@ median over `--repeats` of:
   with its autoreset (`host_step_autoreset`, vmapped: one numba call per batch) in a
   `fori_loop` inside one `jit`, as an agent compiled with the env runs it: the actions from
   `ACTION_POOL` batches drawn beforehand (as the numba env's), the episodes' uniforms drawn at
-  each step (`jax.random`, as the JAX env draws them);
+  each step as the JAX env draws them (`uniforms`: jax.random's threefry, computed by numba);
 - `xla jax`: the XLA kernels (`step_episode` through `JaxVectorEnv.step_batch`) in the same loop
   with the same pool of actions (`benchmarks.speed.jax_throughput.scan_program`), skipped above
   `--xla-max-batch` and, with `--quick`, above batch 64;
@@ -76,10 +76,9 @@ def host_program(family: str, kwargs: dict, n: int):
     func = host.functional(family, "host", **gym.spec(IDS[family][1]).kwargs, **kwargs)
     fns = host.BOUNCE if family == "TetherBounce" else host.NAVIGATE
     params = func.default_params
-    width, n_uniforms = func.action_space.shape[0], func.n_uniforms
-    dtype = float_dtype()
+    width, dtype = func.action_space.shape[0], float_dtype()
     key, draw = jax.random.split(jax.random.PRNGKey(0))
-    uniforms = jax.random.uniform(draw, (n, n_uniforms), dtype=dtype)
+    uniforms = func.uniforms(draw, (n,))
     state = jax.jit(jax.vmap(func.initial_from_uniforms, in_axes=(0, None)))(uniforms, params)
     fused = jax.vmap(fns.host_step_autoreset, in_axes=(0, 0, 0, None))
 
@@ -90,7 +89,7 @@ def host_program(family: str, kwargs: dict, n: int):
             state, key, total, count = carry
             key, draw_uniforms = jax.random.split(key)
             actions = pool[count % ACTION_POOL]
-            u = jax.random.uniform(draw_uniforms, (n, n_uniforms), dtype)
+            u = func.uniforms(draw_uniforms, (n,))
             state, obs, _, outcome = fused(state, actions, u, params)
             return state, key, total + outcome[:, 0].sum() + obs[:, 0].sum(), count + 1
 

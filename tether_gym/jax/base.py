@@ -105,8 +105,8 @@ class KernelFuncEnv(FuncEnv):
     `outcome` is the last step's outcome row (columns `kernel.outcome`).
 
     Randomness comes in as uniforms, as in the numba kernels: an episode starts from
-    `n_uniforms` of them (`initial_from_uniforms`), which `initial` draws from its key (and a
-    batch, in one draw, from one key). Subclasses build `kernel` (the numba kernel of the same
+    `n_uniforms` of them (`initial_from_uniforms`), which `uniforms` draws from a key (a batch's
+    in one draw, from one key). Subclasses build `kernel` (the numba kernel of the same
     configuration: the spaces and the fields come from it), set `n_uniforms` and implement
     `initial_from_uniforms`, `transition`, `observation` and `get_default_params`; the reward,
     the end of the episode and the info are read here from the outcome."""
@@ -121,11 +121,15 @@ class KernelFuncEnv(FuncEnv):
         """A new episode's state from its `n_uniforms` uniforms in [0, 1)."""
         raise NotImplementedError
 
+    def uniforms(self, key: jax.Array, batch: tuple[int, ...] = ()) -> jax.Array:
+        """The uniforms in [0, 1) of a `batch` of new episodes, (*batch, `n_uniforms`), drawn
+        from `key`: `jax.random.uniform`'s draw (the host kernels compute the same numbers)."""
+        return jax.random.uniform(key, (*batch, self.n_uniforms), dtype=float_dtype())
+
     def initial(self, rng: jax.Array, params=None):
         """A new episode drawn from `rng`."""
         params = self.default_params if params is None else params
-        uniforms = jax.random.uniform(rng, (self.n_uniforms,), dtype=float_dtype())
-        return self.initial_from_uniforms(uniforms, params)
+        return self.initial_from_uniforms(self.uniforms(rng), params)
 
     def reward(self, state, action, next_state, rng=None, params=None) -> jax.Array:
         """The step's reward, from `next_state`'s outcome."""
@@ -268,9 +272,7 @@ class JaxVectorEnv(VectorEnv):
     def _reset_batch(self, key: jax.Array, params):
         """(state, key, obs): every copy starts an episode, the batch's uniforms drawn at once."""
         key, draw = jax.random.split(key)
-        uniforms = jax.random.uniform(
-            draw, (self.num_envs, self.func_env.n_uniforms), dtype=float_dtype()
-        )
+        uniforms = self.func_env.uniforms(draw, (self.num_envs,))
         state = jax.vmap(self.func_env.initial_from_uniforms, in_axes=(0, None))(uniforms, params)
         return (
             state,
@@ -284,9 +286,7 @@ class JaxVectorEnv(VectorEnv):
         the FuncEnv's `step_autoreset` under `vmap`, the uniforms drawn as `_reset_batch`
         draws them."""
         key, draw = jax.random.split(key)
-        uniforms = jax.random.uniform(
-            draw, (self.num_envs, self.func_env.n_uniforms), dtype=float_dtype()
-        )
+        uniforms = self.func_env.uniforms(draw, (self.num_envs,))
         step = jax.vmap(self.func_env.step_autoreset, in_axes=(0, 0, 0, None))
         state, obs, final_obs, outcome = step(state, actions, uniforms, params)
         return state, key, obs, final_obs, outcome

@@ -52,6 +52,7 @@ from tether_gym.envs.tether_navigate.config import STATE as NAVIGATE_STATE
 from tether_gym.envs.tether_navigate.controls import control_mode
 from tether_gym.envs.tether_navigate.spaces import OBSERVATION as NAVIGATE_OBSERVATION
 from tether_gym.envs.tether_navigate.spaces import OUTCOME as NAVIGATE_OUTCOME
+from tether_gym.jax import threefry
 from tether_gym.jax.base import KernelFuncEnv, float_dtype
 from tether_gym.jax.tether_bounce import ffi as bounce_ffi
 from tether_gym.jax.tether_bounce import kernel as bounce
@@ -229,6 +230,10 @@ class HostFunctional(KernelFuncEnv):
     params and outputs as the XLA kernel's `FuncEnv` it is mixed into."""
 
     host: BounceHost | NavigateHost
+
+    def uniforms(self, key: jax.Array, batch: tuple[int, ...] = ()) -> jax.Array:
+        """`KernelFuncEnv.uniforms`'s numbers, drawn by numba (`threefry.uniform`)."""
+        return threefry.uniform(key, (*batch, self.n_uniforms))
 
     def initial_from_uniforms(self, uniforms: jax.Array, params):
         return self.host.host_sample_episode(uniforms, params)

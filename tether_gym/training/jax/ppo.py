@@ -60,7 +60,6 @@ from jax import lax
 
 from tether_gym.agents.jax_policy import ActorCritic, PolicyConfig
 from tether_gym.families import config_arguments, load
-from tether_gym.jax.base import float_dtype
 from tether_gym.training.jax import gymnax_entry_point
 from tether_gym.training.jax.recipe import PPOConfig
 from tether_gym.training.jax.trainer import JaxTrainer
@@ -248,7 +247,7 @@ def make_stages(config: PPOConfig):
         action = mean + jnp.exp(log_std) * jax.random.normal(k_act, mean.shape)
         log_prob = gaussian_log_prob(action, mean, log_std)
         # the step and the finished episodes' next ones, in one call (one numba call on a CPU)
-        uniforms = jax.random.uniform(k_step, (n_envs, func.n_uniforms), dtype=float_dtype())
+        uniforms = func.uniforms(k_step, (n_envs,))
         env_state, obs, final_obs, outcome = vstep(
             state.env_state, jnp.clip(action, low, high), uniforms, env_params
         )
