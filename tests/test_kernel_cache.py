@@ -63,12 +63,15 @@ def test_an_edit_outside_the_kernels_sources_keeps_the_key(tmp_path):
 
 
 def test_the_packages_kernel_sources_are_its_kernel_layers():
-    """Today's package: the physics, tasks, envs and the compiled planners, and what they
-    import; evaluation, training and the figures are not among them."""
+    """Today's package: the physics, tasks, envs, the compiled planners and the JAX host
+    kernel's FFI handlers (which inline `jax/ffi.py`'s helpers), and what they import;
+    evaluation, training, the figures and the XLA kernels are not among them."""
     package = Path(tether_gym.__file__).parent
     names = {path.relative_to(package).as_posix() for path in kernel_cache.kernel_sources()}
     assert {"physics/hybrid.py", "envs/tether_navigate/maneuver.py", "tasks/navigate.py",
-            "agents/planner_kernels.py"} <= names  # fmt: skip
+            "agents/planner_kernels.py", "jax/ffi.py", "jax/tether_bounce/ffi.py",
+            "jax/threefry.py"} <= names  # fmt: skip
+    assert not {"jax/physics.py", "jax/tether_navigate/flight.py"} & names
     assert not any(name.startswith(("evaluation/", "training/")) for name in names)
     assert not {"figures.py", "cli.py", "agents/planners.py"} & names
 

@@ -20,8 +20,12 @@ import sys
 from pathlib import Path
 
 PACKAGE = Path(__file__).parent
-KERNEL_SOURCES = ("physics", "tasks", "envs", "agents/planner_kernels.py")
-"""The folders and modules (relative to the package) that define numba kernels."""
+KERNEL_SOURCES = (
+    "physics", "tasks", "envs", "agents/planner_kernels.py", "jax/ffi.py", "jax/threefry.py",
+    "jax/tether_bounce/ffi.py", "jax/tether_navigate/ffi.py",
+)  # fmt: skip
+"""The folders and modules (relative to the package) that define numba kernels (the JAX host
+kernel's FFI handlers among them)."""
 STAMP = Path("__pycache__") / "kernel-sources.sha256"
 """The digest of the sources the caches were built from, relative to the package."""
 CACHE_SUFFIXES = (".nbi", ".nbc")

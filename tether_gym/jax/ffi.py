@@ -144,9 +144,12 @@ def f32(frame, results, i):
 @numba.njit(inline="always")
 def same_rows(rows, start):
     """The end of the run of rows equal to `rows[start]` (params batched across lanes: each run
-    is one kernel call)."""
+    is one kernel call), compared element by element (`np.array_equal` would allocate per row)."""
     end = start + 1
-    while end < rows.shape[0] and np.array_equal(rows[end], rows[start]):
+    while end < rows.shape[0]:
+        for j in range(rows.shape[1]):
+            if rows[end, j] != rows[start, j]:
+                return end
         end += 1
     return end
 
