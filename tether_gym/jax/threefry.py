@@ -1,10 +1,10 @@
 """jax.random's uniform draw computed by numba, as an XLA FFI call: `uniform(key, shape)` is
 `jax.random.uniform(key, shape, float_dtype())` bit for bit.
 
-The host-kernel backend draws its episodes' uniforms with it (`host.HostFunctional.uniforms`).
-XLA's CPU code for threefry2x32 costs about as much per batch as numba's whole TetherBounce
-step, so the draw, not the kernel, set the pace of the host-kernel TetherBounce env; here it
-is the same function compiled by numba. It is Threefry-2x32 with 20 rounds (Salmon et al.,
+The host-kernel backend draws its episodes' uniforms with it (`host.HostFunctional.uniforms`):
+XLA's CPU code for threefry2x32 is slow next to a cheap kernel's step (a TetherBounce bounce),
+so there the draw, not the kernel, set the env's pace; here it is the same function compiled
+by numba. It is Threefry-2x32 with 20 rounds (Salmon et al.,
 "Parallel random numbers: as easy as 1, 2, 3", SC 2011), as jax computes it with
 `jax_threefry_partitionable` (jax's default): element i of a draw (row-major) is the block of
 the counter (i >> 32, i & 0xffffffff) under the key, its two words joined (float64: the high
