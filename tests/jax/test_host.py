@@ -77,6 +77,19 @@ def assert_same(a, b, where: str) -> None:
     np.testing.assert_array_equal(np.asarray(a), np.asarray(b), err_msg=where)
 
 
+def ffi_calls(jaxpr) -> int:
+    """The FFI calls in a (closed) jaxpr, those of the jaxprs inside it (`jit`, loops) too."""
+    jaxpr = getattr(jaxpr, "jaxpr", jaxpr)
+    count = 0
+    for eqn in jaxpr.eqns:
+        count += eqn.primitive.name == "ffi_call"
+        for value in eqn.params.values():
+            for inner in value if isinstance(value, (tuple, list)) else (value,):
+                if hasattr(inner, "eqns") or hasattr(getattr(inner, "jaxpr", None), "eqns"):
+                    count += ffi_calls(inner)
+    return count
+
+
 def leaves(tree, lane: int | None = None) -> list[np.ndarray]:
     """A pytree's leaves as numpy arrays (one lane's where `lane` is given)."""
     return [np.asarray(x) if lane is None else np.asarray(x)[lane] for x in jax.tree.leaves(tree)]
@@ -210,6 +223,35 @@ def test_params_unequal_across_lanes_give_each_lane_its_own():
         assert_same(leaves(alone), leaves(swept, i), str(i))
 
 
+def test_params_shared_by_the_lanes_of_one_vmap_reach_the_kernel_once():
+    """Params unbatched under the lanes' `vmap` travel as one row (nothing broadcast); under an
+    outer `vmap` over params (each params over a batch of episodes) and the reverse (each
+    lane of the inner batch its own params, repeated along the outer axis) every episode
+    equals itself run alone with its own params."""
+    values = (0.2, 0.9, 0.5)
+    made = [jb.EnvParams.make(dynamics="impulse", restitution=e) for e in values]
+    stack = jax.tree.map(lambda *v: jax.numpy.stack(v), *made)
+    u = np.random.default_rng(8).random((3, 3, jb.UNIFORMS))
+    actions = np.random.default_rng(9).uniform(-1, 1, (3, 3, 4))
+
+    def episode(u, a, params):
+        state = host.BOUNCE.host_sample_episode(u, params)
+        return state, host.BOUNCE.host_step_episode(state, a, params).outcome
+
+    lanes = jax.vmap(episode, in_axes=(0, 0, None))
+    jaxpr = jax.make_jaxpr(lanes)(u[0], actions[0], made[0])
+    calls = [eqn for eqn in jaxpr.eqns if eqn.primitive.name == "ffi_call"]
+    assert [eqn.invars[-1].aval.shape for eqn in calls] == [(len(jb.PARAMS.names),)] * 2
+    outer = jax.jit(jax.vmap(lanes, in_axes=(0, 0, 0)))(u, actions, stack)
+    inner = jax.jit(jax.vmap(jax.vmap(episode), in_axes=(0, 0, None)))(u, actions, stack)
+    outer, inner = ([x.reshape(9, *x.shape[2:]) for x in leaves(run)] for run in (outer, inner))
+    for i, j in np.ndindex(3, 3):
+        alone = jax.jit(episode)(u[i, j], actions[i, j], made[i])
+        assert_same(leaves(alone), [x[3 * i + j] for x in outer], f"outer {i} {j}")
+        alone = jax.jit(episode)(u[i, j], actions[i, j], made[j])
+        assert_same(leaves(alone), [x[3 * i + j] for x in inner], f"inner {i} {j}")
+
+
 def test_functional_picks_the_backend():
     assert isinstance(host.functional("TetherBounce", "host"), host.HostBounceFunctional)
     xla = host.functional("TetherNavigate", "xla")
@@ -265,15 +307,17 @@ def test_float32_rounds_the_numba_result():
 )  # fmt: skip
 def test_the_host_vector_env_steps_in_one_call_as_the_generic_step_would(env_id, kwargs):
     """The Gymnasium vector env on the host kernel steps through the host FuncEnv's fused
-    `step_autoreset` (one numba call a step), with the outputs of the generic step (`step`,
-    reset, select and two observations, each a callback) from the same key."""
+    `step_autoreset_batch` (one numba call a step, which draws the uniforms), with the outputs
+    of the generic step (`step`, reset, select and two observations, each a callback) from
+    the same key."""
     from tether_gym.jax.base import KernelFuncEnv
 
     env = gym.make_vec(env_id, num_envs=N, vectorization_mode="vector_entry_point",
                        kernel="host", **kwargs)  # fmt: skip
     func = env.unwrapped.func_env if hasattr(env, "unwrapped") else env.func_env
-    assert type(func).step_autoreset is not KernelFuncEnv.step_autoreset
     env.reset(seed=SEED)
+    jaxpr = jax.make_jaxpr(env.step_batch)(env.state, np.zeros((N, 4)), env._key, env.params)
+    assert ffi_calls(jaxpr) == 1
     generic = jax.jit(
         jax.vmap(lambda *a: KernelFuncEnv.step_autoreset(func, *a), in_axes=(0, 0, 0, None))
     )
@@ -294,6 +338,45 @@ def test_the_host_vector_env_steps_in_one_call_as_the_generic_step_would(env_id,
             np.testing.assert_array_equal(np.asarray(ours), np.asarray(theirs))
         assert np.array_equal(np.asarray(new_key), np.asarray(key))
         env.step(actions)
+
+
+@pytest.mark.parametrize("x64", [True, False])
+@pytest.mark.parametrize("family_name", ["TetherBounce", "TetherNavigate"])
+def test_a_batch_step_draws_its_uniforms_in_its_one_call(family_name, x64):
+    """`step_autoreset_batch` on the host kernel (the uniforms drawn inside the numba call)
+    equals the generic one (`threefry.uniform`'s draw, then the vmapped fused step), bit for
+    bit, in float64 and float32, and under a `vmap` over keys (the JAX trainer's seeds, each
+    key for its own batch), in one FFI call. Every episode ends at the step (TetherNavigate's
+    after one maneuver), so that every lane's new episode shows its uniforms."""
+    from tether_gym.jax.base import KernelFuncEnv
+
+    with jax.enable_x64(x64):
+        kwargs = {"max_maneuvers": 1} if family_name == "TetherNavigate" else {}
+        func = host.functional(family_name, "host", **kwargs)
+        params, width = func.default_params, func.action_space.shape[0]
+        keys = jax.random.split(jax.random.PRNGKey(12), 3)
+        u = func.uniforms(keys[0], (3, 5))
+        state = jax.vmap(jax.vmap(func.initial_from_uniforms, in_axes=(0, None)), (0, None))(
+            u, params
+        )
+        actions = np.random.default_rng(13).uniform(-1, 1, (3, 5, width))
+        ours = jax.jit(jax.vmap(func.step_autoreset_batch, in_axes=(0, 0, 0, None)))
+        generic = jax.jit(jax.vmap(
+            lambda *a: KernelFuncEnv.step_autoreset_batch(func, *a), in_axes=(0, 0, 0, None)
+        ))  # fmt: skip
+        args = (state, actions, keys, params)
+        stepped = ours(*args)
+        end = [func.kernel.outcome.index[name] for name in ("terminated", "truncated")]
+        assert np.all(np.asarray(stepped[3])[..., end].max(axis=-1) == 1)
+        assert_same(leaves(stepped), leaves(generic(*args)), "seeds")
+        second = jax.tree.map(lambda x: x[1], args[:3])
+        assert_same(
+            leaves(jax.jit(func.step_autoreset_batch)(*second, params)),
+            leaves(generic(*args), 1),
+            "one batch",
+        )
+        jaxpr = jax.make_jaxpr(jax.vmap(func.step_autoreset_batch, in_axes=(0, 0, 0, None)))
+        assert ffi_calls(jaxpr(*args)) == 1
 
 
 PARALLEL_SCRIPT = """

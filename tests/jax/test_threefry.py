@@ -76,6 +76,21 @@ def test_elsewhere_the_draw_is_jax_s_own():
     assert ffi_calls(lambda k: threefry.uniform(k, (8,)), rbg) == 0
 
 
+def test_the_blocks_are_jax_s_threefry2x32_for_any_high_word_of_the_counter():
+    """A draw of more than 2**32 numbers per key moves the counter's high word; jax's own
+    block function (`jax.extend.random.threefry_2x32`) checks that word here, where a draw
+    that large could not be made."""
+    from jax.extend.random import threefry_2x32
+
+    key = np.array([0x12345678, 0x9ABCDEF0], np.uint32)
+    for upper in (0, 1, 0xFFFFFFFF):
+        high, low = np.empty(9, np.uint32), np.empty(9, np.uint32)
+        threefry._blocks(key[0], key[1], np.uint32(upper), high, low)
+        counters = np.concatenate([np.full(9, upper, np.uint32), np.arange(9, dtype=np.uint32)])
+        theirs = np.asarray(threefry_2x32(key, counters))
+        np.testing.assert_array_equal(np.concatenate([high, low]), theirs)
+
+
 @pytest.mark.parametrize("family", ["TetherBounce", "TetherNavigate"])
 def test_the_host_kernel_draws_the_xla_kernel_s_episodes(family):
     key = jax.random.PRNGKey(11)

@@ -153,6 +153,14 @@ class KernelFuncEnv(FuncEnv):
         observe = self.observation
         return state, observe(state, None, params), observe(stepped, None, params), stepped.outcome
 
+    def step_autoreset_batch(self, state, actions: jax.Array, key: jax.Array, params):
+        """`step_autoreset` of a batch of copies (the leading axis), their new episodes' uniforms
+        drawn from `key` as `uniforms(key, (batch,))` draws them: the vector env's step. The
+        host kernels draw and step in one numba call."""
+        uniforms = self.uniforms(key, (actions.shape[0],))
+        step = jax.vmap(self.step_autoreset, in_axes=(0, 0, 0, None))
+        return step(state, actions, uniforms, params)
+
     def transition_info(self, state, action, next_state, params=None) -> dict[str, Any]:
         """The numba env's `info` of the step, from `next_state`'s outcome."""
         return outcome_info(self.kernel.outcome, next_state.outcome)
@@ -283,12 +291,10 @@ class JaxVectorEnv(VectorEnv):
     def _step_batch(self, state, actions: jax.Array, key: jax.Array, params):
         """(state, key, obs, final obs, outcome): step every copy, then start anew those whose
         episode ended, each from its own uniforms (`final obs` the observations they ended on):
-        the FuncEnv's `step_autoreset` under `vmap`, the uniforms drawn as `_reset_batch`
-        draws them."""
+        the FuncEnv's `step_autoreset_batch`, the uniforms drawn as `_reset_batch` draws them."""
         key, draw = jax.random.split(key)
-        uniforms = self.func_env.uniforms(draw, (self.num_envs,))
-        step = jax.vmap(self.func_env.step_autoreset, in_axes=(0, 0, 0, None))
-        state, obs, final_obs, outcome = step(state, actions, uniforms, params)
+        step = self.func_env.step_autoreset_batch
+        state, obs, final_obs, outcome = step(state, actions, draw, params)
         return state, key, obs, final_obs, outcome
 
     def reset(

@@ -143,8 +143,8 @@ def f32(frame, results, i):
 
 @numba.njit(inline="always")
 def same_rows(rows, start):
-    """The end of the run of rows equal to `rows[start]` (params batched across lanes: each run
-    is one kernel call), compared element by element (`np.array_equal` would allocate per row)."""
+    """The end of the run of rows equal to `rows[start]` (params rows: each run is one kernel
+    call), compared element by element (`np.array_equal` would allocate per row)."""
     end = start + 1
     while end < rows.shape[0]:
         for j in range(rows.shape[1]):
@@ -154,7 +154,23 @@ def same_rows(rows, start):
     return end
 
 
-PRED, S32, S64 = 1, 4, 5
+@numba.njit(inline="always")
+def lanes_per_row(lanes, rows):
+    """The consecutive lanes each of a target's `rows` params rows is for: params come one row
+    per lane where they differ across a `vmap`, else one row for all its lanes (`host._ffi`),
+    which an outer `vmap` repeats along its own axis only."""
+    return lanes // rows
+
+
+@numba.njit(inline="always")
+def record_rows(frame, first, table):
+    """The records in arguments `first`, `first + 1`, ... (one per field of `table`): the first
+    field's elements over its elements per record."""
+    _, _, rows, columns = buffer(frame, False, first)
+    return rows * columns // table[0, 1]
+
+
+PRED, S32, S64, U32 = 1, 4, 5, 8
 """`XLA_FFI_DataType` codes of the bool and integer buffers."""
 FLOAT, INT, BOOL = 0, 1, 2
 """Kinds of a record field (`record_table`): float64, int64 or bool."""
@@ -258,8 +274,8 @@ def register(name: str, build: Callable[[], Callable]) -> str:
 
 
 __all__ = [
-    "API_VERSION", "BOOL", "F32", "F64", "FLOAT", "INT", "PRED", "S32", "S64", "SIGNATURE",
+    "API_VERSION", "BOOL", "F32", "F64", "FLOAT", "INT", "PRED", "S32", "S64", "SIGNATURE", "U32",
     "answered_metadata", "buffer", "build_handler", "call_frame", "f32", "f64_in", "f64_out",
-    "f64_store", "gather", "pointer", "record_table", "register", "same_rows", "scatter",
-    "success", "words",
+    "f64_store", "gather", "lanes_per_row", "pointer", "record_rows", "record_table", "register",
+    "same_rows", "scatter", "success", "words",
 ]  # fmt: skip

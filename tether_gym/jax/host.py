@@ -29,10 +29,11 @@ serialized programs). `kernel()` picks "host" when jax's default backend is the 
 otherwise.
 
 `params` (`EnvParams`) is turned back into the numba kernel's `PARAMS`; its static fields
-(`dynamics`, TetherNavigate's `control`) choose the numba kernel. Params batched across lanes (a
-sweep) run one numba call per distinct params row (TetherBounce: per run of equal rows). A
-non-finite action gives the numba kernel's outcome for it (NaN reward) and an unchanged state;
-the Gymnasium envs refuse such actions before the step; never an exception inside the kernel.
+(`dynamics`, TetherNavigate's `control`) choose the numba kernel. Params shared by the lanes of
+a `vmap` reach the kernel once (nothing is broadcast to the lanes); params batched across lanes
+(a sweep) run one numba call per run of lanes with equal params. A non-finite action gives the
+numba kernel's outcome for it (NaN reward) and an unchanged state; the Gymnasium envs refuse
+such actions before the step; never an exception inside the kernel.
 
 `HostBounceFunctional` and `HostNavigateFunctional` are the Gymnasium `FuncEnv`s on these
 functions; `functional(family, kernel=...)` builds either backend's.
@@ -45,6 +46,7 @@ from collections.abc import Sequence
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.custom_batching import custom_vmap
 
 from tether_gym.envs.tether_bounce import kernel as bounce_kernel
 from tether_gym.envs.tether_navigate.config import PARAMS as NAVIGATE_PARAMS
@@ -69,12 +71,39 @@ def kernel() -> str:
     return "host" if jax.default_backend() == "cpu" else "xla"
 
 
-def _ffi(target: str, results: Sequence[tuple[tuple[int, ...], np.dtype]], *args) -> list:
-    """The FFI `target` on one lane's `args`: its `results`, (shape, dtype) of one lane each.
-    Under `vmap` every argument reaches the target batched (`broadcast_all`): one call runs
-    the whole batch."""
-    shapes = [jax.ShapeDtypeStruct(shape, dtype) for shape, dtype in results]
-    return jax.ffi.ffi_call(target, shapes, vmap_method="broadcast_all")(*args)
+def _ffi(
+    target: str,
+    results: Sequence[tuple[tuple[int, ...], np.dtype]],
+    lanes: Sequence[jax.Array],
+    shared: Sequence[jax.Array] = (),
+) -> list:
+    """The FFI `target` on one lane's arguments, `lanes` then `shared` (the params): its
+    `results`, (shape, dtype) of one lane each. Under `vmap` one call runs the whole batch: the
+    lanes' arguments reach the target batched (broadcast where one is not); the shared ones
+    batched only where some of them are, else once for all the lanes, so that lanes on one
+    params cost no broadcast and the target one kernel call (`ffi.lanes_per_row`)."""
+
+    def call(batch: tuple[int, ...], *args) -> list:
+        shapes = [jax.ShapeDtypeStruct((*batch, *shape), dtype) for shape, dtype in results]
+        return jax.ffi.ffi_call(target, shapes, vmap_method="broadcast_all")(*args)
+
+    @custom_vmap
+    def lane(lanes: list, shared: list) -> list:
+        return call((), *lanes, *shared)
+
+    @lane.def_vmap
+    def batched(size: int, in_batched: list, lanes: list, shared: list) -> tuple[list, list]:
+        def widen(values: list, batched: list) -> list:
+            return [value if is_batched else jnp.broadcast_to(value, (size, *jnp.shape(value)))
+                    for value, is_batched in zip(values, batched, strict=True)]  # fmt: skip
+
+        lanes_batched, shared_batched = in_batched
+        if any(shared_batched):
+            shared = widen(shared, shared_batched)
+        outputs = call((size,), *widen(lanes, lanes_batched), *shared)
+        return outputs, [True] * len(outputs)
+
+    return lane(list(lanes), list(shared))
 
 
 class BounceHost:
@@ -98,14 +127,14 @@ class BounceHost:
         dtype = float_dtype()
         (row,) = _ffi(
             bounce_ffi.target("reset"), [((len(bounce_kernel.STATE),), dtype)],
-            jnp.asarray(uniforms, dtype), self.params_row(params),
+            [jnp.asarray(uniforms, dtype)], [self.params_row(params)],
         )  # fmt: skip
         return bounce.EnvState.of_row(row, jnp.zeros(len(bounce_kernel.OUTCOME), dtype))
 
     def host_observe(self, state: bounce.EnvState, params=None) -> jax.Array:
         """`bounce.observe` by the numba kernel's (which reads no params)."""
         obs = ((len(bounce_kernel.OBSERVATION),), bounce_kernel.OBSERVATION.base)
-        return _ffi(bounce_ffi.target("observe"), [obs], state.row().astype(float_dtype()))[0]
+        return _ffi(bounce_ffi.target("observe"), [obs], [state.row().astype(float_dtype())])[0]
 
     def host_step_episode(
         self, state: bounce.EnvState, action: jax.Array, params: bounce.EnvParams
@@ -114,7 +143,7 @@ class BounceHost:
         dtype = float_dtype()
         (outcome,) = _ffi(
             bounce_ffi.target("step", params.dynamics), [((len(bounce_kernel.OUTCOME),), dtype)],
-            state.row().astype(dtype), jnp.asarray(action, dtype), self.params_row(params),
+            [state.row().astype(dtype), jnp.asarray(action, dtype)], [self.params_row(params)],
         )  # fmt: skip
         return state.replace(outcome=outcome)
 
@@ -125,13 +154,25 @@ class BounceHost:
         `kernel.AUTORESET`, across numba's threads for large batches): (next state, its
         observation, the observation the episode ended on, the step's outcome). The next
         state's `outcome` is zeros (a new episode)."""
+        return self._autoreset(state, action, params, [jnp.asarray(uniforms, float_dtype())])
+
+    def host_step_autoreset_batch(
+        self, state: bounce.EnvState, actions: jax.Array, words: jax.Array, params
+    ) -> tuple[bounce.EnvState, jax.Array, jax.Array, jax.Array]:
+        """`host_step_autoreset` of a batch (the leading axis), its uniforms drawn in the same
+        numba call from the key of `words` (`threefry.key_words`), as `threefry.uniform(key,
+        (batch, UNIFORMS))` draws them."""
+        return self._autoreset(state, actions, params, [], [words], (actions.shape[0],))
+
+    def _autoreset(self, state, action, params, uniforms, keys=(), batch=()) -> tuple:
+        """The fused step's FFI call: the uniforms one lane's argument, or the keys shared."""
         dtype = float_dtype()
-        obs = ((len(bounce_kernel.OBSERVATION),), bounce_kernel.OBSERVATION.base)
-        results = [((len(bounce_kernel.STATE),), dtype), obs, obs,
-                   ((len(bounce_kernel.OUTCOME),), dtype)]  # fmt: skip
-        rows = [jnp.asarray(x, dtype) for x in (state.row(), action, uniforms)]
+        obs = ((*batch, len(bounce_kernel.OBSERVATION)), bounce_kernel.OBSERVATION.base)
+        results = [((*batch, len(bounce_kernel.STATE)), dtype), obs, obs,
+                   ((*batch, len(bounce_kernel.OUTCOME)), dtype)]  # fmt: skip
+        rows = [state.row().astype(dtype), jnp.asarray(action, dtype), *uniforms]
         target = bounce_ffi.target("autoreset", params.dynamics)
-        row, obs, final_obs, outcome = _ffi(target, results, *rows, self.params_row(params))
+        row, obs, final_obs, outcome = _ffi(target, results, rows, [*keys, self.params_row(params)])
         return bounce.EnvState.of_row(row, jnp.zeros_like(outcome)), obs, final_obs, outcome
 
 
@@ -176,14 +217,14 @@ class NavigateHost:
         """`navigate.sample_episode` by the numba kernel's reset (`sampling.reset_rows`)."""
         dtype = float_dtype()
         fields = _ffi(navigate_ffi.target("reset"), self._state_results(),
-                            jnp.asarray(uniforms, dtype), *self._params_leaves(params))  # fmt: skip
+                      [jnp.asarray(uniforms, dtype)], self._params_leaves(params))  # fmt: skip
         return navigate.EnvState.of_fields(fields, jnp.zeros(NAVIGATE_OUTCOME.width, dtype))
 
     def host_observe(self, state: navigate.EnvState, params: navigate.EnvParams) -> jax.Array:
         """`navigate.observe` by the numba kernel's (`spaces.observe_all`)."""
         obs = ((NAVIGATE_OBSERVATION.width,), float_dtype())
-        return _ffi(navigate_ffi.target("observe"), [obs], *self._state_leaves(state),
-                    *self._params_leaves(params))[0]  # fmt: skip
+        return _ffi(navigate_ffi.target("observe"), [obs], self._state_leaves(state),
+                    self._params_leaves(params))[0]  # fmt: skip
 
     def host_step_episode(
         self, state: navigate.EnvState, action: jax.Array, params: navigate.EnvParams
@@ -194,7 +235,7 @@ class NavigateHost:
         outcome = ((NAVIGATE_OUTCOME.width,), dtype)
         *fields, outcome = _ffi(
             navigate_ffi.target("step", self.build(params)), [*self._state_results(), outcome],
-            *self._state_leaves(state), jnp.asarray(action, dtype), *self._params_leaves(params),
+            [*self._state_leaves(state), jnp.asarray(action, dtype)], self._params_leaves(params),
         )  # fmt: skip
         return navigate.EnvState.of_fields(fields, outcome)
 
@@ -206,17 +247,31 @@ class NavigateHost:
         its observation, the observation the step ended on, the step's outcome). The next
         state's `outcome` is the step's, zeros where a new episode began (as
         `base.JaxVectorEnv`'s)."""
+        return self._autoreset(state, action, params, [jnp.asarray(uniforms, float_dtype())])
+
+    def host_step_autoreset_batch(
+        self, state: navigate.EnvState, actions: jax.Array, words: jax.Array, params
+    ) -> tuple[navigate.EnvState, jax.Array, jax.Array, jax.Array]:
+        """`host_step_autoreset` of a batch (the leading axis), its uniforms drawn in the same
+        numba call from the key of `words` (`threefry.key_words`), as `threefry.uniform(key,
+        (batch, UNIFORMS))` draws them."""
+        return self._autoreset(state, actions, params, [], [words], (actions.shape[0],))
+
+    def _autoreset(self, state, action, params, uniforms, keys=(), batch=()) -> tuple:
+        """The fused step's FFI call: the uniforms one lane's argument, or the keys shared."""
         dtype = float_dtype()
         end = NAVIGATE_OUTCOME.index
-        obs = ((NAVIGATE_OBSERVATION.width,), dtype)
-        outcome = ((NAVIGATE_OUTCOME.width,), dtype)
+        obs = ((*batch, NAVIGATE_OBSERVATION.width), dtype)
+        outcome = ((*batch, NAVIGATE_OUTCOME.width), dtype)
+        fields = [((*batch, *shape), field_dtype) for shape, field_dtype in self._state_results()]
         *fields, obs, final_obs, outcome = _ffi(
-            navigate_ffi.target("autoreset", self.build(params)),
-            [*self._state_results(), obs, obs, outcome], *self._state_leaves(state),
-            jnp.asarray(action, dtype), jnp.asarray(uniforms, dtype), *self._params_leaves(params),
+            navigate_ffi.target("autoreset", self.build(params)), [*fields, obs, obs, outcome],
+            [*self._state_leaves(state), jnp.asarray(action, dtype), *uniforms],
+            [*keys, *self._params_leaves(params)],
         )  # fmt: skip
-        ended = (outcome[end["terminated"]] != 0.0) | (outcome[end["truncated"]] != 0.0)
-        kept = jnp.where(ended, jnp.zeros_like(outcome), outcome)
+        terminated, truncated = outcome[..., end["terminated"]], outcome[..., end["truncated"]]
+        ended = (terminated != 0.0) | (truncated != 0.0)
+        kept = jnp.where(ended[..., None], jnp.zeros_like(outcome), outcome)
         return navigate.EnvState.of_fields(fields, kept), obs, final_obs, outcome
 
 
@@ -249,6 +304,14 @@ class HostFunctional(KernelFuncEnv):
     def step_autoreset(self, state, action, uniforms, params):
         """`KernelFuncEnv.step_autoreset` in one numba call."""
         return self.host.host_step_autoreset(state, action, uniforms, params)
+
+    def step_autoreset_batch(self, state, actions, key, params):
+        """`KernelFuncEnv.step_autoreset_batch` in one numba call, the uniforms drawn in it
+        (where `threefry.uniform` would draw them with numba)."""
+        words = threefry.key_words(key)
+        if words is None:
+            return super().step_autoreset_batch(state, actions, key, params)
+        return self.host.host_step_autoreset_batch(state, actions, words, params)
 
 
 class HostBounceFunctional(HostFunctional, bounce.TetherBounceFunctional):

@@ -67,29 +67,71 @@ def threefry2x32(k0, k1, x0, x1):
     return _U32(x0 + k2), _U32(x1 + k0 + _U32(5))
 
 
+_SEGMENT = 1 << 32
+"""Counters that share the counter's high word."""
+
+
+@numba.njit(inline="always")
+def _blocks(k0, k1, upper, high, low):
+    """The blocks of the counters (upper, 0), (upper, 1), ... under the key (k0, k1) into
+    `high` and `low`: one loop over the counter's low word, which LLVM vectorizes."""
+    lower = _U32(0)
+    for t in range(high.shape[0]):
+        high[t], low[t] = threefry2x32(k0, k1, upper, lower)
+        lower += _U32(1)
+
+
 @numba.njit(cache=True)
 def fill_float64(keys, out):
-    """Row k of `out` ((keys, count) float64): the uniforms of key k ((keys, 2) uint32)."""
-    words = out.view(np.uint64)
+    """Row k of `out` ((keys, count) float64): the uniforms of key k ((keys, 2) uint32). Each
+    is the 52 bits below the block's top (the high word first) times 2**-52: `(1 + m) - 1`,
+    jax's float, exactly."""
+    count = out.shape[1]
+    high, low = np.empty(min(count, _SEGMENT), np.uint32), np.empty(min(count, _SEGMENT), np.uint32)
     for k in range(keys.shape[0]):
         k0, k1 = _U32(keys[k, 0]), _U32(keys[k, 1])
-        for i in range(out.shape[1]):
-            high, low = threefry2x32(k0, k1, _U32(np.uint64(i) >> np.uint64(32)), _U32(i))
-            bits = (np.uint64(high) << np.uint64(32)) | np.uint64(low)
-            words[k, i] = (bits >> np.uint64(12)) | np.uint64(0x3FF0000000000000)
-        out[k] -= 1.0
+        for start in range(0, count, _SEGMENT):
+            n = min(count - start, _SEGMENT)
+            _blocks(k0, k1, _U32(start >> 32), high[:n], low[:n])
+            row = out[k, start : start + n]
+            for t in range(n):
+                row[t] = np.float64(high[t]) * 2.0**-32 + np.float64(low[t] >> _U32(12)) * 2.0**-52
 
 
 @numba.njit(cache=True)
 def fill_float32(keys, out):
-    """`fill_float64` in float32: the block's words xor-ed."""
-    words = out.view(np.uint32)
+    """`fill_float64` in float32: the top 23 bits of the block's words xor-ed, times 2**-23."""
+    count = out.shape[1]
+    high, low = np.empty(min(count, _SEGMENT), np.uint32), np.empty(min(count, _SEGMENT), np.uint32)
     for k in range(keys.shape[0]):
         k0, k1 = _U32(keys[k, 0]), _U32(keys[k, 1])
-        for i in range(out.shape[1]):
-            high, low = threefry2x32(k0, k1, _U32(np.uint64(i) >> np.uint64(32)), _U32(i))
-            words[k, i] = _U32(_U32(high ^ low) >> _U32(9)) | _U32(0x3F800000)
-        out[k] -= np.float32(1.0)
+        for start in range(0, count, _SEGMENT):
+            n = min(count - start, _SEGMENT)
+            _blocks(k0, k1, _U32(start >> 32), high[:n], low[:n])
+            row = out[k, start : start + n]
+            for t in range(n):
+                row[t] = np.float32(np.int32((high[t] ^ low[t]) >> _U32(9))) * np.float32(2.0**-23)
+
+
+@numba.njit(inline="always")
+def uniforms_in(frame, i, lanes, count, wide):
+    """Argument `i` of an FFI call as the (lanes, count) float64 uniforms of its lanes: the
+    argument itself where it is a float buffer, else drawn here from its keys ((keys, 2)
+    uint32; each key's for `ffi.lanes_per_row` consecutive lanes, as `uniform(key, (lanes per
+    key, count))` draws them), in float64 where `wide`, else in float32 and widened."""
+    address, dtype, rows, columns = ffi.buffer(frame, False, i)
+    if dtype != ffi.U32:
+        return ffi.f64_in(frame, i)
+    keys = carray(ffi.pointer(address), (rows * columns // 2, 2), np.uint32)
+    each = ffi.lanes_per_row(lanes, keys.shape[0]) * count
+    uniforms = np.empty((lanes, count), np.float64)
+    if wide:
+        fill_float64(keys, uniforms.reshape(keys.shape[0], each))
+    else:
+        narrow = np.empty((keys.shape[0], each), np.float32)
+        fill_float32(keys, narrow)
+        uniforms[:] = narrow.reshape(lanes, count)
+    return uniforms
 
 
 def _uniform(address):
@@ -130,4 +172,6 @@ def uniform(key: jax.Array, shape: tuple[int, ...]) -> jax.Array:
     return jax.ffi.ffi_call(target, result, vmap_method="broadcast_all")(words)
 
 
-__all__ = ["IMPL", "fill_float32", "fill_float64", "key_words", "threefry2x32", "uniform"]
+__all__ = [
+    "IMPL", "fill_float32", "fill_float64", "key_words", "threefry2x32", "uniform", "uniforms_in",
+]  # fmt: skip

@@ -135,6 +135,13 @@ PARAMS = Fields(
 )
 """The configuration as the kernels read it, one float64 row."""
 PA = PARAMS.columns
+RANDOMIZED = ("inertia_ratio", "restitution", "ln_rho")
+"""The quantities a configuration may draw from a (low, high) range, in `_sample`'s order; the
+spin disturbance, drawn in +-it, comes after them."""
+UNIFORMS = 1 + 2 + len(RANDOMIZED) + 1
+"""Uniforms an episode of any configuration may draw: the task (if mixed), the goal's heading
+and speed, one per randomized quantity and the spin (a configuration's `n_uniforms` of them;
+the JAX envs hand every episode this many)."""
 
 
 @numba.njit(cache=True)
@@ -433,10 +440,9 @@ class TetherBounceKernel(Kernel):
         self.config = config
         self.params = config.params()
         p = PARAMS.decode(self.params)
-        randomized = sum(
-            p[f"{name}_low"] != p[f"{name}_high"]
-            for name in ("inertia_ratio", "restitution", "ln_rho")
-        ) + (p["spin_disturbance"] != 0.0)
+        randomized = sum(p[f"{name}_low"] != p[f"{name}_high"] for name in RANDOMIZED) + (
+            p["spin_disturbance"] != 0.0
+        )
         self.n_uniforms = int((p["task"] < 0) + 2 + randomized)
         """Uniforms an episode draws (see `_sample`), counted from the numbers it compares."""
         self.dynamics = int(p["dynamics"])

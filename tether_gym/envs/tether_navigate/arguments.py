@@ -26,6 +26,11 @@ from tether_gym.physics.checks import check_float
 from tether_gym.physics.geometry import stiffness_for_rho
 from tether_gym.tasks.navigate import REWARD_TYPES, TASKS
 
+UNIFORMS = 3 * (MAX_ANCHORS + MAX_POSTS + 2) + 3
+"""Uniforms an episode of any configuration may draw (`NavigateConfig.n_uniforms` of the
+largest: the cells of every peg and post slot, the goal and the start, their jitter, the
+start's heading, speed and orientation); the JAX envs hand every episode this many."""
+
 
 def _stiffness(rho: float) -> float:
     """The spring constant (N/m) whose rho is `rho` for the longest tether at the fastest start

@@ -3,9 +3,10 @@ fused step with its autoreset, one target per dynamics where the code differs.
 
 Every argument and result is a batch of rows ((rows, columns); `jax.ffi.ffi_call` with
 `vmap_method="broadcast_all"` hands a vmapped call the whole batch): the episodes (`STATE`
-rows), actions, uniforms and the params (`PARAMS` rows, one per lane: each run of equal rows is
-one kernel call) in the float width jax runs in, the observations in float32. A step's outcome
-columns are NaN where the action is not finite (the kernel skips the row).
+rows), actions, uniforms (the fused step's: or the keys they are drawn from) and the params
+(`PARAMS` rows, each for `ffi.lanes_per_row` consecutive episodes: each run of equal rows is
+one kernel call) in the float width jax runs in, the observations in float32. A non-finite
+action's outcome is the kernel's for it (a NaN reward).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from tether_gym.envs.tether_bounce import kernel
-from tether_gym.jax import ffi
+from tether_gym.jax import ffi, threefry
 from tether_gym.physics.models import DYNAMICS
 
 _step = kernel._step_impulse
@@ -30,10 +31,12 @@ def _reset(address):
         return ffi.success()
     uniforms, params, state = ffi.f64_in(frame, 0), ffi.f64_in(frame, 1), ffi.f64_out(frame, 0)
     obs = np.empty((state.shape[0], _WIDTH), np.float32)
+    group = ffi.lanes_per_row(state.shape[0], params.shape[0])
     start = 0
-    while start < state.shape[0]:
+    while start < params.shape[0]:
         end = ffi.same_rows(params, start)
-        kernel._reset(uniforms[start:end], params[start], state[start:end], obs[start:end])
+        lanes = slice(start * group, end * group)
+        kernel._reset(uniforms[lanes], params[start], state[lanes], obs[lanes])
         start = end
     ffi.f64_store(frame, 0, state)
     return ffi.success()
@@ -55,35 +58,39 @@ def _step_target(address):
         return ffi.success()
     state, actions, params = ffi.f64_in(frame, 0), ffi.f64_in(frame, 1), ffi.f64_in(frame, 2)
     out = ffi.f64_out(frame, 0)
-    out[:] = np.nan
+    group = ffi.lanes_per_row(state.shape[0], params.shape[0])
     start = 0
-    while start < state.shape[0]:
+    while start < params.shape[0]:
         end = ffi.same_rows(params, start)
-        _step(actions[start:end], params[start], state[start:end], out[start:end])
+        lanes = slice(start * group, end * group)
+        _step(actions[lanes], params[start], state[lanes], out[lanes])
         start = end
     ffi.f64_store(frame, 0, out)
     return ffi.success()
 
 
 def _autoreset(address):
-    """(episodes, actions, uniforms, params) -> (next episodes, their observations, the
-    observations the step ended on, outcomes), by `_serial` or, across threads from two
-    `_CHUNK`s of rows, `_parallel`."""
+    """(episodes, actions, uniforms or keys, params) -> (next episodes, their observations,
+    the observations the step ended on, outcomes), by `_serial` or, across threads from two
+    `_CHUNK`s of rows, `_parallel`; from keys, the uniforms drawn first
+    (`threefry.uniforms_in`)."""
     frame = ffi.call_frame(address)
     if ffi.answered_metadata(frame):
         return ffi.success()
-    state, actions = ffi.f64_in(frame, 0), ffi.f64_in(frame, 1)
-    uniforms, params = ffi.f64_in(frame, 2), ffi.f64_in(frame, 3)
+    state, actions, params = ffi.f64_in(frame, 0), ffi.f64_in(frame, 1), ffi.f64_in(frame, 3)
+    wide = ffi.buffer(frame, False, 1)[1] == ffi.F64
+    uniforms = threefry.uniforms_in(frame, 2, state.shape[0], kernel.UNIFORMS, wide)
     next_state, out = ffi.f64_out(frame, 0), ffi.f64_out(frame, 3)
     obs, final_obs = ffi.f32(frame, True, 1), ffi.f32(frame, True, 2)
     kernel._observe_all(state, final_obs)
-    out[:] = np.nan
+    group = ffi.lanes_per_row(state.shape[0], params.shape[0])
     start = 0
-    while start < state.shape[0]:
+    while start < params.shape[0]:
         end = ffi.same_rows(params, start)
-        rows = (actions[start:end], params[start], state[start:end], out[start:end],
-                uniforms[start:end], next_state[start:end], obs[start:end])  # fmt: skip
-        if end - start < 2 * _CHUNK:
+        first, last = start * group, end * group
+        rows = (actions[first:last], params[start], state[first:last], out[first:last],
+                uniforms[first:last], next_state[first:last], obs[first:last])  # fmt: skip
+        if last - first < 2 * _CHUNK:
             _serial(*rows)
         else:
             _parallel(*rows, _CHUNK)

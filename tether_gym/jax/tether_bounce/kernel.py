@@ -41,6 +41,7 @@ from tether_gym.envs.tether_bounce.kernel import (
     SPIN_SCALE,
     STATE,
     TETHER_LENGTH,
+    UNIFORMS,
     BounceConfig,
     TetherBounceKernel,
 )
@@ -63,13 +64,6 @@ stiffness_for_rho = stiffness_for_rho.py_func  # plain arithmetic: the one formu
 
 JAX_DYNAMICS = ("impulse", "hybrid")
 """The dynamics of the JAX kernel (not pymunk's engine)."""
-RANDOMIZED = ("inertia_ratio", "restitution", "ln_rho")
-"""The quantities drawn from a (low, high) range, in the numba kernel's order; the spin
-disturbance, drawn in +-it, comes after them."""
-UNIFORMS = 1 + 2 + len(RANDOMIZED) + 1
-"""Uniforms an episode may draw: the task (if mixed), the goal's heading and speed, one per
-randomized quantity and the spin. Every episode is handed this many, and uses them in the
-numba kernel's order (`kernel._sample`)."""
 
 
 @dataclasses.dataclass(frozen=True)

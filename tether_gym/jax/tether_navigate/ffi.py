@@ -5,10 +5,11 @@ The numba kernel reads records (`config.STATE`, `config.PARAMS`); jax holds thei
 arrays. Each field travels as its own argument or result, batch first (`jax.ffi.ffi_call` with
 `vmap_method="broadcast_all"`), in the record's order: the state's fields (floats in the width
 jax runs in, counts as int32), then, where the kernel reads them, the params' (`dynamics` a
-constant). A target gathers them into records (`ffi.gather`), runs the kernel once per run of
-lanes with equal params, and scatters the new state's fields back (`ffi.scatter`).
-Observations are in the float width jax runs in; a step's outcome columns are NaN where the
-kernel writes none.
+constant; each params record for `ffi.lanes_per_row` consecutive lanes). A target gathers them
+into records (`ffi.gather`), runs the kernel once per run of lanes with equal params, and
+scatters the new state's fields back (`ffi.scatter`). The fused step's uniforms come as such or
+as the keys they are drawn from. Observations are in the float width jax runs in; a step's
+outcome columns are NaN where the kernel writes none.
 """
 
 from __future__ import annotations
@@ -20,10 +21,11 @@ import numpy as np
 from numba import carray
 
 from tether_gym.envs.tether_navigate import kernel
+from tether_gym.envs.tether_navigate.arguments import UNIFORMS
 from tether_gym.envs.tether_navigate.config import PARAMS, STATE
 from tether_gym.envs.tether_navigate.sampling import reset_rows
 from tether_gym.envs.tether_navigate.spaces import OBSERVATION, observe_all
-from tether_gym.jax import ffi
+from tether_gym.jax import ffi, threefry
 
 _STATE_TABLE, _PARAMS_TABLE = ffi.record_table(STATE), ffi.record_table(PARAMS)
 _STATE_FIELDS, _PARAMS_FIELDS = len(STATE.names), len(PARAMS.names)
@@ -41,9 +43,9 @@ def _records(raw, start, end, dtype, size):
 
 
 @numba.njit(inline="always")
-def _params(frame, first, rows):
-    """The params arguments from `first` on, one `PARAMS` record per row."""
-    raw = np.empty((rows, _PARAMS_SIZE), np.uint8)
+def _params(frame, first):
+    """The params arguments from `first` on, as `PARAMS` records (one per row)."""
+    raw = np.empty((ffi.record_rows(frame, first, _PARAMS_TABLE), _PARAMS_SIZE), np.uint8)
     ffi.gather(frame, first, _PARAMS_TABLE, raw)
     return raw
 
@@ -63,13 +65,15 @@ def _reset(address):
         return ffi.success()
     uniforms = ffi.f64_in(frame, 0)
     rows = uniforms.shape[0]
-    params, state = _params(frame, 1, rows), np.empty((rows, _STATE_SIZE), np.uint8)
+    params, state = _params(frame, 1), np.empty((rows, _STATE_SIZE), np.uint8)
     obs = np.empty((rows, _WIDTH), np.float64)
+    group = ffi.lanes_per_row(rows, params.shape[0])
     start = 0
-    while start < rows:
+    while start < params.shape[0]:
         end = ffi.same_rows(params, start)
-        reset_rows(uniforms[start:end], _records(params, start, start + 1, PARAMS, _PARAMS_SIZE),
-                   _records(state, start, end, STATE, _STATE_SIZE), obs[start:end])  # fmt: skip
+        first, last = start * group, end * group
+        reset_rows(uniforms[first:last], _records(params, start, start + 1, PARAMS, _PARAMS_SIZE),
+                   _records(state, first, last, STATE, _STATE_SIZE), obs[first:last])  # fmt: skip
         start = end
     ffi.scatter(frame, 0, _STATE_TABLE, state)
     return ffi.success()
@@ -82,13 +86,15 @@ def _observe(address):
         return ffi.success()
     obs = ffi.f64_out(frame, 0)
     rows = obs.shape[0]
-    state, params = _state(frame, rows), _params(frame, _STATE_FIELDS, rows)
+    state, params = _state(frame, rows), _params(frame, _STATE_FIELDS)
+    group = ffi.lanes_per_row(rows, params.shape[0])
     start = 0
-    while start < rows:
+    while start < params.shape[0]:
         end = ffi.same_rows(params, start)
-        observe_all(_records(state, start, end, STATE, _STATE_SIZE),
+        first, last = start * group, end * group
+        observe_all(_records(state, first, last, STATE, _STATE_SIZE),
                     _records(params, start, start + 1, PARAMS, _PARAMS_SIZE),
-                    obs[start:end])  # fmt: skip
+                    obs[first:last])  # fmt: skip
         start = end
     ffi.f64_store(frame, 0, obs)
     return ffi.success()
@@ -101,18 +107,20 @@ def _step_target(address):
         return ffi.success()
     actions = ffi.f64_in(frame, _STATE_FIELDS)
     rows = actions.shape[0]
-    state, params = _state(frame, rows), _params(frame, _STATE_FIELDS + 1, rows)
+    state, params = _state(frame, rows), _params(frame, _STATE_FIELDS + 1)
     new = np.empty((rows, _STATE_SIZE), np.uint8)
     obs = np.empty((rows, _WIDTH), np.float64)
     out = ffi.f64_out(frame, _STATE_FIELDS)
     out[:] = np.nan
+    group = ffi.lanes_per_row(rows, params.shape[0])
     start = 0
-    while start < rows:
+    while start < params.shape[0]:
         end = ffi.same_rows(params, start)
-        _step(actions[start:end], _records(params, start, start + 1, PARAMS, _PARAMS_SIZE),
-              _records(state, start, end, STATE, _STATE_SIZE),
-              _records(new, start, end, STATE, _STATE_SIZE), obs[start:end],
-              out[start:end])  # fmt: skip
+        first, last = start * group, end * group
+        _step(actions[first:last], _records(params, start, start + 1, PARAMS, _PARAMS_SIZE),
+              _records(state, first, last, STATE, _STATE_SIZE),
+              _records(new, first, last, STATE, _STATE_SIZE), obs[first:last],
+              out[first:last])  # fmt: skip
         start = end
     ffi.scatter(frame, 0, _STATE_TABLE, new)
     ffi.f64_store(frame, _STATE_FIELDS, out)
@@ -120,27 +128,32 @@ def _step_target(address):
 
 
 def _autoreset(address):
-    """(*state, actions, uniforms, *params) -> (*next state, its observations, the observations
-    the step ended on, outcomes), by `_serial` or, across threads from two `_CHUNK`s of rows,
-    `_parallel`."""
+    """(*state, actions, uniforms or keys, *params) -> (*next state, its observations, the
+    observations the step ended on, outcomes), by `_serial` or, across threads from two
+    `_CHUNK`s of rows, `_parallel`; from keys, the uniforms drawn first
+    (`threefry.uniforms_in`)."""
     frame = ffi.call_frame(address)
     if ffi.answered_metadata(frame):
         return ffi.success()
-    actions, uniforms = ffi.f64_in(frame, _STATE_FIELDS), ffi.f64_in(frame, _STATE_FIELDS + 1)
+    actions = ffi.f64_in(frame, _STATE_FIELDS)
     rows = actions.shape[0]
-    state, params = _state(frame, rows), _params(frame, _STATE_FIELDS + 2, rows)
+    wide = ffi.buffer(frame, False, _STATE_FIELDS)[1] == ffi.F64
+    uniforms = threefry.uniforms_in(frame, _STATE_FIELDS + 1, rows, UNIFORMS, wide)
+    state, params = _state(frame, rows), _params(frame, _STATE_FIELDS + 2)
     new = np.empty((rows, _STATE_SIZE), np.uint8)
     obs, final_obs = ffi.f64_out(frame, _STATE_FIELDS), ffi.f64_out(frame, _STATE_FIELDS + 1)
     out = ffi.f64_out(frame, _STATE_FIELDS + 2)
     out[:] = np.nan
+    group = ffi.lanes_per_row(rows, params.shape[0])
     start = 0
-    while start < rows:
+    while start < params.shape[0]:
         end = ffi.same_rows(params, start)
-        arrays = (actions[start:end], _records(params, start, start + 1, PARAMS, _PARAMS_SIZE),
-                  _records(state, start, end, STATE, _STATE_SIZE),
-                  _records(new, start, end, STATE, _STATE_SIZE), final_obs[start:end],
-                  out[start:end], uniforms[start:end], obs[start:end])  # fmt: skip
-        if end - start < 2 * _CHUNK:
+        first, last = start * group, end * group
+        arrays = (actions[first:last], _records(params, start, start + 1, PARAMS, _PARAMS_SIZE),
+                  _records(state, first, last, STATE, _STATE_SIZE),
+                  _records(new, first, last, STATE, _STATE_SIZE), final_obs[first:last],
+                  out[first:last], uniforms[first:last], obs[first:last])  # fmt: skip
+        if last - first < 2 * _CHUNK:
             _serial(*arrays)
         else:
             _parallel(*arrays, _CHUNK)

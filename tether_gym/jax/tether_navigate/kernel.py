@@ -36,7 +36,7 @@ import numpy as np
 from jax.typing import ArrayLike
 
 from tether_gym.envs.kernels import HYBRID, IMPULSE
-from tether_gym.envs.tether_navigate.arguments import NavigateConfig
+from tether_gym.envs.tether_navigate.arguments import UNIFORMS, NavigateConfig
 from tether_gym.envs.tether_navigate.config import (
     ARM,
     CELL_X,
@@ -62,10 +62,6 @@ from tether_gym.tasks import navigate as task
 JAX_DYNAMICS = {"impulse": IMPULSE, "hybrid": HYBRID}
 """The dynamics of the JAX kernel, by name, and their codes (not pymunk's engine)."""
 CELLS = GRID[0] * GRID[1]
-UNIFORMS = 3 * (MAX_ANCHORS + MAX_POSTS + 2) + 3
-"""Uniforms an episode may draw: the most any configuration draws (`NavigateConfig.n_uniforms`:
-the cells of 12 pegs, 4 posts, the goal and the start, their jitter, the start's heading, speed
-and orientation); a configuration uses the first `n_uniforms()` of them."""
 
 
 @dataclasses.dataclass(frozen=True)

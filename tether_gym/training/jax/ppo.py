@@ -230,7 +230,6 @@ def make_stages(config: PPOConfig):
     learn = make_learner(config, net)
     n_envs, n_steps = config.n_envs, config.n_steps
     func = env.func_env
-    vstep = jax.vmap(func.step_autoreset, in_axes=(0, 0, 0, None))
     vreset = jax.vmap(env.reset_env, in_axes=(0, None))
     column = func.kernel.outcome.index
     success_column = column.get("is_success")
@@ -247,9 +246,8 @@ def make_stages(config: PPOConfig):
         action = mean + jnp.exp(log_std) * jax.random.normal(k_act, mean.shape)
         log_prob = gaussian_log_prob(action, mean, log_std)
         # the step and the finished episodes' next ones, in one call (one numba call on a CPU)
-        uniforms = func.uniforms(k_step, (n_envs,))
-        env_state, obs, final_obs, outcome = vstep(
-            state.env_state, jnp.clip(action, low, high), uniforms, env_params
+        env_state, obs, final_obs, outcome = func.step_autoreset_batch(
+            state.env_state, jnp.clip(action, low, high), k_step, env_params
         )
         reward, truncated = outcome[:, column["reward"]], outcome[:, column["truncated"]] != 0.0
         done = (outcome[:, column["terminated"]] != 0.0) | truncated
