@@ -57,6 +57,18 @@ def median_seconds(run: Callable[[], object], repeat: int, warm_up: bool = True)
     return statistics.median(times)
 
 
+def interleaved_seconds(runs: dict[str, Callable[[], object]], repeat: int) -> dict[str, list]:
+    """Each run's wall times over `repeat` rounds in which the runs take turns, so that every
+    run of a round meets the same machine (a ratio of two is then taken round by round)."""
+    times: dict[str, list] = {name: [] for name in runs}
+    for _ in range(repeat):
+        for name, run in runs.items():
+            start = time.perf_counter()
+            run()
+            times[name].append(time.perf_counter() - start)
+    return times
+
+
 def output_arguments(parser: argparse.ArgumentParser, flag: str = "--json") -> None:
     """`flag PATH` (the results file to write) and `--overwrite` (replace it)."""
     parser.add_argument(flag, type=Path, default=None, help="write the results file here")

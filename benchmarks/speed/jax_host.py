@@ -6,10 +6,10 @@ at batches 1, 64 and 1,024 (`--full`: and 16,384), uniform random actions in [-1
 median over `--repeats` of:
 
 - `host jax`: the numba kernels called from jitted code (`tether_gym.jax.host`): the fused step
-  with its autoreset (`host_step_autoreset`, vmapped: one numba call per batch) in a
-  `fori_loop` inside one `jit`, as an agent compiled with the env runs it: the actions from
-  `ACTION_POOL` batches drawn beforehand (as the numba env's), the episodes' uniforms drawn at
-  each step as the JAX env draws them (`uniforms`: jax.random's threefry, computed by numba);
+  with its autoreset (`step_autoreset_batch`: one numba call per batch) in a `fori_loop` inside
+  one `jit`, as an agent compiled with the env runs it: the actions from `ACTION_POOL` batches
+  drawn beforehand (as the numba env's), the episodes' uniforms drawn at each step as the JAX
+  env draws them (jax.random's threefry, computed by numba in the same call);
 - `xla jax`: the XLA kernels (`step_episode` through `JaxVectorEnv.step_batch`) in the same loop
   with the same pool of actions (`benchmarks.speed.jax_throughput.scan_program`), skipped above
   `--xla-max-batch` and, with `--quick`, above batch 64;
@@ -17,8 +17,9 @@ median over `--repeats` of:
   stepped from Python (its uniforms from numpy's generator, in blocks).
 
 A TetherNavigate step is a maneuver, a TetherBounce step an episode. Each JAX figure comes with
-its compile seconds (trace, lower, compile of the timed program); the ratios are against the
-numba figure of the same run. float64 (`jax_enable_x64`) unless `--precision float32`.
+its compile seconds (trace, lower, compile of the timed program). The three take turns in each
+of the `--repeats` rounds (this machine's speed drifts within a run); a ratio to numba is the
+median of the rounds' ratios. float64 (`jax_enable_x64`) unless `--precision float32`.
 `--quick`: one repeat, the XLA kernels at batches 1 and 64 only; `--xla-max-batch N`: the XLA
 kernels at batches up to N only. `--json PATH` writes the rows
 (refused if the file exists, unless `--overwrite`).
@@ -38,18 +39,19 @@ from pathlib import Path
 import gymnasium as gym
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 import tether_gym  # noqa: F401  (registers the ids)
-from benchmarks.common import output_arguments, refuse_existing
+from benchmarks.common import interleaved_seconds, output_arguments, refuse_existing
 from benchmarks.speed.jax_throughput import (
     ACTION_POOL,
     IDS,
     action_pool,
-    jax_scan_rate,
     load,
     machine,
+    scan_block,
     scan_program,
-    vector_rate,
+    vector_block,
 )
 from tether_gym.evaluation import results_file
 from tether_gym.jax import host
@@ -74,14 +76,11 @@ def host_program(family: str, kwargs: dict, n: int):
     steps)` running `steps` fused steps of `n` copies in one `fori_loop`, the actions' pool
     going on from where the last call left off (as `scan_program`'s)."""
     func = host.functional(family, "host", **gym.spec(IDS[family][1]).kwargs, **kwargs)
-    fns = host.BOUNCE if family == "TetherBounce" else host.NAVIGATE
     params = func.default_params
     width, dtype = func.action_space.shape[0], float_dtype()
     key, draw = jax.random.split(jax.random.PRNGKey(0))
     uniforms = func.uniforms(draw, (n,))
     state = jax.jit(jax.vmap(func.initial_from_uniforms, in_axes=(0, None)))(uniforms, params)
-    fused = jax.vmap(fns.host_step_autoreset, in_axes=(0, 0, 0, None))
-
     pool = action_pool(draw, n, width)
 
     def run(carry, steps):
@@ -89,8 +88,8 @@ def host_program(family: str, kwargs: dict, n: int):
             state, key, total, count = carry
             key, draw_uniforms = jax.random.split(key)
             actions = pool[count % ACTION_POOL]
-            u = func.uniforms(draw_uniforms, (n,))
-            state, obs, _, outcome = fused(state, actions, u, params)
+            step = func.step_autoreset_batch
+            state, obs, _, outcome = step(state, actions, draw_uniforms, params)
             return state, key, total + outcome[:, 0].sum() + obs[:, 0].sum(), count + 1
 
         return jax.lax.fori_loop(0, steps, step, carry)
@@ -104,6 +103,21 @@ def timed_program(build, *args) -> tuple:
     start = time.perf_counter()
     compiled, carry = build(*args)
     return compiled, carry, time.perf_counter() - start
+
+
+def interleaved_rates(blocks: dict[str, tuple], n: int, repeats: int) -> dict[str, float]:
+    """Maneuvers per second of each timed block (`(run, steps)`, by column: "host_jax",
+    "numba_vec", "xla_jax" where built), the blocks taking turns over `repeats` rounds, each
+    the median of its rounds; and "host_over_numba" and "xla_over_numba" (NaN where not
+    built), the median of the rounds' ratios."""
+    runs = {name: run for name, (run, _) in blocks.items()}
+    rates = {name: n * blocks[name][1] / np.array(seconds)
+             for name, seconds in interleaved_seconds(runs, repeats).items()}  # fmt: skip
+    row = {name: float(np.median(rate)) for name, rate in rates.items()}
+    for side in ("host", "xla"):
+        ratios = rates[f"{side}_jax"] / rates["numba_vec"] if f"{side}_jax" in rates else np.nan
+        row[f"{side}_over_numba"] = float(np.median(ratios))
+    return row
 
 
 def xla_reason(n: int, quick: bool, largest: int | None) -> str | None:
@@ -158,22 +172,20 @@ def main(argv: list[str] | None = None) -> None:
         for n in args.batches:
             name = f"{family} {' '.join(kwargs.values())}"
             row = {"family": family, **kwargs, "batch": n}
+            blocks = {}
             compiled, carry, seconds = timed_program(host_program, family, kwargs, n)
-            row["host_jax"] = jax_scan_rate(compiled, carry, n, args.repeats)
+            blocks["host_jax"] = scan_block(compiled, carry)
             row["host_compile_s"] = round(seconds, 2)
-            del compiled, carry
             reason = "--no-xla" if args.no_xla else xla_reason(n, args.quick, args.xla_max_batch)
             row["xla_jax"] = row["xla_compile_s"] = None
             if reason is None:
                 compiled, carry, seconds = timed_program(scan_program, jax_id, kwargs, n, True)
-                row["xla_jax"] = jax_scan_rate(compiled, carry, n, args.repeats)
+                blocks["xla_jax"] = scan_block(compiled, carry)
                 row["xla_compile_s"] = round(seconds, 2)
-                del compiled, carry
             else:
                 details["skipped"][f"{name} {n}"] = reason
-            row["numba_vec"] = vector_rate(numba_id, kwargs, n, args.repeats)
-            row["host_over_numba"] = row["host_jax"] / row["numba_vec"]
-            row["xla_over_numba"] = (row["xla_jax"] or nan) / row["numba_vec"]
+            with vector_block(numba_id, kwargs, n) as numba_block:
+                row.update(interleaved_rates({**blocks, "numba_vec": numba_block}, n, args.repeats))
             rows.append(row)
             print(f"{name:32} {n:6d} {row['host_jax']:10.0f} {row['xla_jax'] or nan:10.0f} "
                   f"{row['numba_vec']:10.0f} {row['host_over_numba']:10.2f} "

@@ -42,7 +42,9 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from pathlib import Path
 
 import gymnasium as gym
@@ -88,7 +90,7 @@ def block_length(seconds_per_step: float) -> int:
     return max(1, int(MIN_SECONDS / max(seconds_per_step, 1e-7)))
 
 
-def median_rate(run, n: int, steps: int, repeats: int) -> float:
+def median_rate(run: Callable[[], None], steps: int, n: int, repeats: int) -> float:
     """Env steps per second: n * steps over the median seconds `run()` takes in `repeats`
     calls (it runs `steps` steps of n copies)."""
     return n * steps / median_seconds(run, repeats, warm_up=False)
@@ -148,24 +150,31 @@ def compile_programs(jobs: list[tuple[str, dict, int]]) -> dict[tuple, tuple]:
     return dict(zip(keys, built, strict=True))
 
 
-def jax_scan_rate(compiled, carry, n: int, repeats: int) -> float:
-    """`jax scan` steps per second of a `scan_program`; each timed block goes on from where the
-    last one ended."""
+def scan_block(compiled, carry) -> tuple[Callable[[], None], int]:
+    """A timed block of a `scan_program`: `(run, steps)`, `run()` stepping `steps` fused steps,
+    each block going on from where the last one ended."""
     one = jnp.int32(1)
     carry = jax.block_until_ready(compiled(carry, one))
     start = time.perf_counter()
     carry = jax.block_until_ready(compiled(carry, one))
     steps = jnp.int32(block_length(time.perf_counter() - start))
 
-    def timed():
+    def run() -> None:
         nonlocal carry
         carry = jax.block_until_ready(compiled(carry, steps))
 
-    return median_rate(timed, n, int(steps), repeats)
+    return run, int(steps)
 
 
-def vector_rate(env_id: str, kwargs: dict, n: int, repeats: int) -> float:
-    """`jax vec` or `numba vec` (module docstring): Gymnasium's `step` in a Python loop."""
+def jax_scan_rate(compiled, carry, n: int, repeats: int) -> float:
+    """`jax scan` steps per second of a `scan_program`."""
+    return median_rate(*scan_block(compiled, carry), n=n, repeats=repeats)
+
+
+@contextmanager
+def vector_block(env_id: str, kwargs: dict, n: int) -> Iterator[tuple[Callable[[], None], int]]:
+    """A timed block of `jax vec` or `numba vec` (module docstring): `(run, steps)`, `run()`
+    calling Gymnasium's `step` `steps` times in a Python loop; the env closed on exit."""
     env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point",
                        **xla(env_id, kwargs))  # fmt: skip
     env.reset(seed=0)
@@ -177,13 +186,20 @@ def vector_rate(env_id: str, kwargs: dict, n: int, repeats: int) -> float:
     env.step(pool[1])
     steps = block_length(time.perf_counter() - start)
 
-    def run():
+    def run() -> None:
         for i in range(steps):
             env.step(pool[i % ACTION_POOL])
 
-    rate = median_rate(run, n, steps, repeats)
-    env.close()
-    return rate
+    try:
+        yield run, steps
+    finally:
+        env.close()
+
+
+def vector_rate(env_id: str, kwargs: dict, n: int, repeats: int) -> float:
+    """`jax vec` or `numba vec` steps per second."""
+    with vector_block(env_id, kwargs, n) as (run, steps):
+        return median_rate(run, steps, n=n, repeats=repeats)
 
 
 def compile_once(env_id: str, kwargs: dict, n: int, precision: str) -> dict:
