@@ -413,7 +413,9 @@ def interrupted(tmp_path_factory):
 def test_ctrl_c_while_compiling_exits_at_once_with_one_line(interrupted):
     run_dir, _, _, (code, out, err, left, cached), _ = interrupted
     assert "compiling PPO" in out and "compiled in" not in out  # stopped in the compile
-    assert (left, cached) == (["config.yaml"], [])  # no checkpoint; nothing compiled was kept
+    assert left == ["config.yaml"]  # no checkpoint
+    # the interrupted compile left nothing in jax's cache (a program compiled before it may be)
+    assert not [name for name in cached if name.startswith("jit_update")]
     assert code == 130
     assert err == f"\ntether-train: interrupted; {run_dir} holds no checkpoint yet: the same " \
         "command starts the run again\n"  # fmt: skip
