@@ -42,6 +42,7 @@ functions; `functional(family, kernel=...)` builds either backend's.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -106,7 +107,24 @@ def _ffi(
     return lane(list(lanes), list(shared))
 
 
-class BounceHost:
+class FamilyHost:
+    """What both families' host kernels share: a batch's fused step with its uniforms drawn in
+    the call. Each family implements `_autoreset`, its fused step's FFI call (the uniforms one
+    lane's argument, or the keys shared, for a `batch`)."""
+
+    def _autoreset(self, state, action, params, uniforms, keys=(), batch=()) -> tuple:
+        raise NotImplementedError
+
+    def host_step_autoreset_batch(
+        self, state, actions: jax.Array, words: jax.Array, params
+    ) -> tuple[Any, jax.Array, jax.Array, jax.Array]:
+        """`host_step_autoreset` of a batch (the leading axis), its uniforms drawn in the same
+        numba call from the key of `words` (`threefry.key_words`), as `threefry.uniform(key,
+        (batch, UNIFORMS))` draws them."""
+        return self._autoreset(state, actions, params, [], [words], (actions.shape[0],))
+
+
+class BounceHost(FamilyHost):
     """TetherBounce's numba kernel behind the XLA kernel's functions
     (`jax.tether_bounce.kernel`), as XLA FFI calls (`jax.tether_bounce.ffi`): no Python runs
     between the jitted program and the kernel."""
@@ -156,14 +174,6 @@ class BounceHost:
         state's `outcome` is zeros (a new episode)."""
         return self._autoreset(state, action, params, [jnp.asarray(uniforms, float_dtype())])
 
-    def host_step_autoreset_batch(
-        self, state: bounce.EnvState, actions: jax.Array, words: jax.Array, params
-    ) -> tuple[bounce.EnvState, jax.Array, jax.Array, jax.Array]:
-        """`host_step_autoreset` of a batch (the leading axis), its uniforms drawn in the same
-        numba call from the key of `words` (`threefry.key_words`), as `threefry.uniform(key,
-        (batch, UNIFORMS))` draws them."""
-        return self._autoreset(state, actions, params, [], [words], (actions.shape[0],))
-
     def _autoreset(self, state, action, params, uniforms, keys=(), batch=()) -> tuple:
         """The fused step's FFI call: the uniforms one lane's argument, or the keys shared."""
         dtype = float_dtype()
@@ -176,7 +186,7 @@ class BounceHost:
         return bounce.EnvState.of_row(row, jnp.zeros_like(outcome)), obs, final_obs, outcome
 
 
-class NavigateHost:
+class NavigateHost(FamilyHost):
     """TetherNavigate's numba kernel behind the XLA kernel's functions
     (`jax.tether_navigate.kernel`), as XLA FFI calls (`jax.tether_navigate.ffi`): no Python runs
     between the jitted program and the kernel."""
@@ -249,14 +259,6 @@ class NavigateHost:
         `base.JaxVectorEnv`'s)."""
         return self._autoreset(state, action, params, [jnp.asarray(uniforms, float_dtype())])
 
-    def host_step_autoreset_batch(
-        self, state: navigate.EnvState, actions: jax.Array, words: jax.Array, params
-    ) -> tuple[navigate.EnvState, jax.Array, jax.Array, jax.Array]:
-        """`host_step_autoreset` of a batch (the leading axis), its uniforms drawn in the same
-        numba call from the key of `words` (`threefry.key_words`), as `threefry.uniform(key,
-        (batch, UNIFORMS))` draws them."""
-        return self._autoreset(state, actions, params, [], [words], (actions.shape[0],))
-
     def _autoreset(self, state, action, params, uniforms, keys=(), batch=()) -> tuple:
         """The fused step's FFI call: the uniforms one lane's argument, or the keys shared."""
         dtype = float_dtype()
@@ -284,7 +286,7 @@ class HostFunctional(KernelFuncEnv):
     computed by the numba kernel (`host`: `BOUNCE` or `NAVIGATE`): the same arguments, states,
     params and outputs as the XLA kernel's `FuncEnv` it is mixed into."""
 
-    host: BounceHost | NavigateHost
+    host: FamilyHost
 
     def uniforms(self, key: jax.Array, batch: tuple[int, ...] = ()) -> jax.Array:
         """`KernelFuncEnv.uniforms`'s numbers, drawn by numba (`threefry.uniform`)."""
@@ -356,6 +358,7 @@ __all__ = [
     "KERNELS",
     "NAVIGATE",
     "BounceHost",
+    "FamilyHost",
     "HostBounceFunctional",
     "HostNavigateFunctional",
     "NavigateHost",

@@ -81,11 +81,23 @@ def _blocks(k0, k1, upper, high, low):
         lower += _U32(1)
 
 
+@numba.njit(inline="always")
+def _floats(high, low, row):
+    """jax's floats of the blocks into `row`: in float64 the 52 bits below the block's top (the
+    high word first) times 2**-52, `(1 + m) - 1` exactly; in float32 the top 23 bits of the
+    words xor-ed, times 2**-23."""
+    if row.itemsize == 8:
+        for t in range(row.shape[0]):
+            row[t] = np.float64(high[t]) * 2.0**-32 + np.float64(low[t] >> _U32(12)) * 2.0**-52
+    else:
+        for t in range(row.shape[0]):
+            row[t] = np.float32(np.int32((high[t] ^ low[t]) >> _U32(9))) * np.float32(2.0**-23)
+
+
 @numba.njit(cache=True)
-def fill_float64(keys, out):
-    """Row k of `out` ((keys, count) float64): the uniforms of key k ((keys, 2) uint32). Each
-    is the 52 bits below the block's top (the high word first) times 2**-52: `(1 + m) - 1`,
-    jax's float, exactly."""
+def fill(keys, out):
+    """Row k of `out` ((keys, count), float64 or float32): the uniforms of key k ((keys, 2)
+    uint32)."""
     count = out.shape[1]
     high, low = np.empty(min(count, _SEGMENT), np.uint32), np.empty(min(count, _SEGMENT), np.uint32)
     for k in range(keys.shape[0]):
@@ -93,24 +105,7 @@ def fill_float64(keys, out):
         for start in range(0, count, _SEGMENT):
             n = min(count - start, _SEGMENT)
             _blocks(k0, k1, _U32(start >> 32), high[:n], low[:n])
-            row = out[k, start : start + n]
-            for t in range(n):
-                row[t] = np.float64(high[t]) * 2.0**-32 + np.float64(low[t] >> _U32(12)) * 2.0**-52
-
-
-@numba.njit(cache=True)
-def fill_float32(keys, out):
-    """`fill_float64` in float32: the top 23 bits of the block's words xor-ed, times 2**-23."""
-    count = out.shape[1]
-    high, low = np.empty(min(count, _SEGMENT), np.uint32), np.empty(min(count, _SEGMENT), np.uint32)
-    for k in range(keys.shape[0]):
-        k0, k1 = _U32(keys[k, 0]), _U32(keys[k, 1])
-        for start in range(0, count, _SEGMENT):
-            n = min(count - start, _SEGMENT)
-            _blocks(k0, k1, _U32(start >> 32), high[:n], low[:n])
-            row = out[k, start : start + n]
-            for t in range(n):
-                row[t] = np.float32(np.int32((high[t] ^ low[t]) >> _U32(9))) * np.float32(2.0**-23)
+            _floats(high, low, out[k, start : start + n])
 
 
 @numba.njit(inline="always")
@@ -126,10 +121,10 @@ def uniforms_in(frame, i, lanes, count, wide):
     each = ffi.lanes_per_row(lanes, keys.shape[0]) * count
     uniforms = np.empty((lanes, count), np.float64)
     if wide:
-        fill_float64(keys, uniforms.reshape(keys.shape[0], each))
+        fill(keys, uniforms.reshape(keys.shape[0], each))
     else:
         narrow = np.empty((keys.shape[0], each), np.float32)
-        fill_float32(keys, narrow)
+        fill(keys, narrow)
         uniforms[:] = narrow.reshape(lanes, count)
     return uniforms
 
@@ -145,9 +140,9 @@ def _uniform(address):
     keys = carray(ffi.pointer(key_address), (n_keys, 2), np.uint32)
     count = rows * columns // n_keys
     if dtype == ffi.F64:
-        fill_float64(keys, carray(ffi.pointer(address), (n_keys, count), np.float64))
+        fill(keys, carray(ffi.pointer(address), (n_keys, count), np.float64))
     else:
-        fill_float32(keys, carray(ffi.pointer(address), (n_keys, count), np.float32))
+        fill(keys, carray(ffi.pointer(address), (n_keys, count), np.float32))
     return ffi.success()
 
 
@@ -173,5 +168,5 @@ def uniform(key: jax.Array, shape: tuple[int, ...]) -> jax.Array:
 
 
 __all__ = [
-    "IMPL", "fill_float32", "fill_float64", "key_words", "threefry2x32", "uniform", "uniforms_in",
+    "IMPL", "fill", "key_words", "threefry2x32", "uniform", "uniforms_in",
 ]  # fmt: skip
