@@ -20,10 +20,11 @@ Compile times alone are measured in fresh processes at one batch (`--compile-bat
 `jit` of the fused step with an empty persistent compilation cache (trace, lower, compile),
 then again with the cache that first run filled. The device, jax's version, the machine's load
 and every figure are printed and, with `--json PATH`, written there with the command and the
-commit (refused if the file exists, unless `--overwrite`). `--quick` is a smoke run (batches 1
-and 64, one repeat, no compile times). `--sides` picks the columns. The same
-script runs on a CUDA device: jax's default device runs the JAX side (printed), numba stays on
-the host's CPU.
+commit (refused if the file exists, unless `--overwrite`), rewritten after every row so that a
+run cut short keeps its rows (`setup.rows_planned` says how many were asked for). `--quick`
+is a smoke run (batches 1 and 64, one repeat, no compile times). `--sides` picks the columns.
+The same script runs on a CUDA device: jax's default device runs the JAX side (printed), numba
+stays on the host's CPU.
 
     python -m benchmarks.speed.jax_throughput --batches 1 64 1024 16384 \
         --json results/jax/throughput.json
@@ -335,6 +336,17 @@ def main() -> None:
               f"({os.cpu_count()} threads)", flush=True)  # fmt: skip
     print(f"{'configuration':16} {'batch':>6} {'jax scan':>12} {'jax vec':>12} "
           f"{'numba vec':>12} {'scan/numba':>10}   (steps/s)")  # fmt: skip
+    setup = {"env": args.env, "precision": args.precision, "repeats": args.repeats,
+             "sides": list(args.sides), "rows_planned": len(jobs)}  # fmt: skip
+
+    def save() -> None:
+        """The rows so far to `--json`: a run cut short (a time limit) keeps what it measured."""
+        if args.json:
+            seconds = round(time.perf_counter() - start, 1)
+            command = results_file.script_command(__file__)
+            record = results_file.record(command, rows, setup, details, seconds)
+            results_file.write(args.json, record, lambda data: json.dumps(data, indent=2))
+
     nan = float("nan")
     for env_id, kwargs, n in jobs:
         row = {**kwargs, "batch": n, "jax_scan": None, "jax_vec": None, "numba_vec": None}
@@ -351,14 +363,10 @@ def main() -> None:
         scan, vec, numba_rate = (row[k] or nan for k in ("jax_scan", "jax_vec", "numba_vec"))
         print(f"{label(kwargs):16} {n:6d} {scan:12.0f} {vec:12.0f} {numba_rate:12.0f} "
               f"{scan / numba_rate:10.2f}", flush=True)  # fmt: skip
+        save()
     details["load_after"] = load()
     print(f"load after: {details['load_after']}")
-    if args.json:
-        setup = {"env": args.env, "precision": args.precision, "repeats": args.repeats,
-                 "sides": list(args.sides)}  # fmt: skip
-        record = results_file.record(results_file.script_command(__file__), rows, setup, details,
-                                     round(time.perf_counter() - start, 1))  # fmt: skip
-        results_file.write(args.json, record, lambda data: json.dumps(data, indent=2))
+    save()
 
 
 if __name__ == "__main__":
