@@ -191,13 +191,14 @@ def sample_episode(uniforms: jax.Array, params: EnvParams) -> EnvState:
     u = jnp.asarray(uniforms, dtype)
     na, npo = jnp.asarray(params.n_anchors), jnp.asarray(params.n_posts)
     used = na + npo + 2
-    # the drawn table
-    cells = jnp.arange(CELLS)
-    for j in range(MAX_ANCHORS + MAX_POSTS + 2):
+
+    def shuffle(j, cells):  # one swap of the drawn table's shuffle
         swap = j + jnp.minimum(jnp.floor(u[j] * (CELLS - j)).astype(jnp.int32), CELLS - j - 1)
         a, b = cells[j], cells[swap]
         swapped = cells.at[j].set(b).at[swap].set(a)
-        cells = jnp.where(j < used, swapped, cells)
+        return jnp.where(j < used, swapped, cells)
+
+    cells = jax.lax.fori_loop(0, MAX_ANCHORS + MAX_POSTS + 2, shuffle, jnp.arange(CELLS))
     j = jnp.arange(MAX_ANCHORS + MAX_POSTS + 2)
     k = used
     index = jnp.minimum(k + 2 * j, u.shape[0] - 2)
