@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib
 import os
 import pkgutil
+import sys
 from unittest import mock
 
 import pytest
@@ -77,6 +78,38 @@ def test_jax_host_writes_its_rows_and_keeps_an_existing_file(tmp_path):
         assert row["host_over_numba"] == row["host_jax"] / row["numba_vec"]
     with pytest.raises(SystemExit):
         jax_host.main(argv)
+
+
+def test_jax_throughput_keeps_the_rows_measured_before_it_is_cut_short(tmp_path, monkeypatch):
+    """`speed/jax_throughput.py` rewrites its `--json` after every row: a run stopped in its
+    second row (here by Ctrl-C) leaves the first row, and says how many rows were asked for."""
+    jax = pytest.importorskip("jax")
+    from benchmarks.speed import jax_throughput
+    from tether_gym.evaluation import results_file
+
+    out = tmp_path / "throughput.json"
+    batches = []
+
+    def rate(env_id, kwargs, n, repeats):
+        batches.append(n)
+        if len(batches) == 2:
+            raise KeyboardInterrupt
+        return 1000.0 * n
+
+    monkeypatch.setattr(jax_throughput, "vector_rate", rate)
+    monkeypatch.setattr(sys, "argv", [
+        "jax_throughput", "--dynamics", "impulse", "--batches", "1", "64", "--repeats", "1",
+        "--no-compile", "--sides", "numba", "--json", str(out),
+    ])  # fmt: skip
+    x64 = jax.config.jax_enable_x64
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            jax_throughput.main()
+    finally:
+        jax.config.update("jax_enable_x64", x64)
+    data = results_file.read(out)
+    assert [(row["batch"], row["numba_vec"]) for row in data["rows"]] == [(1, 1000.0)]
+    assert data["setup"]["rows_planned"] == 2
 
 
 def test_jax_per_thread_caps_both_kernels_contacts_and_refuses_a_cap_below_one(capsys):

@@ -454,18 +454,26 @@ def _cascade(advance, problem, carry):
     width = min(n, NARROW)
     if width == n:
         return run_while((problem, carry), 0)
-    carry = run_while((problem, carry), max(n // CASCADE, width))
+    most = max(n // CASCADE, width)
+    carry = run_while((problem, carry), most)
+    # the lanes still active, in order (n: none): the blocks look for their lanes among these
+    # alone, not among the whole batch at every block
+    queue = jnp.nonzero(~carry.done, size=most, fill_value=n)[0]
+
+    def queued_active(full):
+        return ~full.done.at[queue].get(mode="fill", fill_value=True)
 
     def block(full):
-        active = ~full.done
-        slots = jnp.nonzero(active, size=width, fill_value=n)[0]
+        active = queued_active(full)
+        picks = jnp.nonzero(active, size=width, fill_value=most)[0]
+        slots = queue.at[picks].get(mode="fill", fill_value=n)
         lanes = jax.tree.map(partial(jnp.take, indices=jnp.minimum(slots, n - 1), axis=0),
                              (problem, full))  # fmt: skip
         lanes = lanes[0], lanes[1]._replace(done=lanes[1].done | (slots == n))
         last = jnp.sum(active) <= width
         return _scatter(full, slots, run_while(lanes, jnp.where(last, 0, width // CASCADE)))
 
-    return lax.while_loop(lambda full: jnp.any(~full.done), block, carry)
+    return lax.while_loop(lambda full: jnp.any(queued_active(full)), block, carry)
 
 
 def _scatter(full, index: jax.Array, part):
