@@ -86,10 +86,9 @@ def host_program(family: str, kwargs: dict, n: int):
     def run(carry, steps):
         def step(_, carry):
             state, key, total, count = carry
-            key, draw_uniforms = jax.random.split(key)
+            key, draw = jax.random.split(key)
             actions = pool[count % ACTION_POOL]
-            step = func.step_autoreset_batch
-            state, obs, _, outcome = step(state, actions, draw_uniforms, params)
+            state, obs, _, outcome = func.step_autoreset_batch(state, actions, draw, params)
             return state, key, total + outcome[:, 0].sum() + obs[:, 0].sum(), count + 1
 
         return jax.lax.fori_loop(0, steps, step, carry)
