@@ -39,6 +39,10 @@ class WarmUp:
     each deciding on one observation and on a batch."""
     batch_agents: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     """The same for agents that decide on the env's batch kernel: on a batch only."""
+    host_kernel: bool = False
+    """Whether its JAX backend's envs take `kernel="host"` (the numba kernels called from
+    jitted code through FFI handlers, `jax.host`): where the `jax` extra is installed, each
+    build's JAX env and vector env are stepped on it too, so that the handlers compile."""
 
 
 @dataclass(frozen=True)
@@ -164,7 +168,9 @@ BOUNCE = Family(
     metrics=("heading_error_mean_deg",),
     card_episodes=10_000,
     card_test_episodes=1000,
-    warm=WarmUp("TetherBounce-v0", "tether_gym.envs.tether_bounce.env:KERNEL_BUILDS"),
+    warm=WarmUp(
+        "TetherBounce-v0", "tether_gym.envs.tether_bounce.env:KERNEL_BUILDS", host_kernel=True
+    ),
     run_name_keys=("task", "dynamics"),
     backends=(
         Backend(
@@ -222,6 +228,7 @@ NAVIGATE = Family(
         "tether_gym.envs.tether_navigate.env:KERNEL_BUILDS",
         agents={"greedy": {}, "lookahead": {}},
         batch_agents={"aim-search": {"coast": True}},
+        host_kernel=True,
     ),
     run_name_keys=("task", "dynamics"),
     backends=(

@@ -5,11 +5,17 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from types import SimpleNamespace
+
+import pytest
 
 from tests.helpers import ROOT
 from tests.test_kernel_cache import load_kernel
 from tether_gym import kernel_cache
+from tether_gym.agents import warm
 from tether_gym.agents.warm import compiling
+from tether_gym.algorithms import JAX
+from tether_gym.families import FAMILIES, family, load
 
 BUILD_ONE = """
 from tether_gym.agents.warm import env_kernels
@@ -55,3 +61,47 @@ def test_compiling_says_once_what_compiles_and_quiets_the_kernels_own_lines(
     with compiling("the same kernels") as compiled:
         kernel(2)
     assert compiled == [] and capsys.readouterr().err == ""
+
+
+def test_each_part_plays_every_build_on_the_jax_backends_host_kernel_too(monkeypatch):
+    """`tether compile` with the `jax` extra: the single part steps every warm-up build's JAX
+    env on the host kernel, the vector part its JAX vector env, so that their FFI handlers are
+    cached before a first JAX run (a family whose JAX backend has no host kernel, such as
+    the toy family's in tests/test_toy_family.py, plays none)."""
+    pytest.importorskip("jax")
+    played = []
+    monkeypatch.setattr(warm, "_steps", lambda env_id, kwargs, copies, agent=None: None)
+    monkeypatch.setattr(warm, "make_agent", lambda *args, **kwargs: SimpleNamespace(
+        predict=lambda obs: None))  # fmt: skip
+    monkeypatch.setattr(warm, "_rows", lambda obs, n: obs)
+    monkeypatch.setattr(warm, "_host_steps", lambda backend, env_id, kwargs, copies: played.append(
+        (backend.name, env_id, tuple(sorted(kwargs.items())), copies)))  # fmt: skip
+    expected = {
+        (JAX, f.warm.env_id, tuple(sorted(kwargs.items())))
+        for f in FAMILIES
+        if f.warm is not None and f.warm.host_kernel
+        for kwargs in load(f.warm.builds)
+    }
+    assert {"TetherBounce-v0", "TetherNavigate_PostsReach-v3"} <= {e[1] for e in expected}
+    warm.single()
+    assert {p[:3] for p in played} == expected and {p[3] for p in played} == {None}
+    played.clear()
+    warm.vector()
+    assert {p[:3] for p in played} == expected and {p[3] for p in played} == {4}
+    assert len(played) == len(expected)
+
+
+@pytest.mark.parametrize("copies", [None, 4])
+def test_a_host_step_plays_the_jax_env_on_the_host_kernel(copies, monkeypatch):
+    """`_host_steps` resets and steps the JAX env (single or vector) of a warm-up build on the
+    host kernel, whatever jax's default device: its step asks for the build's FFI target."""
+    pytest.importorskip("jax")
+    from tether_gym.jax import ffi
+
+    asked, register = [], ffi.register
+    monkeypatch.setattr(ffi, "register", lambda name, build: asked.append(name) or register(
+        name, build))  # fmt: skip
+    (backend,) = (b for b in family("TetherBounce-v0").backends if b.name == JAX)
+    warm._host_steps(backend, "TetherBounce-v0", {"dynamics": "impulse"}, copies)
+    step = "step" if copies is None else "autoreset"
+    assert {"tether_bounce_reset", f"tether_bounce_{step}_impulse"} <= set(asked)

@@ -6,13 +6,16 @@ numba compiles a kernel at its first call and caches it (`kernel_cache`); a firs
 spends its first step compiling. This plays each kernel once, for images, CI and anyone who
 would rather wait now: every env family's single and vector steps for each of its builds (its
 `Family.warm`: TetherNavigate's for every control mode's set-up and every dynamics; serial and
-parallel builds), and its agents' decisions (the planners') one at a time and in batches. The
-two parts compile side by side in two processes. A training run compiles what it plays with the
-same pieces before its clock starts (`env_kernels` with its agents, under `compiling`).
+parallel builds), its agents' decisions (the planners') one at a time and in batches, and,
+where the `jax` extra is installed, the same steps of its JAX backend on the host kernel (the
+numba kernels' FFI handlers, `jax.host`). The two parts compile side by side in two processes.
+A training run compiles what it plays with the same pieces before its clock starts
+(`env_kernels` with its agents, under `compiling`).
 """
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import subprocess
 import sys
@@ -25,8 +28,9 @@ import numpy as np
 from numba.core import event
 
 from tether_gym.agents.registry import make_agent, played_kwargs
+from tether_gym.algorithms import JAX
 from tether_gym.arguments import ArgumentParser
-from tether_gym.families import FAMILIES, load
+from tether_gym.families import FAMILIES, Backend, Family, load
 from tether_gym.kernel_cache import QUIET
 
 PARALLEL_COPIES = 1024
@@ -63,6 +67,29 @@ def _steps(env_id: str, kwargs: dict, copies: int | None, agent: Any = None) -> 
         compute_reward(obs["achieved_goal"], obs["desired_goal"], info)
     env.close()
     return obs
+
+
+def _host_backend(env_family: Family) -> Backend | None:
+    """The family's JAX backend where it runs on the host kernel (`WarmUp.host_kernel`) and
+    the `jax` extra is installed."""
+    if not env_family.warm.host_kernel or importlib.util.find_spec("jax") is None:
+        return None
+    return next((backend for backend in env_family.backends if backend.name == JAX), None)
+
+
+def _host_steps(backend: Backend, env_id: str, kwargs: dict, copies: int | None) -> None:
+    """One reset and one step of `env_id`'s JAX env (a vector env of `copies`, or the single
+    env) on the host kernel: the FFI handlers it calls compile (reset, observation and step;
+    the vector env's fused step with its autoreset, serial and across threads)."""
+    arguments = {**gym.spec(env_id).kwargs, **kwargs, "kernel": "host"}
+    if copies is None:
+        env = load(backend.entry_point)(**arguments)
+    else:
+        env = load(backend.vector_entry_point)(num_envs=copies, **arguments)
+    env.action_space.seed(0)
+    env.reset(seed=0)
+    env.step(env.action_space.sample())
+    env.close()
 
 
 def env_kernels(
@@ -110,29 +137,36 @@ def compiling(what: str) -> Iterator[list[Any]]:
 
 
 def single() -> None:
-    """Every family's single env steps (`WarmUp.builds`), and its agents' decisions one at a
-    time (`WarmUp.agents`)."""
+    """Every family's single env steps (`WarmUp.builds`; its JAX backend's too, on the host
+    kernel), and its agents' decisions one at a time (`WarmUp.agents`)."""
     for env_family in FAMILIES:
         warm = env_family.warm
         if warm is None:
             continue
+        backend = _host_backend(env_family)
         for kwargs in load(warm.builds):
             obs = _steps(warm.env_id, kwargs, None)
+            if backend is not None:
+                _host_steps(backend, warm.env_id, kwargs, None)
         for name, agent_kwargs in warm.agents.items():
             make_agent(name, dict(agent_kwargs), env_id=warm.env_id).predict(obs)
 
 
 def vector() -> None:
-    """Every family's native vector env steps with autoreset, serial and parallel, and its
-    agents' decisions in batches (`WarmUp.agents` and `WarmUp.batch_agents`: the aim search's
-    on the navigation kernel's batch step)."""
+    """Every family's native vector env steps with autoreset, serial and parallel (its JAX
+    backend's vector env's too, on the host kernel), and its agents' decisions in batches
+    (`WarmUp.agents` and `WarmUp.batch_agents`: the aim search's on the navigation kernel's
+    batch step)."""
     for env_family in FAMILIES:
         warm = env_family.warm
         if warm is None:
             continue
+        backend = _host_backend(env_family)
         for kwargs in load(warm.builds):
             for copies in (4, PARALLEL_COPIES):
                 obs = _steps(warm.env_id, kwargs, copies)
+            if backend is not None:
+                _host_steps(backend, warm.env_id, kwargs, 4)
         batch = _rows(obs, 64)
         for name, agent_kwargs in {**warm.agents, **warm.batch_agents}.items():
             make_agent(name, dict(agent_kwargs), env_id=warm.env_id).predict(batch)
@@ -151,9 +185,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     builds = ", ".join(
         f"{f.name} ({len(load(f.warm.builds))} builds)" for f in FAMILIES if f.warm is not None
     )
+    jax = " (and of their JAX backend's host kernel)" if importlib.util.find_spec("jax") else ""
     print(
-        f"tether compile: the single and vector steps of {builds} and the planners, side by "
-        "side (minutes the first time, seconds once cached)",
+        f"tether compile: the single and vector steps of {builds}{jax} and the planners, side "
+        "by side (minutes the first time, seconds once cached)",
         file=sys.stderr,
     )
     command = [sys.executable, "-m", "tether_gym", "compile", "--part"]
