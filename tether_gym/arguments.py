@@ -34,6 +34,8 @@ TRAIN_EXTRA = ("stable_baselines3", "torch", "tensorboard", "yaml", "rich")
 """Import names of the optional extra "train" (pyproject.toml)."""
 SWEEP_EXTRA = (*TRAIN_EXTRA, "ray", "optuna", "pandas")
 """Import names of the optional extra "sweep", which includes "train"."""
+INTERRUPTED = 130
+"""A console script's exit status after Ctrl-C (128 + SIGINT), as a shell reports it."""
 
 
 class ArgumentParser(argparse.ArgumentParser):

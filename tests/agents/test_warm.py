@@ -15,6 +15,7 @@ from tether_gym import kernel_cache
 from tether_gym.agents import warm
 from tether_gym.agents.warm import compiling
 from tether_gym.algorithms import JAX
+from tether_gym.arguments import INTERRUPTED
 from tether_gym.families import FAMILIES, family, load
 
 BUILD_ONE = """
@@ -105,3 +106,42 @@ def test_a_host_step_plays_the_jax_env_on_the_host_kernel(copies, monkeypatch):
     warm._host_steps(backend, "TetherBounce-v0", {"dynamics": "impulse"}, copies)
     step = "step" if copies is None else "autoreset"
     assert {"tether_bounce_reset", f"tether_bounce_{step}_impulse"} <= set(asked)
+
+
+class _Part:
+    """A `subprocess.Popen` of a part; Ctrl-C comes during the first wait of all."""
+
+    interrupted = False
+
+    def __init__(self):
+        self.waits, self.terminated = 0, False
+
+    def wait(self):
+        self.waits += 1
+        if not _Part.interrupted:
+            _Part.interrupted = True
+            raise KeyboardInterrupt
+        return -2
+
+    def terminate(self):
+        self.terminated = True
+
+
+def test_ctrl_c_stops_every_part_and_says_so_in_one_line(monkeypatch, capsys):
+    """`tether compile` interrupted: each part (in a session of its own, out of the
+    terminal's reach) is stopped and waited for, one line says what is kept, exit status 130;
+    a part run alone says the same."""
+    started = []
+    monkeypatch.setattr(_Part, "interrupted", False)
+    sessions = []
+    monkeypatch.setattr(warm.subprocess, "Popen", lambda *a, **k: sessions.append(
+        k["start_new_session"]) or started.append(_Part()) or started[-1])  # fmt: skip
+    assert warm.main([]) == INTERRUPTED == 130
+    assert len(started) == len(warm.PARTS) and all(sessions)
+    assert all(part.terminated and part.waits >= 1 for part in started)
+    line = ("tether compile: interrupted; the kernels compiled so far are cached, and the same "
+            "command compiles the rest")  # fmt: skip
+    assert capsys.readouterr().err.splitlines()[-1] == line
+    monkeypatch.setitem(warm.PARTS, "single", lambda: (_ for _ in ()).throw(KeyboardInterrupt))
+    assert warm.main(["--part", "single"]) == INTERRUPTED
+    assert capsys.readouterr().err.splitlines() == [line]

@@ -29,7 +29,7 @@ from numba.core import event
 
 from tether_gym.agents.registry import make_agent, played_kwargs
 from tether_gym.algorithms import JAX
-from tether_gym.arguments import ArgumentParser
+from tether_gym.arguments import INTERRUPTED, ArgumentParser
 from tether_gym.families import FAMILIES, Backend, Family, load
 from tether_gym.kernel_cache import QUIET
 
@@ -175,12 +175,21 @@ def vector() -> None:
 PARTS: dict[str, Callable[[], None]] = {"single": single, "vector": vector}
 
 
+def _interrupted() -> int:
+    print("tether compile: interrupted; the kernels compiled so far are cached, and the same "
+          "command compiles the rest", file=sys.stderr)  # fmt: skip
+    return INTERRUPTED
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = ArgumentParser(prog="tether compile", description=__doc__.splitlines()[0])
     parser.add_argument("--part", choices=PARTS, help="compile this part only, in this process")
     args = parser.parse_args(argv)
     if args.part:
-        PARTS[args.part]()
+        try:
+            PARTS[args.part]()
+        except KeyboardInterrupt:
+            return _interrupted()
         return 0
     builds = ", ".join(
         f"{f.name} ({len(load(f.warm.builds))} builds)" for f in FAMILIES if f.warm is not None
@@ -193,8 +202,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     command = [sys.executable, "-m", "tether_gym", "compile", "--part"]
     quiet = {**os.environ, QUIET: "1"}
-    parts = {part: subprocess.Popen([*command, part], env=quiet) for part in PARTS}
-    failed = [part for part, process in parts.items() if process.wait() != 0]
+    # each part in a session of its own: a Ctrl-C reaches this process only, which stops them
+    parts = {
+        part: subprocess.Popen([*command, part], env=quiet, start_new_session=True)
+        for part in PARTS
+    }
+    try:
+        failed = [part for part, process in parts.items() if process.wait() != 0]
+    except KeyboardInterrupt:  # numba writes each cache entry whole: a part may stop anywhere
+        for process in parts.values():
+            process.terminate()
+            process.wait()
+        return _interrupted()
     if failed:
         parser.error(f"compiling part {', '.join(failed)} failed (see above)")
     print("tether compile: every kernel is compiled and cached", file=sys.stderr)

@@ -25,10 +25,7 @@ import argparse
 import sys
 from collections.abc import Callable
 
-from tether_gym.arguments import SWEEP_EXTRA, require_extra
-
-INTERRUPTED = 130
-"""Exit status after Ctrl-C (128 + SIGINT), as a shell reports it."""
+from tether_gym.arguments import INTERRUPTED, SWEEP_EXTRA, require_extra
 
 
 def _require(command: str, modules: tuple[str, ...], extra: str) -> None:

@@ -46,7 +46,7 @@ import numpy as np
 import yaml
 
 from tether_gym.algorithms import OFFLINE, SB3, algorithm, names
-from tether_gym.arguments import did_you_mean, given_env_options, require_extra
+from tether_gym.arguments import INTERRUPTED, did_you_mean, given_env_options, require_extra
 from tether_gym.seeds import MAX_RUN_SEED, TEST_SEED
 from tether_gym.training.folders import append_row, prepare_run_dir
 from tether_gym.training.summary import RESULTS
@@ -444,7 +444,7 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except KeyboardInterrupt:
         print(f"interrupted: {run_dir} holds no policy; the same command with --overwrite starts "
               "the run again", file=sys.stderr)  # fmt: skip
-        return 130
+        return INTERRUPTED
     success = summary["collector_success"] or {}
     collected = ""
     if "success_rate" in success:

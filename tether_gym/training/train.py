@@ -59,6 +59,7 @@ from pathlib import Path
 
 from tether_gym.algorithms import BACKENDS, JAX, OFFLINE, SB3, algorithm, names
 from tether_gym.arguments import (
+    INTERRUPTED,
     ArgumentParser,
     add_env_arguments,
     chosen_env,
@@ -282,7 +283,7 @@ def main(argv: list[str] | None = None) -> int:
         else:
             print(f"interrupted before the first checkpoint: {run_dir} holds no model; the same "
                   "command starts the run again", file=sys.stderr)  # fmt: skip
-        return 130
+        return INTERRUPTED
     env = config.env_kwargs or "default env"
     print(f"\nTest episodes (seed {TEST_SEED}), {config.env_id} {env}:\n{summary['table']}")
     return 0

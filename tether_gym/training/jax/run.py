@@ -59,7 +59,7 @@ import numpy as np
 import yaml
 
 from tether_gym.algorithms import JAX, SB3, Algorithm, algorithm, seed_stem
-from tether_gym.arguments import require_extra
+from tether_gym.arguments import INTERRUPTED, require_extra
 from tether_gym.families import FAMILIES, family
 from tether_gym.seeds import EVAL_SEED, TEST_SEED
 from tether_gym.training.config import RunConfig
@@ -171,7 +171,7 @@ class Interrupts:
             sys.stderr.write(prefix + self.advice() + "\n")
             sys.stderr.flush()
         finally:
-            os._exit(130)
+            os._exit(INTERRUPTED)
 
     def advice(self) -> str:
         """How the interrupted run continues: from its checkpoint, or the same command."""
@@ -643,10 +643,10 @@ def main(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 print(" not needed: the run is finished", file=sys.stderr)
         except Interrupted:
             print(f" saved; {interrupts.advice()}", file=sys.stderr)
-            return 130
+            return INTERRUPTED
         except KeyboardInterrupt:  # Ctrl-C where `Interrupts` is not installed
             print(f"\ntether-train: interrupted; {interrupts.advice()}", file=sys.stderr)
-            return 130
+            return INTERRUPTED
     env = run.config.env_kwargs or "default env"
     print(f"\nTest episodes (seed {TEST_SEED}), {run.config.env_id} {env}:\n{summary['table']}")
     print(f"\n{_seeds(len(run.seeds))} on {summary['device']}: {summary['steps_per_second']:,.0f} "

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ray import tune
 
-from tether_gym.arguments import ArgumentParser, env_epilog
+from tether_gym.arguments import INTERRUPTED, ArgumentParser, env_epilog
 from tether_gym.training.cluster import ClusterError
 from tether_gym.training.folders import prepare_folder
 from tether_gym.training.sweep.spec import (
@@ -156,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt:
         print(f"interrupted: {interrupted_note(out)}", file=sys.stderr)
-        return 130
+        return INTERRUPTED
     if outcome.summary is not None:
         print(f"\n{len(outcome.trials)} trials finished; {out}/summary.csv:\n{outcome.table}")
         print(f"plot: {out}/success.png; TensorBoard: tensorboard --logdir {out}")
@@ -164,5 +164,5 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{outcome.failed} trials failed: see error.txt in {out}/tune/", file=sys.stderr)
     if outcome.unfinished:
         print(f"interrupted: continue with tether-sweep --resume {out}", file=sys.stderr)
-        return 130
+        return INTERRUPTED
     return 1 if outcome.failed else 0
